@@ -1,0 +1,67 @@
+"""Root ``slt`` Typer app: joins the command groups and guards against tracebacks."""
+
+from __future__ import annotations
+
+import sys
+
+import typer
+
+from superlane_tools._version import __version__
+from superlane_tools.cli import camera, extract, info, lanes, simulate
+from superlane_tools.cli import eval as eval_cmd
+from superlane_tools.cli._common import EXIT_CODES_HELP, debug_enabled, err_console
+from superlane_tools.errors import ExitCode
+
+app = typer.Typer(
+    name="slt",
+    help=(
+        "superlane-tools: inspect, extract and reprocess driving recordings "
+        f"with the SUPER lane-detection stack.\n\n{EXIT_CODES_HELP}"
+    ),
+    no_args_is_help=True,
+    pretty_exceptions_show_locals=False,
+    add_completion=False,
+    rich_markup_mode=None,
+)
+
+
+def _version_callback(value: bool) -> None:
+    if value:
+        typer.echo(f"slt {__version__}")
+        raise typer.Exit
+
+
+@app.callback()
+def _root(
+    version: bool = typer.Option(
+        False, "--version", callback=_version_callback, is_eager=True, help="Show the version."
+    ),
+) -> None:
+    """Inspect, extract and reprocess driving recordings."""
+
+
+info.register(app)
+extract.register(app)
+simulate.register(app)
+camera.register(app)
+lanes.register(app)
+eval_cmd.register(app)
+
+
+def main() -> None:
+    """Console-script entry point: run the app; turn unexpected errors into one line."""
+    try:
+        app(standalone_mode=True)
+    except SystemExit:
+        raise
+    except KeyboardInterrupt:
+        err_console.print("slt: interrupted")
+        sys.exit(130)
+    except Exception as err:  # last line of defence against tracebacks
+        if debug_enabled():
+            raise
+        err_console.print(
+            f"slt: internal error: {type(err).__name__}: {err} (set SLT_DEBUG=1 for a traceback)",
+            markup=False,
+        )
+        sys.exit(int(ExitCode.ERROR))

@@ -1,0 +1,59 @@
+"""Atomic file output: write to a temporary sibling, then rename over the target."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import tempfile
+from collections.abc import Iterator
+from pathlib import Path
+
+from superlane_tools.reporting.errors import OutputError
+
+
+@contextlib.contextmanager
+def atomic_path(target: str | os.PathLike[str], suffix: str = "") -> Iterator[Path]:
+    """Yield a temporary path beside ``target``; rename it to ``target`` if the block succeeds.
+
+    A killed process leaves at most a ``.<name>.*.tmp`` file, never a half-written target.
+
+    Args:
+        target: Final path of the file.
+        suffix: Extra suffix for the temporary name (some writers infer formats from it).
+
+    Raises:
+        OutputError: If the folder cannot be created or the rename fails.
+    """
+    final = Path(target)
+    try:
+        final.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp_name = tempfile.mkstemp(
+            prefix=f".{final.name}.", suffix=f"{suffix}.tmp", dir=final.parent
+        )
+    except OSError as err:
+        raise OutputError(f"cannot write {final}: {err.strerror}") from err
+    os.close(fd)
+    tmp = Path(tmp_name)
+    try:
+        yield tmp
+        umask = os.umask(0)
+        os.umask(umask)
+        tmp.chmod(0o666 & ~umask)  # mkstemp creates 0600; give the usual file mode
+        tmp.replace(final)
+    except OSError as err:
+        raise OutputError(f"cannot write {final}: {err.strerror}") from err
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+
+
+def write_bytes_atomic(target: str | os.PathLike[str], data: bytes) -> Path:
+    """Write ``data`` to ``target`` atomically and return the final path."""
+    with atomic_path(target) as tmp:
+        tmp.write_bytes(data)
+    return Path(target)
+
+
+def write_text_atomic(target: str | os.PathLike[str], text: str) -> Path:
+    """Write UTF-8 ``text`` to ``target`` atomically and return the final path."""
+    return write_bytes_atomic(target, text.encode("utf-8"))
