@@ -17,6 +17,7 @@ RANKS = {
     "_version": 0,
     "errors": 0,
     "records": 0,
+    "hierarchy": 0,
     "geo": 1,
     "camera": 1,
     "lanes": 1,
