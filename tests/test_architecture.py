@@ -105,7 +105,7 @@ HEAVY = ("onnxruntime", "cv2", "torch", "matplotlib", "ray")
 @pytest.mark.parametrize(
     "argv",
     [["--help"], ["info", "--help"], ["extract", "--help"], ["simulate", "--help"],
-     ["lanes", "--help"], ["camera", "--help"], ["eval", "--help"]],
+     ["lanes", "--help"], ["camera", "--help"], ["eval", "--help"], ["segment", "--help"]],
 )
 def test_help_does_not_import_heavy_modules(argv: list[str]) -> None:
     code = (

@@ -45,6 +45,7 @@ extract.register(app)
 simulate.register(app)
 camera.register(app)
 lanes.register(app)
+segment.register(app)
 eval_cmd.register(app)
 
 

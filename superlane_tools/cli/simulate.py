@@ -1,10 +1,161 @@
-"""`slt simulate` command (being built; see the issue tracker)."""
+"""`slt simulate`: synthetic drives with exact ground truth, and training datasets."""
 
 from __future__ import annotations
 
+from pathlib import Path
+from typing import Annotated
+
 import typer
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeRemainingColumn
+
+from superlane_tools.cli._common import cli_errors, command_line, console, fail
+from superlane_tools.errors import ExitCode
+
+simulate_app = typer.Typer(
+    help="Simulate drives (camera + CAN + RTK recordings with ground truth) and datasets.",
+    no_args_is_help=False,
+    pretty_exceptions_show_locals=False,
+    rich_markup_mode=None,
+)
+
+
+def _progress_bar(label: str) -> Progress:
+    return Progress(
+        f"[bold]{label}",
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeRemainingColumn(),
+        console=console,
+        transient=True,
+    )
+
+
+@simulate_app.callback(invoke_without_command=True)
+def simulate(
+    ctx: typer.Context,
+    scenario: Annotated[
+        str | None, typer.Option("--scenario", "-s", help="Scenario name (see --list).")
+    ] = None,
+    out: Annotated[
+        Path | None,
+        typer.Option("--out", "-o", help="Recording path (.mcap, .bag, or ROS 2 bag folder)."),
+    ] = None,
+    duration: Annotated[float, typer.Option(help="Drive length, seconds.")] = 20.0,
+    seed: Annotated[int, typer.Option(help="Seed of all random choices.")] = 0,
+    fmt: Annotated[str, typer.Option("--format", help="mcap, ros1 or ros2.")] = "mcap",
+    width: Annotated[int, typer.Option(help="Image width, pixels.")] = 1280,
+    height: Annotated[int, typer.Option(help="Image height, pixels.")] = 720,
+    fps: Annotated[float, typer.Option(help="Camera frame rate, Hz.")] = 15.0,
+    jpeg_quality: Annotated[
+        int | None, typer.Option(help="JPEG quality 1-100 (default: the scenario's).")
+    ] = None,
+    rtk_mode: Annotated[
+        str, typer.Option(help="GNSS fix quality: fixed (RTK, cm), float or standalone (m).")
+    ] = "fixed",
+    rtk_rate: Annotated[float, typer.Option(help="GNSS fix rate, Hz (10-20).")] = 10.0,
+    rtk_dropouts: Annotated[
+        float, typer.Option(help="GNSS outages per minute (1-4 s each).")
+    ] = 0.0,
+    labels: Annotated[
+        bool, typer.Option("--labels", help="Also write label and corridor PNGs per frame.")
+    ] = False,
+    list_: Annotated[bool, typer.Option("--list", help="List the scenarios and exit.")] = False,
+) -> None:
+    """Simulate one drive: `slt simulate --scenario NAME --out drive.mcap`."""
+    if ctx.invoked_subcommand is not None:
+        return
+    from superlane_tools.simulation.scenarios import SCENARIOS
+
+    if list_:
+        width_name = max(len(n) for n in SCENARIOS)
+        for name, spec in SCENARIOS.items():
+            console.print(f"{name:<{width_name}}  {spec.description}", markup=False, soft_wrap=True)
+        return
+    if scenario is None or out is None:
+        fail(
+            "give --scenario NAME and --out PATH (or --list, or the dataset command)",
+            ExitCode.USAGE,
+        )
+    with cli_errors():
+        from superlane_tools.simulation.drive import simulate_drive
+        from superlane_tools.simulation.scenarios import get_scenario
+        from superlane_tools.simulation.sensors import RtkParams
+
+        get_scenario(scenario)
+        rtk = RtkParams(rate_hz=rtk_rate, mode=rtk_mode, dropouts_per_min=rtk_dropouts)
+        rtk.validate()
+        with _progress_bar(f"simulate {scenario}") as bar:
+            task = bar.add_task("frames", total=None)
+
+            def step(done: int, total: int) -> None:
+                bar.update(task, completed=done, total=total)
+
+            result = simulate_drive(
+                scenario,
+                duration,
+                seed,
+                fmt,
+                width,
+                height,
+                labels,
+                out,
+                fps=fps,
+                jpeg_quality=jpeg_quality,
+                rtk=rtk,
+                command=command_line(),
+                progress=step,
+            )
+        o = result.outputs
+        console.print(
+            f"wrote {o.recording} ({result.frames} frames, {result.messages} messages), "
+            f"{o.groundtruth.name}, {o.tusimple.name}"
+            + (f", {o.labels_dir.name}/" if labels else ""),
+            markup=False,
+        )
+
+
+@simulate_app.command("dataset")
+def dataset(
+    out: Annotated[Path, typer.Option("--out", "-o", help="Output folder (created).")],
+    frames: Annotated[int, typer.Option(help="Number of samples.")],
+    scenarios: Annotated[
+        list[str] | None,
+        typer.Option("--scenarios", help="Scenario names (repeat or comma-separate; default all)."),
+    ] = None,
+    seed: Annotated[int, typer.Option(help="Seed of all random choices.")] = 0,
+    width: Annotated[int, typer.Option(help="Image width, pixels.")] = 1280,
+    height: Annotated[int, typer.Option(help="Image height, pixels.")] = 720,
+    image_format: Annotated[str, typer.Option(help="Image files: jpg or png.")] = "jpg",
+    randomize: Annotated[
+        float, typer.Option(help="Domain randomisation strength 0-1 (colours, textures, camera).")
+    ] = 1.0,
+) -> None:
+    """Write a training set: images, leaf-id masks, corridor masks and index.parquet."""
+    with cli_errors():
+        from superlane_tools.simulation.dataset import simulate_dataset
+
+        names = tuple(n.strip() for item in (scenarios or []) for n in item.split(",") if n.strip())
+        with _progress_bar("dataset") as bar:
+            task = bar.add_task("samples", total=frames)
+
+            def step(done: int, total: int) -> None:
+                bar.update(task, completed=done, total=total)
+
+            result = simulate_dataset(
+                out,
+                frames,
+                names or None,
+                seed,
+                width,
+                height,
+                image_format=image_format,
+                randomize=randomize,
+                command=command_line(),
+                progress=step,
+            )
+        console.print(f"wrote {result.samples} samples to {result.folder}", markup=False)
 
 
 def register(app: typer.Typer) -> None:
     """Add this module's commands to the root app."""
-    del app
+    app.add_typer(simulate_app, name="simulate")

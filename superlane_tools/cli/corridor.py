@@ -1,0 +1,144 @@
+"""`slt corridor`: ego-corridor probability PNGs and corridor.parquet for an image folder."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from superlane_tools.cli._common import (
+    EXIT_CODES_HELP,
+    cli_errors,
+    command_line,
+    err_console,
+    report_skipped,
+)
+from superlane_tools.errors import ExitCode, UsageError
+from superlane_tools.records import Skipped
+
+
+def corridor(
+    input_path: Annotated[
+        Path,
+        typer.Argument(metavar="INPUT", help="Folder of PNG/JPEG images (searched recursively)."),
+    ],
+    out: Annotated[
+        Path, typer.Option("--out", help="Output folder for probability PNGs and corridor.parquet.")
+    ],
+    model: Annotated[
+        str | None,
+        typer.Option("--model", help="Corridor ONNX model file or shipped model name."),
+    ] = None,
+    camera: Annotated[
+        str | None,
+        typer.Option("--camera", help="Camera profile name or YAML: adds width_m and length_m."),
+    ] = None,
+    smooth: Annotated[
+        int,
+        typer.Option("--smooth", min=1, help="Frames averaged against wiper occlusion (1 = off)."),
+    ] = 3,
+    threshold: Annotated[
+        float, typer.Option("--threshold", min=0.0, max=1.0, help="Corridor probability cut.")
+    ] = 0.5,
+    threads: Annotated[int, typer.Option("--threads", min=1, help="onnxruntime threads.")] = 2,
+) -> None:
+    """Predict the ego corridor (ego lane up to the preceding vehicle) of every image.
+
+    Writes OUT/<name>.png (probability x 255, uint8, the image's size, averaged over the last
+    --smooth frames in name order) and OUT/corridor.parquet (name, area fraction, and width_m /
+    length_m through the camera model when --camera is given).
+    """
+    with cli_errors():
+        code = _run(input_path, out, model, camera, smooth, threshold, threads)
+    if code != ExitCode.OK:
+        raise typer.Exit(int(code))
+
+
+def _run(
+    input_path: Path,
+    out: Path,
+    model: str | None,
+    camera_name: str | None,
+    smooth: int,
+    threshold: float,
+    threads: int,
+) -> ExitCode:
+    import math
+
+    import cv2
+    import numpy as np
+    import pandas as pd
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
+
+    from superlane_tools.camera.profiles import load_camera
+    from superlane_tools.corridor.geometry import CorridorParams, corridor_from_mask
+    from superlane_tools.reporting import (
+        Provenance,
+        input_identity,
+        write_bytes_atomic,
+        write_table,
+    )
+    from superlane_tools.scene import list_images
+    from superlane_tools.scene.corridor_runtime import CorridorSmoother, OnnxCorridorModel
+
+    if not input_path.is_dir():
+        raise UsageError(f"INPUT must be a folder of images: {input_path}")
+    if out.resolve() == input_path.resolve():
+        raise UsageError("--out must differ from INPUT")
+    cam = load_camera(camera_name) if camera_name else None
+    runtime = OnnxCorridorModel(model, threads=threads)
+    images = list_images(input_path, exclude=out)
+    if not images:
+        raise UsageError(f"no PNG or JPEG images under {input_path}")
+    smoother = CorridorSmoother(smooth)
+    params = CorridorParams(threshold=threshold)
+    rows: list[dict[str, object]] = []
+    skipped: list[Skipped] = []
+    columns = (TextColumn("corridor"), BarColumn(), MofNCompleteColumn())
+    with Progress(*columns, console=err_console, transient=True) as progress:
+        task = progress.add_task("corridor", total=len(images))
+        for path in images:
+            progress.advance(task)
+            image = cv2.imread(str(path), cv2.IMREAD_COLOR)
+            if image is None or image.shape[0] < 8 or image.shape[1] < 8:
+                skipped.append(Skipped("unreadable image", str(path), 1))
+                smoother.reset()
+                continue
+            prob = smoother.update(runtime.probability(image))
+            rel = path.relative_to(input_path).with_suffix(".png")
+            ok, png = cv2.imencode(".png", np.round(prob * 255.0).astype(np.uint8))
+            assert ok, "PNG encoding of a uint8 image cannot fail"
+            write_bytes_atomic(out / rel, png.tobytes())
+            geometry = corridor_from_mask(prob, cam, params) if cam is not None else None
+            rows.append(
+                {
+                    "name": rel.as_posix(),
+                    "corridor_fraction": float((prob > threshold).mean()),
+                    "width_m": geometry.width_m if geometry else math.nan,
+                    "length_m": geometry.length_m if geometry else math.nan,
+                }
+            )
+    if not rows:
+        report_skipped(skipped)
+        return ExitCode.ERROR
+    provenance = Provenance(
+        command=command_line(),
+        inputs=(input_identity(input_path),),
+        config={
+            "smooth_frames": smooth,
+            "threshold": threshold,
+            "camera": cam.name if cam else None,
+        },
+        models={runtime.card.name: runtime.sha256},
+    )
+    write_table(pd.DataFrame(rows), out / "corridor.parquet", provenance)
+    err_console.print(
+        f"slt: wrote {len(rows)} corridor maps with {runtime.name} into {out}", markup=False
+    )
+    return report_skipped(skipped)
+
+
+def register(app: typer.Typer) -> None:
+    """Add ``slt corridor`` to the root app."""
+    app.command("corridor", help=f"{corridor.__doc__}\n\n{EXIT_CODES_HELP}")(corridor)

@@ -1,0 +1,105 @@
+"""`slt segment`: segment an image folder into leaf-id label PNGs (classical or ONNX backend)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from superlane_tools.cli._common import EXIT_CODES_HELP, cli_errors, err_console, report_skipped
+from superlane_tools.errors import ExitCode, UsageError
+from superlane_tools.records import Skipped
+
+
+def segment(
+    input_path: Annotated[
+        Path,
+        typer.Argument(metavar="INPUT", help="Folder of PNG/JPEG images (searched recursively)."),
+    ],
+    out: Annotated[
+        Path, typer.Option("--out", help="Output folder for label PNGs and classes.yaml.")
+    ],
+    backend: Annotated[
+        str, typer.Option("--backend", help="Segmentation backend: classical or onnx.")
+    ] = "classical",
+    model: Annotated[
+        str | None, typer.Option("--model", help="ONNX model file or shipped model name.")
+    ] = None,
+    camera: Annotated[
+        str | None,
+        typer.Option(
+            "--camera", help="Camera profile name or YAML file (improves the classical backend)."
+        ),
+    ] = None,
+    overlays: Annotated[
+        bool, typer.Option("--overlay", help="Also write colour overlays to OUT/overlays/*.jpg.")
+    ] = False,
+) -> None:
+    """Segment images into SUPER hierarchy leaf ids (label PNGs readable by `slt lanes fit`)."""
+    with cli_errors():
+        code = _run(input_path, out, backend, model, camera, overlays)
+    if code != ExitCode.OK:
+        raise typer.Exit(int(code))
+
+
+def _run(
+    input_path: Path,
+    out: Path,
+    backend_name: str,
+    model: str | None,
+    camera_name: str | None,
+    overlays: bool,
+) -> ExitCode:
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeRemainingColumn,
+    )
+
+    from superlane_tools.camera.profiles import load_camera
+    from superlane_tools.scene import backend_from_name, list_images, segment_folder
+
+    if not input_path.exists():
+        raise UsageError(f"input not found: {input_path}")
+    if not input_path.is_dir():
+        raise UsageError(
+            f"{input_path}: INPUT must be a folder of images (reading recordings is not "
+            "supported by slt segment yet)"
+        )
+    if out.resolve() == input_path.resolve():
+        raise UsageError("--out must differ from INPUT (label PNGs would overwrite the images)")
+    cam = load_camera(camera_name) if camera_name else None
+    seg_backend = backend_from_name(backend_name, model=model, camera=cam)
+    images = list_images(input_path, exclude=out)
+    if not images:
+        raise UsageError(f"no PNG or JPEG images under {input_path}")
+    skipped: list[Skipped] = []
+    written = 0
+    columns = (TextColumn("segment"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn())
+    with Progress(*columns, console=err_console, transient=True) as progress:
+        task = progress.add_task("segment", total=len(images))
+        for result in segment_folder(
+            input_path, out, seg_backend, overlays=overlays, images=images
+        ):
+            if result.skipped is not None:
+                skipped.append(result.skipped)
+            else:
+                written += 1
+            progress.advance(task)
+    err_console.print(
+        f"slt: segmented {written} of {len(images)} images with the {seg_backend.name} backend "
+        f"into {out}",
+        markup=False,
+    )
+    if written == 0:
+        report_skipped(skipped)
+        return ExitCode.ERROR
+    return report_skipped(skipped)
+
+
+def register(app: typer.Typer) -> None:
+    """Add ``slt segment`` to the root app."""
+    app.command("segment", help=f"{segment.__doc__}\n\n{EXIT_CODES_HELP}")(segment)

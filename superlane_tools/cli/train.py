@@ -1,0 +1,99 @@
+"""`slt train`: train the segmentation or corridor network on a simulated dataset (extra `train`)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from superlane_tools.cli._common import EXIT_CODES_HELP, cli_errors, command_line, err_console
+from superlane_tools.errors import UsageError
+
+TASKS = ("segmentation", "corridor")
+
+
+def _size(text: str | None) -> tuple[int, int] | None:
+    if text is None:
+        return None
+    try:
+        width, height = (int(v) for v in text.lower().split("x"))
+    except ValueError as err:
+        raise UsageError(f"size must look like WIDTHxHEIGHT (e.g. 512x288), got {text!r}") from err
+    return width, height
+
+
+def train(
+    task: Annotated[str, typer.Argument(metavar="TASK", help="segmentation or corridor.")],
+    data: Annotated[
+        Path, typer.Option("--data", help="Dataset folder from `slt simulate dataset`.")
+    ],
+    out: Annotated[Path, typer.Option("--out", help="Output MODEL.onnx (card written beside).")],
+    epochs: Annotated[int, typer.Option("--epochs", min=1, help="Passes over the data.")] = 10,
+    batch: Annotated[int, typer.Option("--batch", min=1, help="Frames per step.")] = 8,
+    lr: Annotated[float, typer.Option("--lr", min=1e-7, help="Adam learning rate.")] = 2e-3,
+    size: Annotated[
+        str | None,
+        typer.Option(
+            "--size", help="Network input WxH (default 512x288 segmentation, 652x360 corridor)."
+        ),
+    ] = None,
+    crop: Annotated[
+        str | None, typer.Option("--crop", help="Train on random WxH crops (faster steps).")
+    ] = None,
+    seed: Annotated[int, typer.Option("--seed", help="Seed of init, shuffling, augmentation.")] = 0,
+    max_frames: Annotated[
+        int | None, typer.Option("--max-frames", min=1, help="Use at most N frames.")
+    ] = None,
+    adapter: Annotated[
+        str,
+        typer.Option("--adapter", help="Label adapter (superlane, cityscapes, ..., or a YAML)."),
+    ] = "superlane",
+    threads: Annotated[int, typer.Option("--threads", min=1, help="torch CPU threads.")] = 2,
+) -> None:
+    """Train a network on CPU, export it to ONNX (opset 17) and write MODEL.card.yaml."""
+    with cli_errors():
+        if task not in TASKS:
+            raise UsageError(f"TASK must be one of {', '.join(TASKS)}, got {task!r}")
+        from superlane_tools.training import require_torch
+
+        require_torch()
+        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
+
+        from superlane_tools.training.train import TrainParams
+        from superlane_tools.training.train import train as run_training
+
+        params = TrainParams(
+            task=task,
+            data_dir=data,
+            out=out,
+            epochs=epochs,
+            batch=batch,
+            lr=lr,
+            size=_size(size),
+            crop=_size(crop),
+            seed=seed,
+            max_frames=max_frames,
+            adapter=adapter,
+            threads=threads,
+            command=command_line(),
+        )
+        columns = (TextColumn("train {task.description}"), BarColumn(), MofNCompleteColumn())
+        with Progress(*columns, console=err_console, transient=True) as progress:
+            bar = progress.add_task("loss ?", total=None)
+
+            def update(step: int, total: int, loss: float) -> None:
+                progress.update(bar, completed=step, total=total, description=f"loss {loss:.4f}")
+
+            result = run_training(params, update)
+        err_console.print(
+            f"slt: trained {task} model ({result.card.parameters} parameters, "
+            f"{result.seconds:.0f} s, final loss {result.epoch_losses[-1]:.4f}) -> "
+            f"{result.model_path} + {result.card_path.name}",
+            markup=False,
+        )
+
+
+def register(app: typer.Typer) -> None:
+    """Add ``slt train`` to the root app."""
+    app.command("train", help=f"{train.__doc__}\n\n{EXIT_CODES_HELP}")(train)

@@ -1,0 +1,47 @@
+"""Ego-corridor geometry in metres, the Hough ego-lane baseline, and availability KPIs."""
+
+from superlane_tools.corridor.availability import (
+    AvailabilityParams,
+    FrameAvailability,
+    Segment,
+    SequenceAvailability,
+    frame_availability,
+    longest_run,
+    sequence_availability,
+    windows,
+)
+from superlane_tools.corridor.errors import CorridorError
+from superlane_tools.corridor.geometry import (
+    CorridorGeometry,
+    CorridorParams,
+    corridor_from_lanes,
+    corridor_from_mask,
+)
+from superlane_tools.corridor.hough import (
+    HoughParams,
+    HoughResult,
+    HoughTracker,
+    LineSegment,
+    detect_ego_lane,
+)
+
+__all__ = [
+    "AvailabilityParams",
+    "CorridorError",
+    "CorridorGeometry",
+    "CorridorParams",
+    "FrameAvailability",
+    "HoughParams",
+    "HoughResult",
+    "HoughTracker",
+    "LineSegment",
+    "Segment",
+    "SequenceAvailability",
+    "corridor_from_lanes",
+    "corridor_from_mask",
+    "detect_ego_lane",
+    "frame_availability",
+    "longest_run",
+    "sequence_availability",
+    "windows",
+]

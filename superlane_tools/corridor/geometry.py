@@ -1,0 +1,135 @@
+"""Ego-corridor geometry in metres: width and length from a corridor mask or from fitted lanes.
+
+The corridor is the drivable part of the ego lane ahead (up to the preceding vehicle). Its
+geometry feeds the availability KPI (corridor paper, section IV-B):
+
+* **width (m)**: the median, over image rows whose flat-ground forward distance lies in
+  ``[width_near_m, width_far_m]`` (default 5-15 m), of the lateral extent of the corridor on that
+  row (leftmost to rightmost corridor pixel, through the camera's inverse perspective mapping);
+* **length (m)**: the forward distance of the farthest image row with corridor support (at least
+  ``min_row_px`` pixels) after dropping the ``far_rows_ignored`` farthest supported rows, so that
+  a few stray far pixels do not count. (A percentile of row distances would be biased short:
+  rows are dense near the camera.)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+from superlane_tools.camera.model import CameraModel
+from superlane_tools.corridor.errors import CorridorError
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class CorridorParams:
+    """How corridor width and length are measured.
+
+    Attributes:
+        threshold: Probability above which a pixel belongs to the corridor.
+        width_near_m: Nearest forward distance of the width window, metres.
+        width_far_m: Farthest forward distance of the width window, metres.
+        far_rows_ignored: Farthest supported rows dropped before taking the length.
+        min_row_px: Smallest number of corridor pixels for a row to count as support.
+    """
+
+    threshold: float = 0.5
+    width_near_m: float = 5.0
+    width_far_m: float = 15.0
+    far_rows_ignored: int = 2
+    min_row_px: int = 3
+
+
+class CorridorGeometry(NamedTuple):
+    """Width and length of the ego corridor.
+
+    Attributes:
+        width_m: Lateral width, metres (NaN when not measurable).
+        length_m: Forward length from the camera, metres (NaN when there is no corridor).
+        n_rows: Image rows with corridor support (0 for lane-based geometry).
+    """
+
+    width_m: float
+    length_m: float
+    n_rows: int
+
+
+NO_CORRIDOR = CorridorGeometry(math.nan, math.nan, 0)
+
+
+def corridor_from_mask(
+    probability: NDArray[np.floating] | NDArray[np.bool_] | NDArray[np.uint8],
+    camera: CameraModel,
+    params: CorridorParams | None = None,
+) -> CorridorGeometry:
+    """Measure the corridor in a per-pixel probability or mask image.
+
+    Args:
+        probability: ``(H, W)`` corridor probability in ``[0, 1]`` or a boolean / 0-1 mask, at
+            any resolution (the camera is resized to it).
+        camera: Camera of the image.
+        params: Measurement parameters.
+
+    Raises:
+        CorridorError: If the array is not two-dimensional.
+    """
+    p = params or CorridorParams()
+    prob = np.asarray(probability)
+    if prob.ndim != 2:
+        raise CorridorError(f"corridor probability must be (H, W), got shape {prob.shape}")
+    height, width = prob.shape
+    cam = (
+        camera
+        if (camera.width, camera.height) == (width, height)
+        else camera.resized(width, height)
+    )
+    mask = prob > p.threshold if prob.dtype != np.bool_ else prob
+    rows, cols = np.nonzero(mask)
+    if rows.size == 0:
+        return NO_CORRIDOR
+    xy, valid = cam.ground_points(np.stack([cols, rows], axis=1).astype(np.float64))
+    rows, xy = rows[valid], xy[valid]
+    if rows.size == 0:
+        return NO_CORRIDOR
+    count = np.bincount(rows, minlength=height)
+    safe = np.maximum(count, 1)
+    x_row = np.bincount(rows, xy[:, 0], height) / safe
+    y_min = np.full(height, np.inf)
+    y_max = np.full(height, -np.inf)
+    np.minimum.at(y_min, rows, xy[:, 1])
+    np.maximum.at(y_max, rows, xy[:, 1])
+    support = count >= p.min_row_px
+    if not support.any():
+        return NO_CORRIDOR
+    far = np.sort(x_row[support])[::-1]
+    length = float(far[min(p.far_rows_ignored, far.size - 1)])
+    in_window = support & (x_row >= p.width_near_m) & (x_row <= p.width_far_m)
+    corridor_width = float(np.median((y_max - y_min)[in_window])) if in_window.any() else math.nan
+    return CorridorGeometry(corridor_width, length, int(support.sum()))
+
+
+def corridor_from_lanes(
+    left_offset_m: float | None, right_offset_m: float | None, range_m: float | None
+) -> CorridorGeometry:
+    """Corridor geometry from a lane fit: ego boundary offsets and view range.
+
+    Args:
+        left_offset_m: Lateral offset of the ego lane's left boundary, metres, left positive.
+        right_offset_m: Lateral offset of the right boundary, metres (negative when to the right).
+        range_m: Forward view range of the fitted lanes, metres.
+
+    Returns:
+        Width ``left - right`` (NaN if a boundary is missing) and length ``range_m``.
+    """
+
+    def _f(value: float | None) -> float:
+        return math.nan if value is None else float(value)
+
+    width = _f(left_offset_m) - _f(right_offset_m)
+    return CorridorGeometry(width, _f(range_m), 0)

@@ -1,0 +1,147 @@
+"""Least-squares refinement after point-to-line assignment (a step beyond the paper).
+
+Once every lane point belongs to a line, the shared model ``y = o_n + a1 x + a2 x^2`` on the
+road ``z = b x`` is fitted by weighted Gauss-Newton: linear in ``(o_n, a1, a2)``, with the slope
+``b`` linearised through the ray form of Eq. 10, ``x = 1 / (iq + b / h)``, ``y = r x``
+(``dx/db = -x^2 / h``, ``dy/db = -x y / h``). Residuals are weighted by
+``1 / x`` so that the fit minimises image-space (pixel) error, not metres at 100 m.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.intp]
+
+NEAR_WEIGHT_M = 5.0
+"""Forward distance below which the ``1 / x`` weight stops growing, metres."""
+
+
+class SharedModel(NamedTuple):
+    """Shared lane parameters and per-line offsets (metres, radians, 1/m, rise over run)."""
+
+    a1: float
+    a2: float
+    b: float
+    offsets: FloatArray
+
+
+def _solve(design: FloatArray, target: FloatArray, sqrt_w: FloatArray) -> FloatArray:
+    """Solve the weighted least-squares problem ``design @ p ~ target`` (small ridge)."""
+    a = design * sqrt_w[:, None]
+    t = target * sqrt_w
+    normal = a.T @ a
+    normal[np.diag_indices_from(normal)] += 1e-9 * (np.trace(normal) / normal.shape[0] + 1.0)
+    out: FloatArray = np.linalg.solve(normal, a.T @ t)
+    return out
+
+
+def refit_shared(
+    iq: FloatArray,
+    r: FloatArray,
+    labels: IntArray,
+    n_lines: int,
+    start: SharedModel,
+    height_m: float,
+    order: int,
+    fit_slope: bool,
+    slope_bound: float,
+    max_range_m: float,
+    iterations: int = 6,
+) -> SharedModel:
+    """Refit shared heading, curvature, slope and per-line offsets to assigned points.
+
+    Args:
+        iq: Inverse flat-ground forward distance of each point's ray, 1/m.
+        r: Lateral slope ``dy / dx`` of each point's ray.
+        labels: Line index of each point (-1: unassigned, ignored).
+        n_lines: Number of lines.
+        start: Starting parameters (from Nelder-Mead).
+        height_m: Camera height, metres.
+        order: Polynomial order (1 fixes ``a2 = 0``).
+        fit_slope: Estimate ``b`` (needs two lines or more); else keep ``start.b``.
+        slope_bound: Bound on ``|b|``.
+        max_range_m: Points whose road intersection is farther are ignored, metres.
+        iterations: Gauss-Newton iterations at most.
+    """
+    keep = labels >= 0
+    iq, r, lab = iq[keep], r[keep], labels[keep]
+    if iq.size < n_lines + order + 1:
+        return start
+    onehot = np.zeros((iq.size, n_lines))
+    onehot[np.arange(iq.size), lab] = 1.0
+    a1, a2, b = start.a1, start.a2, start.b
+    offsets = start.offsets
+    fit_slope = fit_slope and n_lines >= 2
+    for _ in range(iterations if fit_slope else 1):
+        den = iq + b / height_m
+        ok = den >= 1.0 / max_range_m
+        x = 1.0 / np.where(ok, den, 1.0)
+        y = r * x
+        sqrt_w = np.where(ok, 1.0 / np.maximum(x, NEAR_WEIGHT_M), 0.0)
+        cols = [onehot, x[:, None]]
+        if order == 2:
+            cols.append((x * x)[:, None])
+        if fit_slope:
+            dx = -x * x / height_m
+            dy = -x * y / height_m
+            cols.append(((a1 + 2.0 * a2 * x) * dx - dy)[:, None])
+        p = _solve(np.hstack(cols), y, sqrt_w)
+        offsets = p[:n_lines]
+        a1 = float(p[n_lines])
+        a2 = float(p[n_lines + 1]) if order == 2 else 0.0
+        if not fit_slope:
+            break
+        step = float(p[-1])
+        b_new = float(np.clip(b + step, -slope_bound, slope_bound))
+        done = abs(b_new - b) < 1e-7
+        b = b_new
+        if done:
+            break
+    return SharedModel(a1, a2, b, np.asarray(offsets, dtype=np.float64))
+
+
+class LocalCorrection(NamedTuple):
+    """A line's own quadratic correction ``c0 + c1 x + c2 x^2`` (metres, rad, 1/m)."""
+
+    c0: float
+    c1: float
+    c2: float
+
+
+def local_correction(
+    x: FloatArray,
+    residual: FloatArray,
+    order: int,
+    bound_m: float,
+) -> LocalCorrection:
+    """Fit a bounded correction to one line's residuals from the shared model.
+
+    The correction's order grows with the line's support span (offset only below 5 m, plus a
+    heading term below 15 m) and its largest displacement over the support is scaled down to
+    ``bound_m``, so a line can follow a merge or split without leaving the shared model.
+
+    Args:
+        x: Corrected forward distances of the line's points, metres.
+        residual: The points' lateral residuals from the shared line, metres.
+        order: Highest polynomial order allowed (1 or 2).
+        bound_m: Largest correction over ``[min(x), max(x)]``, metres.
+    """
+    if x.size < 8 or bound_m <= 0:
+        return LocalCorrection(0.0, 0.0, 0.0)
+    span = float(x.max() - x.min())
+    k = 0 if span < 5.0 else (1 if span < 15.0 or order == 1 else 2)
+    design = np.stack([x**j for j in range(k + 1)], axis=1)
+    sqrt_w = 1.0 / np.maximum(x, NEAR_WEIGHT_M)
+    coef = np.zeros(3)
+    coef[: k + 1] = _solve(design, residual, sqrt_w)
+    grid = np.linspace(float(x.min()), float(x.max()), 16)
+    worst = float(np.max(np.abs(coef[0] + grid * (coef[1] + grid * coef[2]))))
+    if worst > bound_m:
+        coef *= bound_m / worst
+    return LocalCorrection(float(coef[0]), float(coef[1]), float(coef[2]))

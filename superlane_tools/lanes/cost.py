@@ -1,0 +1,263 @@
+"""Costs of the multi-lane fit: road term J1 (Eq. 1), lane term J2 (Eq. 2), J = lambda*J1 + J2.
+
+Points enter as viewing rays from the camera in the vehicle frame, written as ``iq = -dz / (h dx)``
+(the inverse flat-ground forward distance ``1 / xf``, 1/m) and ``r = dy / dx`` (lateral slope).
+For a candidate slope ``b`` the ray meets the linear road ``z = b x`` of Eq. 10 at
+``x = 1 / (iq + b / h)``, ``y = r x`` (metres, from the camera foot) -- exactly Eq. 10's
+``x = xf / s``, ``y = yf / s`` with ``s = 1 + b xf / h``, but also defined for rays at or above the
+flat horizon (``iq <= 0``), which meet an uphill road. Points whose intersection is behind the
+camera or beyond ``max_range_m`` count as out of range.
+
+Lane parameters are ``theta = (a1, a2, b, a0c)``: heading (rad), half curvature (1/m), slope
+(rise over run) and the road-centre offset (m) used by J1 only. The histogram of Eq. 2 is
+*soft-binned*: each residual is split linearly between its two nearest bins, which makes the
+entropy continuous in ``theta`` (hard bins make it a staircase that Nelder-Mead cannot descend).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+FloatArray = NDArray[np.float64]
+
+
+
+class Histogram(NamedTuple):
+    """Layout of the offset histogram of Eq. 2.
+
+    Attributes:
+        lo_m: Centre of the first bin, metres.
+        width_m: Bin width, metres.
+        n_bins: Number of bins.
+    """
+
+    lo_m: float
+    width_m: float
+    n_bins: int
+
+    @classmethod
+    def symmetric(cls, half_range_m: float, width_m: float) -> Histogram:
+        """Return bins of ``width_m`` centred on 0 covering ``[-half_range_m, half_range_m]``."""
+        half = round(half_range_m / width_m)
+        return cls(-half * width_m, width_m, 2 * half + 1)
+
+    def centres(self) -> FloatArray:
+        """Return the bin centres, metres."""
+        return self.lo_m + self.width_m * np.arange(self.n_bins, dtype=np.float64)
+
+
+def soft_histogram(residual_m: FloatArray, hist: Histogram) -> FloatArray:
+    """Soft-bin residuals: each value is split between its two nearest bin centres.
+
+    Args:
+        residual_m: Residuals ``(..., N)`` in metres; NaN or out-of-range values are dropped.
+        hist: Bin layout.
+
+    Returns:
+        ``(..., n_bins)`` soft counts; a row sums to the number of in-range values.
+    """
+    res = np.asarray(residual_m, dtype=np.float64)
+    rows = res.reshape(-1, res.shape[-1])
+    out = _soft_counts(rows, hist)
+    return out.reshape((*res.shape[:-1], hist.n_bins))
+
+
+def _soft_counts(rows: FloatArray, hist: Histogram) -> FloatArray:
+    """Return ``(P, n_bins)`` soft counts of ``(P, N)`` residuals (NaN = out of range)."""
+    n_rows = rows.shape[0]
+    stride = hist.n_bins + 3
+    # Bin k of the layout is slot k+1; slot 0 and slots > n_bins collect the out-of-range values.
+    pos = (rows - hist.lo_m) * (1.0 / hist.width_m) + 1.0
+    np.nan_to_num(pos, copy=False, nan=0.0)
+    np.clip(pos, 0.0, hist.n_bins + 1.0, out=pos)
+    idx = pos.astype(np.intp)
+    frac = pos - idx
+    if n_rows > 1:
+        idx += (np.arange(n_rows, dtype=np.intp) * stride)[:, None]
+    flat_idx = idx.ravel()
+    total = n_rows * stride
+    counts = np.bincount(flat_idx, minlength=total).astype(np.float64)
+    upper = np.bincount(flat_idx, weights=frac.ravel(), minlength=total)
+    soft = counts - upper
+    soft[1:] += upper[:-1]
+    return soft.reshape(n_rows, stride)[:, 1 : hist.n_bins + 1]
+
+
+def entropy(counts: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Return the Shannon entropy (nats) of each row of histogram counts, and the row totals."""
+    c = np.asarray(counts, dtype=np.float64)
+    n = c.sum(axis=-1)
+    safe_n = np.where(n > 0, n, 1.0)
+    p = c / safe_n[..., None]
+    logp = np.log(p, where=p > 0, out=np.zeros_like(p))
+    h: FloatArray = -(p * logp).sum(axis=-1)
+    return h, n
+
+
+def compensate(
+    xf: FloatArray, yf: FloatArray, slope: float | FloatArray, height_m: float
+) -> tuple[FloatArray, FloatArray, NDArray[np.bool_]]:
+    """Map flat-ground points onto the linear road ``z = slope * x`` (paper Eq. 10).
+
+    Args:
+        xf: Flat-ground forward distance from the camera foot, metres.
+        yf: Flat-ground lateral position (left positive) from the camera foot, metres.
+        slope: Road slope ``b`` (rise over run, positive uphill), scalar or broadcastable.
+        height_m: Camera height above the road at its foot, metres.
+
+    Returns:
+        Corrected ``x``, ``y`` (metres, NaN where the ray misses the road) and the validity mask.
+    """
+    s = 1.0 + np.asarray(slope, dtype=np.float64) * np.asarray(xf) / height_m
+    valid = s > 0
+    inv = np.where(valid, 1.0 / np.where(valid, s, 1.0), np.nan)
+    return xf * inv, yf * inv, valid
+
+
+def ray_points(
+    iq: FloatArray, r: FloatArray, slope: float, height_m: float, max_range_m: float
+) -> tuple[FloatArray, FloatArray, NDArray[np.bool_]]:
+    """Intersect rays ``(iq, r)`` with the road ``z = slope * x`` (Eq. 10 in ray form).
+
+    Args:
+        iq: Inverse flat-ground forward distance ``-dz / (h dx)`` of each ray, 1/m.
+        r: Lateral slope ``dy / dx`` of each ray.
+        slope: Road slope ``b`` (rise over run).
+        height_m: Camera height, metres.
+        max_range_m: Farther intersections are invalid, metres.
+
+    Returns:
+        ``x``, ``y`` in metres from the camera foot (NaN where invalid) and the validity mask.
+    """
+    den = np.asarray(iq, dtype=np.float64) + slope / height_m
+    valid = den >= 1.0 / max_range_m
+    x = np.where(valid, 1.0 / np.where(valid, den, 1.0), np.nan)
+    return x, r * x, valid
+
+
+class CostFunction:
+    """The combined cost J of Eq. 3 over fixed point sets, evaluated one or many at a time.
+
+    Attributes:
+        n_lane: Number of lane points ``N_l``.
+        n_road: Number of road points (0 disables J1).
+        evaluations: Number of parameter vectors evaluated so far.
+    """
+
+    def __init__(
+        self,
+        lane_iq: FloatArray,
+        lane_r: FloatArray,
+        height_m: float,
+        max_range_m: float,
+        hist: Histogram,
+        kappa: float,
+        road_iq: FloatArray | None = None,
+        road_r: FloatArray | None = None,
+        lambda_road: float = 0.0,
+        sigma_d_m: float = 3.0,
+    ) -> None:
+        self._iq = np.ascontiguousarray(lane_iq, dtype=np.float64)
+        self._r = np.ascontiguousarray(lane_r, dtype=np.float64)
+        self._inv_h = 1.0 / height_m
+        self._height = height_m
+        self._min_den = 1.0 / max_range_m
+        self._max_range = max_range_m
+        self._hist = hist
+        self._kappa = kappa
+        self._pos_scale = 1.0 / hist.width_m
+        self._pos_shift = 1.0 - hist.lo_m / hist.width_m
+        self._top = hist.n_bins + 1.0
+        self._stride = hist.n_bins + 3
+        self._iq_min = float(self._iq.min()) if self._iq.size else 0.0
+        self.n_lane = int(self._iq.size)
+        use_road = road_iq is not None and road_r is not None and lambda_road > 0
+        self._riq = np.asarray(road_iq if use_road else [], dtype=np.float64)
+        self._rr = np.asarray(road_r if use_road else [], dtype=np.float64)
+        self.n_road = int(self._riq.size)
+        self._lambda = lambda_road
+        self._inv_sigma = 1.0 / sigma_d_m
+        self.evaluations = 0
+
+    def lane_term(self, a1: float, a2: float, b: float) -> float:
+        """Return J2 (Eq. 2) for one parameter set: soft-binned entropy + kappa * N_l / n_l."""
+        c = b * self._inv_h
+        den = self._iq + c
+        x = 1.0 / den
+        pos = x * (self._r - a1 - a2 * x)
+        pos *= self._pos_scale
+        pos += self._pos_shift
+        if self._iq_min + c < self._min_den:
+            pos[den < self._min_den] = 0.0
+        np.maximum(pos, 0.0, out=pos)
+        np.minimum(pos, self._top, out=pos)
+        idx = pos.astype(np.intp)
+        frac = pos - idx
+        stride = self._stride
+        counts = np.bincount(idx, minlength=stride)
+        upper = np.bincount(idx, weights=frac, minlength=stride)
+        soft = counts - upper
+        soft[1:] += upper[:-1]
+        hist = soft[1 : stride - 2]
+        n_in = float(hist.sum())
+        if n_in <= 0.0:
+            return float(np.log(hist.size) + self._kappa * self.n_lane)
+        hist = hist[hist > 0.0]
+        p = hist * (1.0 / n_in)
+        h = -float(np.dot(p, np.log(p)))
+        return h + self._kappa * self.n_lane / n_in
+
+    def road_term(self, a1: float, a2: float, b: float, a0c: float) -> float:
+        """Return J1 (Eq. 1): minus the Gaussian closeness of road points to the centre line."""
+        if self.n_road == 0:
+            return 0.0
+        den = self._riq + b * self._inv_h
+        ok = den >= self._min_den
+        x = 1.0 / np.where(ok, den, 1.0)
+        d = (x * (self._rr - a1 - a2 * x) - a0c) * self._inv_sigma
+        return -float(np.exp(-(d * d))[ok].sum())
+
+    def __call__(self, theta: FloatArray) -> float:
+        """Return J = lambda * J1 + J2 for ``theta = (a1, a2, b, a0c)``."""
+        self.evaluations += 1
+        a1, a2, b, a0c = (float(v) for v in theta)
+        cost = self.lane_term(a1, a2, b) if self.n_lane else 0.0
+        if self.n_road:
+            cost += self._lambda * self.road_term(a1, a2, b, a0c)
+        return cost
+
+    def batch(self, thetas: FloatArray) -> FloatArray:
+        """Return J for each row of ``(P, 4)`` parameter vectors in one vectorised evaluation."""
+        th = np.asarray(thetas, dtype=np.float64).reshape(-1, 4)
+        self.evaluations += th.shape[0]
+        a1, a2, b, a0c = (th[:, k : k + 1] for k in range(4))
+        den = self._iq + b * self._inv_h
+        ok = den >= self._min_den
+        x = 1.0 / np.where(ok, den, 1.0)
+        d = x * (self._r - a1 - a2 * x)
+        d[~ok] = np.nan
+        hist = _soft_counts(d, self._hist)
+        h, n_in = entropy(hist)
+        cost = np.where(
+            n_in > 0,
+            h + self._kappa * self.n_lane / np.where(n_in > 0, n_in, 1.0),
+            np.log(self._hist.n_bins) + self._kappa * self.n_lane,
+        )
+        if self.n_road:
+            denr = self._riq + b * self._inv_h
+            okr = denr >= self._min_den
+            xr = 1.0 / np.where(okr, denr, 1.0)
+            dr = (xr * (self._rr - a1 - a2 * xr) - a0c) * self._inv_sigma
+            j1 = -np.where(okr, np.exp(-(dr * dr)), 0.0).sum(axis=1)
+            cost = cost + self._lambda * j1
+        result: FloatArray = cost.astype(np.float64)
+        return result
+
+    def residuals(self, a1: float, a2: float, b: float) -> FloatArray:
+        """Return the lane residuals ``y - f(0, a; x)`` on the sloped road (NaN if invalid)."""
+        x, y, _ = ray_points(self._iq, self._r, b, self._height, self._max_range)
+        out: FloatArray = y - x * (a1 + a2 * x)
+        return out

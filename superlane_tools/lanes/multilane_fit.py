@@ -1,0 +1,422 @@
+"""SUPER multi-lane fit of one frame (paper section III): lane and road pixels in, lines out.
+
+Stages: flat-ground IPM of the pixels; a coarse loss-curve search (III-C) batched into one
+vectorised cost evaluation, or the previous frame's solution; Nelder-Mead on J (Eq. 3) over
+heading ``a1``, half curvature ``a2``, slope ``b`` (Eq. 10) and, when J1 is used, the road-centre
+offset ``a0c``; lane offsets as histogram peaks (Eq. 4); point-to-line assignment; then, beyond
+the paper, a weighted least-squares refit of the shared model and a bounded per-line correction.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.optimize import minimize
+
+from superlane_tools.camera.model import CameraModel
+from superlane_tools.lanes._refit import SharedModel, local_correction, refit_shared
+from superlane_tools.lanes.attributes import lane_attributes
+from superlane_tools.lanes.cost import CostFunction, Histogram, ray_points
+from superlane_tools.lanes.errors import LaneFitError
+from superlane_tools.lanes.params import FitParams
+from superlane_tools.lanes.peaks import assign, find_offsets, merge_close
+from superlane_tools.lanes.result import Lane, LaneFit
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.intp]
+
+ASSIGN_ANGLE_RAD = 0.008
+"""Assignment radius growth with distance (radians): segmentation noise grows with range."""
+SCAN_POINTS = 300
+"""Lane points used by the batched loss-curve search."""
+_STEP = np.array([0.01, 0.0005, 0.01, 0.5])
+"""Nelder-Mead unit step of (a1 rad, a2 1/m, b, a0c m); tolerances are in these units."""
+
+
+class _Points:
+    """Usable pixels as viewing rays ``(iq, r)`` from the camera foot (see ``cost``)."""
+
+    def __init__(self, camera: CameraModel, uv: FloatArray | None, params: FitParams) -> None:
+        pix = np.empty((0, 2)) if uv is None else np.asarray(uv, dtype=np.float64).reshape(-1, 2)
+        if pix.size and not np.all(np.isfinite(pix)):
+            raise LaneFitError("pixel coordinates must be finite")
+        self.n_pixels = pix.shape[0]
+        if self.n_pixels == 0:
+            self.iq = self.r = self.rows = np.empty(0)
+            self.index = np.empty(0, dtype=np.intp)
+            return
+        dirs = camera.rays(pix)
+        height = camera.extrinsics.height_m
+        forward = dirs[:, 0] > 1e-9
+        dx = np.where(forward, dirs[:, 0], 1.0)
+        iq = -dirs[:, 2] / (height * dx)
+        r = dirs[:, 1] / dx
+        # Keep rays that meet the road within range for some admissible slope.
+        reach = params.slope_bound / height if params.slope else 0.0
+        keep = (
+            forward
+            & (iq + reach >= 1.0 / params.max_range_m)
+            & (iq - reach <= 1.0 / params.min_range_m)
+        )
+        self.index = np.flatnonzero(keep)
+        self.iq, self.r, self.rows = iq[keep], r[keep], pix[keep, 1]
+
+    @property
+    def size(self) -> int:
+        return int(self.iq.size)
+
+    def sample(self, n_max: int, seed: int) -> IntArray:
+        """Return sorted indices of a deterministic uniform subsample (image-pixel density)."""
+        if self.size <= n_max:
+            return np.arange(self.size)
+        rng = np.random.default_rng(seed)
+        return np.sort(rng.choice(self.size, n_max, replace=False))
+
+
+def _initial_guess(cost: CostFunction, params: FitParams, free: list[int]) -> FloatArray:
+    """Loss-curve search of III-C: scan each free parameter with the others at zero, batched."""
+    grids = {
+        0: np.linspace(-params.heading_bound_rad, params.heading_bound_rad, params.grid_heading),
+        1: np.linspace(-params.curvature_bound, params.curvature_bound, params.grid_curvature)
+        / 2.0,
+        2: np.linspace(-params.slope_bound, params.slope_bound, params.grid_slope),
+        3: np.linspace(-params.offset_range_m / 2, params.offset_range_m / 2, 13),
+    }
+    rows, owner = [], []
+    for k in free:
+        for value in grids[k]:
+            row = np.zeros(4)
+            row[k] = value
+            rows.append(row)
+            owner.append(k)
+    thetas = np.asarray(rows)
+    costs = cost.batch(thetas)
+    combo = np.zeros(4)
+    owners = np.asarray(owner)
+    best_rows = []
+    for k in free:
+        sel = np.flatnonzero(owners == k)
+        best = sel[np.argmin(costs[sel])]
+        combo[k] = thetas[best, k]
+        best_rows.append(thetas[best])
+    candidates = np.asarray([combo, *best_rows])
+    result: FloatArray = candidates[int(np.argmin(cost.batch(candidates)))]
+    return result
+
+
+def _theta_from_init(init: LaneFit | tuple[float, float, float], params: FitParams) -> FloatArray:
+    if isinstance(init, LaneFit):
+        a1, a2, b, a0c = init.a1, init.a2, init.b, init.road_centre_m
+    else:
+        a1, a2, b = init
+        a0c = 0.0
+    theta = np.array([a1, a2 if params.order == 2 else 0.0, b if params.slope else 0.0, a0c])
+    theta[~np.isfinite(theta)] = 0.0
+    theta[2] = np.clip(theta[2], -params.slope_bound, params.slope_bound)
+    return theta
+
+
+def _nelder_mead(
+    cost: CostFunction, theta0: FloatArray, free: list[int], params: FitParams
+) -> tuple[FloatArray, int, bool]:
+    """Minimise J over the free parameters, in units of ``_STEP``; return theta, nit, success."""
+    base = theta0.copy()
+    scale = _STEP[free]
+    bounds_abs = {
+        0: 2.0 * params.heading_bound_rad,
+        1: params.curvature_bound,
+        2: params.slope_bound,
+        3: params.offset_range_m,
+    }
+    bounds = [(-bounds_abs[k] / _STEP[k], bounds_abs[k] / _STEP[k]) for k in free]
+    x0 = np.clip(base[free] / scale, [lo for lo, _ in bounds], [hi for _, hi in bounds])
+
+    def fun(v: FloatArray) -> float:
+        theta = base.copy()
+        theta[free] = v * scale
+        return cost(theta)
+
+    simplex = np.vstack([x0, x0 + np.eye(len(free))])
+    for i, (lo, hi) in enumerate(bounds):
+        col = simplex[:, i]
+        col[col > hi] -= 2.0  # keep the initial simplex inside the bounds
+        np.clip(col, lo, hi, out=col)
+    res = minimize(
+        fun,
+        x0,
+        method="Nelder-Mead",
+        bounds=bounds,
+        options={
+            "xatol": params.xatol,
+            "fatol": params.fatol,
+            "maxiter": params.max_iterations,
+            "initial_simplex": simplex,
+        },
+    )
+    theta = base.copy()
+    theta[free] = np.asarray(res.x) * scale
+    return theta, int(res.nit), bool(res.success)
+
+
+def _road_only(
+    road: _Points, camera: CameraModel, params: FitParams, t0: float, n_lane: int
+) -> LaneFit:
+    """Fit the road centre line alone (J1) when there are no lane points."""
+    idx = road.sample(params.max_road_points, params.seed)
+    cost = CostFunction(
+        np.zeros(0),
+        np.zeros(0),
+        camera.extrinsics.height_m,
+        params.max_range_m,
+        Histogram.symmetric(params.offset_range_m, params.bin_width_m),
+        params.kappa,
+        road.iq[idx],
+        road.r[idx],
+        1.0,
+        params.sigma_d_m,
+    )
+    free = [0, 1, 3] if params.order == 2 else [0, 3]
+    theta0 = np.array([0.0, 0.0, 0.0, float(np.median(road.r[idx] / road.iq[idx]))])
+
+    def road_cost(theta: FloatArray) -> float:
+        cost.evaluations += 1
+        return cost.road_term(float(theta[0]), float(theta[1]), 0.0, float(theta[3]))
+
+    base = theta0.copy()
+
+    def fun(v: FloatArray) -> float:
+        theta = base.copy()
+        theta[free] = v * _STEP[free]
+        return road_cost(theta)
+
+    res = minimize(
+        fun,
+        theta0[free] / _STEP[free],
+        method="Nelder-Mead",
+        options={"xatol": params.xatol, "fatol": params.fatol, "maxiter": params.max_iterations},
+    )
+    theta = base.copy()
+    theta[free] = np.asarray(res.x) * _STEP[free]
+    return LaneFit(
+        a1=float(theta[0]),
+        a2=float(theta[1]),
+        b=0.0,
+        road_centre_m=float(theta[3]),
+        cost=float(res.fun),
+        iterations=int(res.nit),
+        evaluations=cost.evaluations,
+        converged=bool(res.success),
+        fit_time_s=time.perf_counter() - t0,
+        reason="all road",
+        n_points=n_lane,
+    )
+
+
+def fit_frame(
+    lane_uv: FloatArray,
+    road_uv: FloatArray | None,
+    camera: CameraModel,
+    params: FitParams | None = None,
+    init: LaneFit | tuple[float, float, float] | None = None,
+    attributes: IntArray | None = None,
+) -> LaneFit:
+    """Fit parallel lane lines, heading, curvature and road slope to one frame's pixels.
+
+    Args:
+        lane_uv: ``(N, 2)`` image pixels ``(u, v)`` of lane markings. All of them are used to
+            assign lines and measure their view range; at most ``params.max_points`` of them,
+            sampled uniformly (deterministic seed), drive the optimiser.
+        road_uv: ``(M, 2)`` road pixels for J1, or None.
+        camera: Camera that took the frame (its image size must match the pixels).
+        params: Fit parameters (paper defaults when None).
+        init: Previous frame's fit (or ``(a1, a2, b)``) as the initial guess; None runs the
+            loss-curve search of III-C.
+        attributes: ``(N,)`` level-4 marking codes of the lane pixels
+            (:data:`superlane_tools.lanes.attributes.MARKING_CODES` order), or None.
+
+    Returns:
+        The frame's fit; ``reason`` says why a frame has no (or only one) line.
+
+    Raises:
+        LaneFitError: If the inputs are inconsistent (shapes, non-finite pixels).
+    """
+    t0 = time.perf_counter()
+    p = params or FitParams()
+    lane = _Points(camera, lane_uv, p)
+    codes = None
+    if attributes is not None:
+        codes_all = np.asarray(attributes, dtype=np.intp).reshape(-1)
+        if codes_all.size != lane.n_pixels:
+            raise LaneFitError(
+                f"attributes has {codes_all.size} entries for {lane.n_pixels} lane pixels"
+            )
+        codes = codes_all[lane.index]
+    use_road = p.lambda_road > 0 and (
+        p.road_term == "always" or (p.road_term == "auto" and lane.size < p.road_term_below)
+    )
+    road = _Points(camera, road_uv if use_road else None, p)
+    if lane.size == 0:
+        if road.size >= p.min_points:
+            return _road_only(road, camera, p, t0, 0)
+        return LaneFit(reason="no lane pixels", fit_time_s=time.perf_counter() - t0)
+    if lane.size < p.min_points:
+        return LaneFit(
+            reason="too few points", n_points=lane.size, fit_time_s=time.perf_counter() - t0
+        )
+
+    height = camera.extrinsics.height_m
+    hist = Histogram.symmetric(p.offset_range_m, p.bin_width_m)
+    sel = lane.sample(p.max_points, p.seed)
+    nm_sel = sel[:: max(1, -(-sel.size // p.nm_points))]
+    ridx = road.sample(p.max_road_points, p.seed) if road.size else None
+    cost = CostFunction(
+        lane.iq[nm_sel],
+        lane.r[nm_sel],
+        height,
+        p.max_range_m,
+        hist,
+        p.kappa,
+        road.iq[ridx] if ridx is not None else None,
+        road.r[ridx] if ridx is not None else None,
+        p.lambda_road if use_road else 0.0,
+        p.sigma_d_m,
+    )
+    free = [0]
+    if p.order == 2:
+        free.append(1)
+    if p.slope:
+        free.append(2)
+    if cost.n_road:
+        free.append(3)
+
+    if init is not None:
+        theta0 = _theta_from_init(init, p)
+    else:
+        scan_sel = sel[:: max(1, -(-sel.size // SCAN_POINTS))]
+        scan = CostFunction(
+            lane.iq[scan_sel],
+            lane.r[scan_sel],
+            height,
+            p.max_range_m,
+            hist,
+            p.kappa,
+            road.iq[ridx[::4]] if ridx is not None else None,
+            road.r[ridx[::4]] if ridx is not None else None,
+            p.lambda_road if use_road else 0.0,
+            p.sigma_d_m,
+        )
+        theta0 = _initial_guess(scan, p, free)
+        cost.evaluations += scan.evaluations
+    theta, nit, converged = _nelder_mead(cost, theta0, free, p)
+    j_final = cost(theta)
+    a1, a2, b, a0c = (float(v) for v in theta)
+    extras = {"nm_a1": a1, "nm_a2": a2, "nm_b": b}
+
+    iqs, rs = lane.iq[sel], lane.r[sel]
+    x_s, y_s, _ok = ray_points(iqs, rs, b, height, p.max_range_m)
+    offsets = find_offsets(y_s - x_s * (a1 + a2 * x_s), p)
+    model = SharedModel(a1, a2, b, offsets)
+    if p.refit and offsets.size:
+        for _ in range(2):
+            x_c, y_c, _ok = ray_points(iqs, rs, model.b, height, p.max_range_m)
+            resid = y_c - x_c * (model.a1 + model.a2 * x_c)
+            radius = p.assign_radius_m + ASSIGN_ANGLE_RAD * np.nan_to_num(x_c)
+            labels = assign(resid, model.offsets, radius)
+            model = refit_shared(
+                iqs,
+                rs,
+                labels,
+                model.offsets.size,
+                model,
+                height,
+                p.order,
+                p.slope,
+                p.slope_bound,
+                p.max_range_m,
+            )
+            merged = merge_close(np.sort(model.offsets), 0.5 * p.min_peak_separation_m)
+            model = model._replace(offsets=merged)
+
+    lanes, quality = _build_lanes(lane, model, codes, height, p)
+    n_lines = len(lanes)
+    reason = "" if n_lines >= 2 else ("one line" if n_lines == 1 else "no lines")
+    left = [i for i, ln in enumerate(lanes) if ln.offset_m > 0]
+    right = [i for i, ln in enumerate(lanes) if ln.offset_m <= 0]
+    return LaneFit(
+        a1=model.a1,
+        a2=model.a2,
+        b=model.b,
+        lanes=tuple(lanes),
+        ego_left=left[-1] if left else -1,
+        ego_right=right[0] if right else -1,
+        road_centre_m=a0c if cost.n_road else math.nan,
+        cost=j_final,
+        iterations=nit,
+        evaluations=cost.evaluations,
+        converged=converged,
+        fit_time_s=time.perf_counter() - t0,
+        quality=quality,
+        reason=reason,
+        n_points=lane.size,
+        extras=extras,
+    )
+
+
+def _build_lanes(
+    lane: _Points, model: SharedModel, codes: IntArray | None, height: float, p: FitParams
+) -> tuple[list[Lane], float]:
+    """Assign all usable points to the lines, add local corrections, ranges and attributes."""
+    if model.offsets.size == 0:
+        return [], 0.0
+    x, y, ok = ray_points(lane.iq, lane.r, model.b, height, p.max_range_m)
+    base = x * (model.a1 + model.a2 * x)
+    resid = np.where(ok, y - base, np.nan)
+    radius = p.assign_radius_m + ASSIGN_ANGLE_RAD * np.nan_to_num(x)
+    labels = assign(resid, model.offsets, radius)
+    corrections = []
+    for n, offset in enumerate(model.offsets):
+        mask = labels == n
+        corr = (
+            local_correction(x[mask], resid[mask] - offset, p.order, p.local_bound_m)
+            if p.local_correction
+            else None
+        )
+        corrections.append(corr)
+    if p.local_correction:
+        # Reassign with the corrected lines so that each line's range follows its own points.
+        lane_res = np.stack(
+            [
+                resid - off - (c.c0 + x * (c.c1 + x * c.c2) if c else 0.0)
+                for off, c in zip(model.offsets, corrections, strict=True)
+            ],
+            axis=1,
+        )
+        dist = np.where(np.isfinite(lane_res), np.abs(lane_res), np.inf)
+        best = np.argmin(dist, axis=1)
+        labels = np.where(dist[np.arange(best.size), best] <= radius, best, -1)
+    marks = lane_attributes(labels, model.offsets.size, lane.rows, codes)
+    lanes = []
+    for n, offset in enumerate(model.offsets):
+        mask = labels == n
+        if not mask.any():
+            continue
+        c = corrections[n]
+        xn = x[mask]
+        lanes.append(
+            Lane(
+                offset_m=float(offset + (c.c0 if c else 0.0)),
+                a1=model.a1 + (c.c1 if c else 0.0),
+                a2=model.a2 + (c.c2 if c else 0.0),
+                range_min_m=float(xn.min()),
+                range_max_m=float(xn.max()),
+                colour=marks[n].colour,
+                style=marks[n].style,
+                n_points=int(mask.sum()),
+            )
+        )
+    lanes.sort(key=lambda ln: -ln.offset_m)
+    quality = float((labels >= 0).sum()) / max(lane.size, 1)
+    return lanes, quality

@@ -1,0 +1,107 @@
+"""Results of the multi-lane fit: one ``LaneFit`` per frame holding its ``Lane`` lines."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+Colour = str
+"""Marking colour: ``white``, ``yellow`` or ``unknown``."""
+Style = str
+"""Marking style: ``solid``, ``dashed``, ``double`` or ``unknown``."""
+
+
+@dataclass(frozen=True)
+class Lane:
+    """One lane line in the vehicle frame (x forward, y left, metres) on the sloped road.
+
+    The line is ``y(x) = offset_m + a1 * x + a2 * x**2`` on the road surface ``z = b * x``
+    (``b`` of the frame), measured from the camera foot. ``a1``/``a2`` are the frame's shared
+    values plus this line's bounded local correction (equal to them when there is none).
+
+    Attributes:
+        offset_m: Lateral offset at ``x = 0``, metres (left positive).
+        a1: Heading of this line, radians (positive: pointing left).
+        a2: Half curvature of this line, 1/m (curvature ``2 * a2``, positive curving left).
+        range_min_m: Nearest forward distance with supporting points, metres.
+        range_max_m: Farthest forward distance with supporting points, metres.
+        colour: ``white``, ``yellow`` or ``unknown``.
+        style: ``solid``, ``dashed``, ``double`` or ``unknown``.
+        n_points: Lane pixels assigned to this line.
+    """
+
+    offset_m: float
+    a1: float
+    a2: float
+    range_min_m: float
+    range_max_m: float
+    colour: Colour = "unknown"
+    style: Style = "unknown"
+    n_points: int = 0
+
+    def lateral_m(self, x_m: float) -> float:
+        """Return the line's lateral position (metres, left positive) at forward distance x_m."""
+        return self.offset_m + self.a1 * x_m + self.a2 * x_m * x_m
+
+
+@dataclass(frozen=True)
+class LaneFit:
+    """The fitted lane model of one frame.
+
+    Attributes:
+        a1: Shared heading, radians (positive: lanes point to the left).
+        a2: Shared half curvature, 1/m; the curvature is ``2 * a2`` (positive curving left).
+        b: Road slope (rise over run, positive uphill) of ``z = b * x`` from the camera foot.
+        lanes: Lines sorted by offset from left (largest offset) to right.
+        ego_left: Index into ``lanes`` of the nearest line left of the camera, or -1.
+        ego_right: Index into ``lanes`` of the nearest line right of the camera, or -1.
+        road_centre_m: Offset of the road centre line of J1 (metres), NaN if J1 was unused.
+        cost: Final value of J (Eq. 3) at the Nelder-Mead optimum.
+        iterations: Nelder-Mead iterations.
+        evaluations: Cost evaluations (grid points count one each).
+        converged: Whether Nelder-Mead met its tolerances.
+        fit_time_s: Wall time of the fit, seconds.
+        quality: Fraction of usable lane points that lie on a fitted line, in ``[0, 1]``.
+        reason: Empty for a normal fit, else why the frame was not (fully) fitted:
+            ``no lane pixels``, ``all road``, ``too few points``, ``no lines``, ``one line``.
+        n_points: Usable lane points (flat-ground projection valid and within range).
+    """
+
+    a1: float = math.nan
+    a2: float = math.nan
+    b: float = math.nan
+    lanes: tuple[Lane, ...] = ()
+    ego_left: int = -1
+    ego_right: int = -1
+    road_centre_m: float = math.nan
+    cost: float = math.nan
+    iterations: int = 0
+    evaluations: int = 0
+    converged: bool = False
+    fit_time_s: float = 0.0
+    quality: float = 0.0
+    reason: str = ""
+    n_points: int = 0
+    extras: dict[str, float] = field(default_factory=dict, compare=False, repr=False)
+
+    @property
+    def curvature(self) -> float:
+        """Shared curvature ``2 * a2`` in 1/m (positive curving left)."""
+        return 2.0 * self.a2
+
+    @property
+    def ok(self) -> bool:
+        """True when at least one line was fitted."""
+        return bool(self.lanes)
+
+    @property
+    def offsets(self) -> list[float]:
+        """Lane offsets (metres, left positive), in ``lanes`` order."""
+        return [lane.offset_m for lane in self.lanes]
+
+    @property
+    def lane_width_m(self) -> float:
+        """Width of the ego lane (left minus right line offset), metres; NaN if unknown."""
+        if self.ego_left < 0 or self.ego_right < 0:
+            return math.nan
+        return self.lanes[self.ego_left].offset_m - self.lanes[self.ego_right].offset_m

@@ -1,0 +1,129 @@
+"""Image payload helpers for extraction: format sniffing, header sizes, raw-pixel conversion."""
+
+from __future__ import annotations
+
+import re
+import struct
+from typing import Any, NamedTuple
+
+import numpy as np
+import numpy.typing as npt
+
+_PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+_JPEG_SOF = {0xC0, 0xC1, 0xC2, 0xC3, 0xC5, 0xC6, 0xC7, 0xC9, 0xCA, 0xCB, 0xCD, 0xCE, 0xCF}
+_SAFE_TOPIC = re.compile(r"[^A-Za-z0-9_.-]+")
+
+# ROS / Foxglove raw encodings -> (channels, numpy dtype, cv2 conversion to BGR or None)
+RAW_ENCODINGS: dict[str, tuple[int, str, str | None]] = {
+    "mono8": (1, "u1", None),
+    "8UC1": (1, "u1", None),
+    "mono16": (1, "u2", None),
+    "16UC1": (1, "u2", None),
+    "bgr8": (3, "u1", None),
+    "8UC3": (3, "u1", None),
+    "rgb8": (3, "u1", "COLOR_RGB2BGR"),
+    "bgra8": (4, "u1", None),
+    "rgba8": (4, "u1", "COLOR_RGBA2BGRA"),
+}
+
+
+class ImageSize(NamedTuple):
+    """Image size in pixels."""
+
+    width: int
+    height: int
+
+
+def sniff_format(payload: bytes) -> str | None:
+    """Return ``jpeg`` or ``png`` from the payload's magic bytes, else None."""
+    if payload.startswith(b"\xff\xd8\xff"):
+        return "jpeg"
+    if payload.startswith(_PNG_MAGIC):
+        return "png"
+    return None
+
+
+def jpeg_size(payload: bytes) -> ImageSize | None:
+    """Read width and height from a JPEG's SOF segment without decoding; None if malformed.
+
+    A payload without the end-of-image marker (a truncated transfer) also gives None.
+    """
+    if not payload.startswith(b"\xff\xd8") or payload.rstrip(b"\0")[-2:] != b"\xff\xd9":
+        return None
+    pos, end = 2, len(payload)
+    while pos + 4 <= end:
+        if payload[pos] != 0xFF:
+            return None
+        marker = payload[pos + 1]
+        if marker == 0xFF:  # fill byte
+            pos += 1
+            continue
+        if marker in (0x01, *range(0xD0, 0xD8)):  # standalone markers
+            pos += 2
+            continue
+        (length,) = struct.unpack_from(">H", payload, pos + 2)
+        if marker in _JPEG_SOF:
+            if pos + 9 > end:
+                return None
+            height, width = struct.unpack_from(">HH", payload, pos + 5)
+            return ImageSize(width, height) if width and height else None
+        if marker == 0xDA or length < 2:  # scan data before any SOF: malformed
+            return None
+        pos += 2 + length
+    return None
+
+
+def png_size(payload: bytes) -> ImageSize | None:
+    """Read width and height from a PNG's IHDR chunk; None if malformed."""
+    if len(payload) < 24 or not payload.startswith(_PNG_MAGIC) or payload[12:16] != b"IHDR":
+        return None
+    width, height = struct.unpack_from(">II", payload, 16)
+    return ImageSize(width, height) if width and height else None
+
+
+def header_size(payload: bytes, fmt: str) -> ImageSize | None:
+    """Return the size stored in a ``jpeg`` or ``png`` header, else None."""
+    if fmt == "jpeg":
+        return jpeg_size(payload)
+    if fmt == "png":
+        return png_size(payload)
+    return None
+
+
+def raw_pixels(data: Any, width: int, height: int, encoding: str, step: int) -> npt.NDArray[Any]:
+    """Turn a raw image message's buffer into an array cv2 can encode (BGR order).
+
+    Raises:
+        ValueError: For an unsupported encoding or a buffer too small for the size.
+    """
+    import cv2
+
+    if encoding not in RAW_ENCODINGS:
+        raise ValueError(f"unsupported raw image encoding {encoding!r}")
+    channels, dtype, conversion = RAW_ENCODINGS[encoding]
+    itemsize = np.dtype(dtype).itemsize
+    buffer = np.frombuffer(bytes(data), dtype=np.uint8)
+    row_bytes = width * channels * itemsize
+    step = step or row_bytes
+    if (
+        width <= 0
+        or height <= 0
+        or step < row_bytes
+        or buffer.size < step * (height - 1) + row_bytes
+    ):
+        raise ValueError(f"raw image buffer of {buffer.size} bytes does not hold {width}x{height}")
+    padded = np.pad(buffer, (0, max(0, step * height - buffer.size)))
+    rows = padded[: step * height].reshape(height, step)[:, :row_bytes]
+    pixels = np.ascontiguousarray(rows).view(dtype)
+    pixels = (
+        pixels.reshape(height, width, channels) if channels > 1 else pixels.reshape(height, width)
+    )
+    if conversion is not None:
+        pixels = cv2.cvtColor(pixels, getattr(cv2, conversion))
+    return pixels
+
+
+def safe_topic(topic: str) -> str:
+    """Return a topic name usable as one folder name (``/cam/front`` -> ``cam_front``)."""
+    name = _SAFE_TOPIC.sub("_", topic.strip("/")).strip("._")
+    return name or "_"

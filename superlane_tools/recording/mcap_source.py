@@ -1,0 +1,394 @@
+"""MCAP recordings: indexed reading in log-time order, a scanning fallback for damaged files."""
+
+from __future__ import annotations
+
+import heapq
+import io
+from collections.abc import Collection, Iterator
+from pathlib import Path
+from types import TracebackType
+from typing import TYPE_CHECKING, Any, NamedTuple, Self
+
+from superlane_tools.recording._mcap_decode import (
+    DecodeFailureError,
+    McapDecoders,
+    header_first,
+    msgtype_name,
+)
+from superlane_tools.recording.base import (
+    SkipLog,
+    in_range,
+    raw_header_stamp_ns,
+    stamp_ns_of,
+)
+from superlane_tools.recording.errors import RecordingError
+from superlane_tools.records import Message, RawMessage, Skipped, TopicInfo
+
+if TYPE_CHECKING:
+    from mcap.records import Channel, Schema
+    from mcap.records import Message as McapMessage
+    from mcap.summary import Summary
+
+MCAP_MAGIC = b"\x89MCAP0\r\n"
+"""The 8 bytes every MCAP file starts (and, when complete, ends) with."""
+
+_RECORD_PREFIX = 9  # opcode (1 byte) + record length (8 bytes)
+
+
+class _ChunkRef(NamedTuple):
+    """Where one chunk lies and which log times and channels it holds."""
+
+    offset: int
+    start_ns: int
+    end_ns: int
+    channel_ids: frozenset[int] | None  # None: unknown without reading the chunk
+
+
+class McapRecording:
+    """An MCAP file opened for streaming (see :class:`~superlane_tools.recording.base.Recording`).
+
+    Complete files are read through their chunk index. Files without a usable summary (cut
+    short, never finished, or damaged at the end) are scanned once at open time: every complete
+    chunk before the damage is kept and the loss is reported in :attr:`skipped`. Chunks whose CRC
+    or compression is broken are skipped and reported; reading continues after them.
+    """
+
+    def __init__(self, path: str | Path) -> None:
+        self.path = Path(path)
+        try:
+            self._file = self.path.open("rb")
+        except OSError as err:
+            raise RecordingError(f"cannot open {self.path}: {err.strerror}") from err
+        self._open_skips = SkipLog()
+        self._iter_skips = SkipLog()
+        self._schemas: dict[int, Schema] = {}
+        self._channels: dict[int, Channel] = {}
+        self._counts: dict[int, int] | None = None
+        self._chunks: list[_ChunkRef] = []
+        self._loose_messages = False
+        self._decoders = McapDecoders()
+        self._header_first: dict[int, bool] = {}
+        self._summary: Summary | None = None
+        self.indexed = False
+        try:
+            self._load_index()
+        except BaseException:
+            self._file.close()
+            raise
+
+    # -- context manager -------------------------------------------------------------------
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Close the file."""
+        self._file.close()
+
+    # -- index -----------------------------------------------------------------------------
+
+    def _load_index(self) -> None:
+        from mcap.reader import SeekingReader
+
+        head = self._file.read(len(MCAP_MAGIC))
+        if head != MCAP_MAGIC:
+            raise RecordingError(f"{self.path} is not a recording: no MCAP magic at the start")
+        self._file.seek(-len(MCAP_MAGIC), io.SEEK_END)
+        complete = self._file.read(len(MCAP_MAGIC)) == MCAP_MAGIC
+        summary = None
+        if complete:
+            try:
+                self._file.seek(0)
+                summary = SeekingReader(self._file).get_summary()
+            except Exception:  # a damaged summary section: scan the data section instead
+                summary = None
+        self._summary = summary
+        self.indexed = summary is not None and bool(summary.chunk_indexes)
+        """True when messages are read through the file's chunk index (a complete file)."""
+        if summary is not None and summary.chunk_indexes:
+            self._schemas = dict(summary.schemas)
+            self._channels = dict(summary.channels)
+            if summary.statistics is not None:
+                self._counts = dict(summary.statistics.channel_message_counts)
+            self._chunks = [
+                _ChunkRef(
+                    ci.chunk_start_offset,
+                    ci.message_start_time,
+                    ci.message_end_time,
+                    frozenset(ci.message_index_offsets) or None,
+                )
+                for ci in summary.chunk_indexes
+            ]
+            return
+        self._scan(complete)
+
+    def _scan(self, complete: bool) -> None:
+        """Read every record once, keeping chunk positions; stop at the first unreadable one."""
+        from mcap.records import Channel, Chunk, Footer, Schema
+        from mcap.records import Message as McapMessage
+        from mcap.stream_reader import StreamReader, breakup_chunk
+
+        self._file.seek(0)
+        records = StreamReader(self._file, emit_chunks=True).records
+        counts: dict[int, int] = {}
+        offset = len(MCAP_MAGIC)
+        seen_footer = False
+        while True:
+            try:
+                record = next(records)
+            except StopIteration:
+                break
+            except Exception as err:  # cut or garbled mid-record: keep what came before
+                self._open_skips.add(
+                    "truncated file",
+                    f"{self.path.name}: unreadable from byte {offset} "
+                    f"({type(err).__name__}); later messages are lost",
+                    0,
+                )
+                return
+            if isinstance(record, Chunk):
+                try:
+                    inner = breakup_chunk(record, validate_crc=True)
+                except Exception as err:  # bad CRC or compression: skip this chunk only
+                    self._open_skips.add(
+                        "corrupt chunk",
+                        f"{self.path.name}: chunk at byte {offset}: {type(err).__name__}: {err}",
+                        0,
+                    )
+                else:
+                    ids: set[int] = set()
+                    for item in inner:
+                        if isinstance(item, Schema):
+                            self._schemas[item.id] = item
+                        elif isinstance(item, Channel):
+                            self._channels[item.id] = item
+                        elif isinstance(item, McapMessage):
+                            ids.add(item.channel_id)
+                            counts[item.channel_id] = counts.get(item.channel_id, 0) + 1
+                    self._chunks.append(
+                        _ChunkRef(
+                            offset,
+                            record.message_start_time,
+                            record.message_end_time,
+                            frozenset(ids),
+                        )
+                    )
+            elif isinstance(record, Schema):
+                self._schemas[record.id] = record
+            elif isinstance(record, Channel):
+                self._channels[record.id] = record
+            elif isinstance(record, McapMessage):
+                self._loose_messages = True
+                counts[record.channel_id] = counts.get(record.channel_id, 0) + 1
+            elif isinstance(record, Footer):
+                seen_footer = True
+            offset = self._file.tell()
+        self._counts = counts
+        if not (complete and seen_footer):
+            self._open_skips.add(
+                "truncated file", f"{self.path.name}: no footer; the file was cut short", 0
+            )
+
+    # -- public API ------------------------------------------------------------------------
+
+    @property
+    def skipped(self) -> list[Skipped]:
+        """Problems found at open time plus those of the latest message pass."""
+        return self._open_skips.items() + self._iter_skips.items()
+
+    def topics(self) -> list[TopicInfo]:
+        """Return one entry per topic, sorted by name (counts from the statistics or scan)."""
+        by_topic: dict[str, TopicInfo] = {}
+        for cid, channel in self._channels.items():
+            count = None if self._counts is None else self._counts.get(cid, 0)
+            schema = self._schemas.get(channel.schema_id)
+            known = by_topic.get(channel.topic)
+            if known is None:
+                by_topic[channel.topic] = TopicInfo(
+                    channel.topic,
+                    msgtype_name(schema, channel.message_encoding),
+                    channel.message_encoding,
+                    count,
+                )
+            elif count is not None and known.message_count is not None:
+                by_topic[channel.topic] = known._replace(message_count=known.message_count + count)
+        return [by_topic[name] for name in sorted(by_topic)]
+
+    def raw_messages(
+        self,
+        topics: Collection[str] | None = None,
+        start_ns: int | None = None,
+        stop_ns: int | None = None,
+    ) -> Iterator[RawMessage]:
+        """Yield undecoded messages in log-time order, ``[start_ns, stop_ns)``."""
+        for channel, msg in self._records(topics, start_ns, stop_ns):
+            schema = self._schemas.get(channel.schema_id)
+            yield RawMessage(
+                channel.topic,
+                msg.log_time,
+                msgtype_name(schema, channel.message_encoding),
+                channel.message_encoding,
+                msg.data,
+            )
+
+    def messages(
+        self,
+        topics: Collection[str] | None = None,
+        start_ns: int | None = None,
+        stop_ns: int | None = None,
+    ) -> Iterator[Message]:
+        """Yield decoded messages in log-time order; undecodable ones are counted as skipped."""
+        for channel, msg in self._records(topics, start_ns, stop_ns):
+            schema = self._schemas.get(channel.schema_id)
+            msgtype = msgtype_name(schema, channel.message_encoding)
+            try:
+                decoder = self._decoders.decoder_for(channel.message_encoding, schema)
+            except DecodeFailureError as err:
+                self._iter_skips.add("unknown message type", f"{channel.topic}: {err}")
+                continue
+            try:
+                data = decoder(msg.data)
+            except Exception as err:  # one bad payload must not end the stream
+                self._iter_skips.add(
+                    "undecodable message",
+                    f"{channel.topic} ({msgtype}): {type(err).__name__}",
+                )
+                continue
+            yield Message(channel.topic, msg.log_time, stamp_ns_of(data), msgtype, data)
+
+    def peek_stamp_ns(self, raw: RawMessage) -> int | None:
+        """Return the header stamp of ``raw`` (ns) reading as little of it as possible."""
+        channel = next((c for c in self._channels.values() if c.topic == raw.topic), None)
+        if channel is None:
+            return None
+        if raw.encoding in {"cdr", "ros1"}:
+            first = self._header_first.get(channel.id)
+            if first is None:
+                first = header_first(self._schemas.get(channel.schema_id), raw.encoding)
+                self._header_first[channel.id] = first
+            return raw_header_stamp_ns(raw.encoding, raw.payload) if first else None
+        try:
+            decoder = self._decoders.decoder_for(raw.encoding, self._schemas.get(channel.schema_id))
+            return stamp_ns_of(decoder(raw.payload))
+        except Exception:  # unknown or undecodable: no stamp
+            return None
+
+    # -- record iteration ------------------------------------------------------------------
+
+    def _wanted(self, topics: Collection[str] | None) -> set[int]:
+        if topics is None:
+            return set(self._channels)
+        names = set(topics)
+        return {cid for cid, ch in self._channels.items() if ch.topic in names}
+
+    def _records(
+        self, topics: Collection[str] | None, start_ns: int | None, stop_ns: int | None
+    ) -> Iterator[tuple[Channel, McapMessage]]:
+        self._iter_skips.clear()
+        wanted = self._wanted(topics)
+        if self._loose_messages:
+            yield from self._records_in_file_order(wanted, start_ns, stop_ns)
+            return
+        candidates = sorted(
+            (
+                c
+                for c in self._chunks
+                if (c.channel_ids is None or c.channel_ids & wanted)
+                and (start_ns is None or c.end_ns >= start_ns)
+                and (stop_ns is None or c.start_ns < stop_ns)
+            ),
+            key=lambda c: (c.start_ns, c.offset),
+        )
+        heap: list[tuple[int, int, int, McapMessage]] = []
+        next_chunk = 0
+        while next_chunk < len(candidates) or heap:
+            # Load every chunk that may hold a message earlier than the earliest one queued.
+            while next_chunk < len(candidates) and (
+                not heap or candidates[next_chunk].start_ns <= heap[0][0]
+            ):
+                ref = candidates[next_chunk]
+                next_chunk += 1
+                for index, msg in enumerate(self._chunk_messages(ref)):
+                    if msg.channel_id in wanted and in_range(msg.log_time, start_ns, stop_ns):
+                        heapq.heappush(heap, (msg.log_time, ref.offset, index, msg))
+            if heap:
+                msg = heapq.heappop(heap)[3]
+                yield self._channels[msg.channel_id], msg
+
+    def _chunk_messages(self, ref: _ChunkRef) -> list[McapMessage]:
+        """Return the messages of one chunk, or none (reported) when the chunk is damaged."""
+        from mcap.data_stream import ReadDataStream
+        from mcap.records import Chunk
+        from mcap.records import Message as McapMessage
+        from mcap.stream_reader import breakup_chunk
+
+        try:
+            self._file.seek(ref.offset + _RECORD_PREFIX)
+            chunk = Chunk.read(ReadDataStream(self._file))
+            records = breakup_chunk(chunk, validate_crc=True)
+        except Exception as err:  # bad CRC, bad compression, cut record
+            lost = self._indexed_count(ref)
+            self._iter_skips.add(
+                "corrupt chunk",
+                f"{self.path.name}: chunk at byte {ref.offset}: {type(err).__name__}: {err}",
+                lost,
+            )
+            return []
+        return [r for r in records if isinstance(r, McapMessage)]
+
+    def _indexed_count(self, ref: _ChunkRef) -> int:
+        """Count a chunk's messages from its message indexes (0 when they cannot be read)."""
+        from mcap.records import MessageIndex
+        from mcap.stream_reader import StreamReader
+
+        try:
+            summary = self._summary
+            if summary is None:
+                return 0
+            index = next(ci for ci in summary.chunk_indexes if ci.chunk_start_offset == ref.offset)
+            total = 0
+            for offset in index.message_index_offsets.values():
+                self._file.seek(offset)
+                record: Any = next(StreamReader(self._file, skip_magic=True).records)
+                if isinstance(record, MessageIndex):
+                    total += len(record.records)
+            return total
+        except Exception:  # the count is a courtesy; never fail on it
+            return 0
+
+    def _records_in_file_order(
+        self, wanted: set[int], start_ns: int | None, stop_ns: int | None
+    ) -> Iterator[tuple[Channel, McapMessage]]:
+        """Stream an unchunked (or partly unchunked) file in the order its records lie."""
+        from mcap.records import Chunk
+        from mcap.records import Message as McapMessage
+        from mcap.stream_reader import StreamReader, breakup_chunk
+
+        self._file.seek(0)
+        records = StreamReader(self._file, emit_chunks=True).records
+        while True:
+            try:
+                record = next(records)
+            except Exception:  # StopIteration or the damage already reported at open time
+                return
+            inner: list[Any] = [record]
+            if isinstance(record, Chunk):
+                try:
+                    inner = breakup_chunk(record, validate_crc=True)
+                except Exception:  # reported at open time
+                    continue
+            for item in inner:
+                if (
+                    isinstance(item, McapMessage)
+                    and item.channel_id in wanted
+                    and in_range(item.log_time, start_ns, stop_ns)
+                ):
+                    yield self._channels[item.channel_id], item

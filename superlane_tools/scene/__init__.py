@@ -1,0 +1,42 @@
+"""Scene understanding: segmentation backends (classical, ONNX) producing leaf-id label images."""
+
+from superlane_tools.scene.backend import (
+    SegmentationBackend,
+    backend_from_name,
+    check_image,
+    known_backends,
+)
+from superlane_tools.scene.classical import (
+    ClassicalExtractor,
+    ClassicalParams,
+    RowGeometry,
+    nominal_camera,
+    row_geometry,
+)
+from superlane_tools.scene.errors import BackendUnavailableError, SceneError
+from superlane_tools.scene.image_folder import (
+    SegmentedImage,
+    classes_yaml,
+    list_images,
+    overlay,
+    segment_folder,
+)
+
+__all__ = [
+    "BackendUnavailableError",
+    "ClassicalExtractor",
+    "ClassicalParams",
+    "RowGeometry",
+    "SceneError",
+    "SegmentationBackend",
+    "SegmentedImage",
+    "backend_from_name",
+    "check_image",
+    "classes_yaml",
+    "known_backends",
+    "list_images",
+    "nominal_camera",
+    "overlay",
+    "row_geometry",
+    "segment_folder",
+]

@@ -1,0 +1,138 @@
+"""Segment a folder of images: label PNGs mirroring the input tree, overlays, ``classes.yaml``.
+
+Output layout under ``out_dir``:
+
+* ``<relative path>.png``: leaf-id label image (``uint8``, 0 = void) for each input image, at the
+  input's relative path with the suffix replaced by ``.png``;
+* ``overlays/<relative path>.jpg`` (optional): the colourised labels blended over the image;
+* ``classes.yaml``: every hierarchy node name with the leaf ids under it, so that
+  ``slt lanes fit DIR --classes DIR/classes.yaml`` can find road and lane-marking pixels.
+
+All files are written atomically.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+from superlane_tools.hierarchy import NODES, colorize, leaf_ids_under
+from superlane_tools.records import Skipped
+from superlane_tools.reporting.atomic import write_bytes_atomic, write_text_atomic
+from superlane_tools.scene.backend import SegmentationBackend
+from superlane_tools.scene.errors import SceneError
+
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg")
+OVERLAY_DIR = "overlays"
+CLASSES_FILE = "classes.yaml"
+
+
+class SegmentedImage(NamedTuple):
+    """What happened to one input image.
+
+    Attributes:
+        source: Input image path.
+        labels_path: Written label PNG, or None when the image was skipped.
+        skipped: The skip record when the image could not be read, else None.
+    """
+
+    source: Path
+    labels_path: Path | None
+    skipped: Skipped | None
+
+
+def list_images(folder: Path, exclude: Path | None = None) -> list[Path]:
+    """Return the PNG/JPEG files under ``folder`` (recursive), sorted by relative path.
+
+    Args:
+        folder: Input folder.
+        exclude: A folder whose contents are ignored (the output folder, when it is inside).
+    """
+    found = []
+    for path in folder.rglob("*"):
+        if not path.is_file() or path.suffix.lower() not in IMAGE_SUFFIXES:
+            continue
+        if exclude is not None and path.resolve().is_relative_to(exclude.resolve()):
+            continue
+        found.append(path)
+    return sorted(found, key=lambda p: p.relative_to(folder).as_posix())
+
+
+def classes_yaml(backend_name: str) -> str:
+    """Return the ``classes.yaml`` text: each hierarchy node name -> its leaf ids."""
+    lines = [
+        "# Leaf ids of every SUPER hierarchy node in the label PNGs of this folder (0 = void).",
+        f"# Written by slt segment (backend: {backend_name}).",
+    ]
+    for node in NODES:
+        ids = ", ".join(str(i) for i in leaf_ids_under(node.name))
+        lines.append(f"{node.name}: [{ids}]")
+    return "\n".join(lines) + "\n"
+
+
+def overlay(image_bgr: NDArray[np.uint8], labels: NDArray[np.uint8]) -> NDArray[np.uint8]:
+    """Return the colourised labels blended 50/50 over the image (void pixels untouched)."""
+    colour = colorize(labels)
+    blend = ((image_bgr.astype(np.uint16) + colour) // 2).astype(np.uint8)
+    out: NDArray[np.uint8] = np.where((labels > 0)[:, :, None], blend, image_bgr)
+    return out
+
+
+def _encode(suffix: str, image: NDArray[np.uint8]) -> bytes:
+    import cv2  # late: heavy import
+
+    ok, buf = cv2.imencode(suffix, image)
+    if not ok:
+        raise SceneError(f"cannot encode a {image.shape} image as {suffix}")
+    return bytes(buf.tobytes())
+
+
+def segment_folder(
+    folder: Path,
+    out_dir: Path,
+    backend: SegmentationBackend,
+    *,
+    overlays: bool = False,
+    images: list[Path] | None = None,
+) -> Iterator[SegmentedImage]:
+    """Segment every image under ``folder`` into ``out_dir``; yield one record per image.
+
+    ``classes.yaml`` is written first. Unreadable images are yielded with a :class:`Skipped`
+    record and produce no output.
+
+    Args:
+        folder: Input folder.
+        out_dir: Output folder (created).
+        backend: Segmentation backend.
+        overlays: Also write ``overlays/<relative path>.jpg``.
+        images: The images to process (default: :func:`list_images` of ``folder``).
+    """
+    import cv2  # late: heavy import
+
+    write_text_atomic(out_dir / CLASSES_FILE, classes_yaml(backend.name))
+    todo = images if images is not None else list_images(folder, exclude=out_dir)
+    for path in todo:
+        rel = path.relative_to(folder)
+        try:
+            data = np.fromfile(path, dtype=np.uint8)
+        except OSError as err:
+            yield SegmentedImage(path, None, Skipped("unreadable image", f"{path}: {err.strerror}"))
+            continue
+        decoded = cv2.imdecode(data, cv2.IMREAD_COLOR) if data.size else None
+        if decoded is None:
+            yield SegmentedImage(path, None, Skipped("unreadable image", f"{path}: not an image"))
+            continue
+        image = np.asarray(decoded, dtype=np.uint8)
+        labels = backend.segment(image)
+        target = (out_dir / rel).with_suffix(".png")
+        write_bytes_atomic(target, _encode(".png", labels))
+        if overlays:
+            view = overlay(image, labels)
+            write_bytes_atomic(
+                (out_dir / OVERLAY_DIR / rel).with_suffix(".jpg"), _encode(".jpg", view)
+            )
+        yield SegmentedImage(path, target, None)

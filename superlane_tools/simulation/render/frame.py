@@ -1,0 +1,159 @@
+"""Render one :class:`~superlane_tools.simulation.scene.FrameScene`: image, labels, corridor."""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from superlane_tools.simulation.errors import ScenarioError
+from superlane_tools.simulation.render import weather
+from superlane_tools.simulation.render._rays import camera_rays
+from superlane_tools.simulation.render.objects import draw_objects
+from superlane_tools.simulation.render.raycast import cast_road, road_coordinates, road_tables
+from superlane_tools.simulation.render.road_shading import DRIVABLE_IDS, line_offset, shade_ground
+from superlane_tools.simulation.render.sensor import finish, look_for
+from superlane_tools.simulation.render.sky import sky_layer
+from superlane_tools.simulation.render.textures import road_textures
+from superlane_tools.simulation.render.tunnel import draw_tunnel
+from superlane_tools.simulation.scene import FrameScene, RenderedFrame, SceneObject
+
+F32 = NDArray[np.float32]
+
+_DRIVABLE_LUT = np.zeros(256, bool)
+_DRIVABLE_LUT[list(DRIVABLE_IDS)] = True
+
+
+def render(scene: FrameScene) -> RenderedFrame:
+    """Render ``scene`` into a BGR image, a leaf-id label image and the ego-corridor mask.
+
+    The same scene always gives byte-identical output: every random choice is drawn from
+    ``world_seed`` (textures, skyline, object details) or ``frame_seed`` (noise, rain).
+
+    Raises:
+        ScenarioError: If the scene is inconsistent (bad profile, ego line indices).
+    """
+    road, cond, cam = scene.road, scene.conditions, scene.camera
+    n_lines = len(road.lines)
+    if not (0 <= scene.ego_left_line < n_lines and 0 <= scene.ego_right_line < n_lines):
+        raise ScenarioError(
+            f"ego lines {scene.ego_left_line}, {scene.ego_right_line} out of range "
+            f"for {n_lines} lines"
+        )
+    rng = np.random.default_rng([scene.world_seed, scene.frame_seed, 0xF7A3E])
+    look = look_for(cond, rng)
+    rays = camera_rays(cam)
+    tables = road_tables(road)
+    hit = cast_road(rays, tables)
+    tex = road_textures(scene.world_seed)
+    ground = shade_ground(hit, road, tex, look.palette, cond.cracks, cond.tar_seams, cond.wet)
+    row0 = hit.row0
+    h, w = cam.height, cam.width
+
+    night = cond.daylight < 0.25 or cond.tunnel
+    sky = sky_layer(cam, scene.world_seed, cond.sun_elevation_deg, cond.sun_azimuth_rad, night)
+    img = sky.color.copy()
+    labels = sky.labels.copy()
+    range_m = sky.range_m.copy()
+    if cond.fog > 0:  # fog hides the skyline: the sky is a flat bright grey
+        f = np.float32(min(1.0, cond.fog * 1.3))
+        img += f * (np.float32(205.0 if not night else 40.0) - img)
+    gh = ground.labels > 0
+    layers = draw_objects(cam, scene.objects, cond.daylight, scene.world_seed)
+    # Lighting of the ground: daylight ambient, headlights at night, object contact shadows.
+    amb = np.float32(0.4 + 0.6 * min(1.0, cond.daylight)) if not cond.tunnel else np.float32(0.45)
+    light: F32 | np.float32 = amb
+    if night:
+        light = amb + weather.headlight_gain(rays, row0, hit.range_m, gh) * np.float32(0.9)
+    if scene.objects:
+        import cv2
+
+        shadow = cv2.GaussianBlur(layers.shadow[row0:], (0, 0), 2.0)
+        light = light * (np.float32(1.0) - np.float32(0.45 + 0.3 * cond.daylight) * shadow)
+    gcol = ground.color
+    if isinstance(light, np.ndarray):
+        gcol *= light[..., None]
+    else:
+        gcol *= light
+    part = img[row0:]
+    np.copyto(part, gcol, where=gh[..., None])
+    labels[row0:][gh] = ground.labels[gh]
+    range_m[row0:] = np.where(gh, hit.range_m, range_m[row0:])
+    ground_mask = np.zeros((h, w), bool)
+    ground_mask[row0:] = gh
+
+    if cond.tunnel:
+        draw_tunnel(img, labels, range_m, ground_mask, rays, tables, road, hit)
+        gh = ground_mask[row0:]
+
+    # Objects composite by depth (the road occludes objects beyond a crest).
+    occl = layers.depth < range_m
+    if scene.objects:
+        np.copyto(img, layers.color, where=occl[..., None])
+        np.copyto(labels, layers.labels, where=occl)
+        np.copyto(range_m, layers.depth, where=occl)
+    if cond.wet > 0:
+        gloss = ground.gloss * gh * ~occl[row0:]
+        weather.wet_reflection(img, rays, gloss, row0, cond.wet)
+    elif cond.tar_seams > 0:
+        gloss = ground.gloss * gh * ~occl[row0:] * np.float32(0.5)
+        weather.wet_reflection(img, rays, gloss, row0, 0.3)
+
+    # Corridor: drivable pixels between the ego lane's line centres, up to the corridor length.
+    s_ego = float(road_coordinates(tables, np.zeros(1, np.float32), np.zeros(1, np.float32))[0][0])
+    lo_line, hi_line = road.lines[scene.ego_right_line], road.lines[scene.ego_left_line]
+    lo = line_offset(lo_line, hit.s_m)
+    hi = line_offset(hi_line, hit.s_m)
+    lo, hi = np.minimum(lo, hi), np.maximum(lo, hi)
+    corridor = np.zeros((h, w), bool)
+    corridor[row0:] = (
+        gh
+        & (hit.l_m >= lo)
+        & (hit.l_m <= hi)
+        & (hit.s_m - np.float32(s_ego) < np.float32(scene.corridor_length_m))
+        & (hit.x_m > 0)
+    )
+    corridor &= _DRIVABLE_LUT[labels]
+
+    # Atmosphere, lights, weather, sensor.
+    vis = weather.visibility_m(cond.fog, cond.rain)
+    haze = (205.0, 200.0, 196.0) if not night else (30.0, 28.0, 28.0)
+    hz = tuple(float(c) * (0.5 + 0.5 * min(1.0, cond.daylight)) for c in haze)
+    weather.apply_haze(img, range_m, (hz[0], hz[1], hz[2]), vis)
+    if night or cond.fog > 0.3 or cond.rain > 0.3:
+        weather.add_lights(img, layers.lights, 0.8 if night else 0.4)
+    if cond.rain > 0:
+        weather.add_spray(img, _lead_box(scene), cond.rain)
+        weather.add_rain(img, rng, cond.rain)
+    if cond.glare > 0:
+        weather.add_glare(img, sky.sun_uv, cond.glare, cond.sun_elevation_deg)
+    image = finish(img, rays.vignette, cond, look, rng)
+    return RenderedFrame(image_bgr=image, labels=labels, corridor=corridor)
+
+
+def _lead_box(scene: FrameScene) -> tuple[float, float, float, float] | None:
+    """Return the image box of the nearest vehicle ahead in the ego lane, or None."""
+    best: SceneObject | None = None
+    for o in scene.objects:
+        if o.kind == "vehicle" and o.x_m > 3.0 and abs(o.y_m) < 2.0 and (
+            best is None or o.x_m < best.x_m
+        ):
+            best = o
+    if best is None:
+        return None
+    c, s = np.cos(best.yaw_rad), np.sin(best.yaw_rad)
+    pts = []
+    for a in (-0.5, 0.5):
+        for b in (-0.5, 0.5):
+            for z in (0.0, best.height_m):
+                pts.append(
+                    [
+                        best.x_m + c * a * best.length_m - s * b * best.width_m,
+                        best.y_m + s * a * best.length_m + c * b * best.width_m,
+                        best.z_m + z,
+                    ]
+                )
+    uv, front = scene.camera.project(np.array(pts))
+    if not np.all(front):
+        return None
+    return (float(uv[:, 0].min()), float(uv[:, 1].min()), float(uv[:, 0].max()),
+            float(uv[:, 1].max()))

@@ -1,0 +1,335 @@
+"""Simulated sensors: vehicle CAN, Mobileye-style lane CAN, RTK fixes, camera info and extrinsics.
+
+All functions are pure: they take the world (or per-frame truth) and a seeded generator and
+return timed payloads; the drive writer (``drive.py``) serialises them with the recording layer.
+CAN payloads are encoded with cantools from the shipped DBCs (``superlane_tools/data/dbc``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cache
+from importlib import resources
+from typing import Any, NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+from superlane_tools.camera.model import CameraModel
+from superlane_tools.simulation.errors import ScenarioError
+from superlane_tools.simulation.groundtruth import LaneTruth
+from superlane_tools.simulation.world import World
+
+FloatArray = NDArray[np.float64]
+
+VEHICLE_DBC = "slt_vehicle.dbc"
+MOBILEYE_DBC = "slt_mobileye_lanes.dbc"
+ANTENNA_HEIGHT_M = 1.5
+"""GNSS antenna height above the vehicle origin (road surface), metres."""
+
+# Mobileye Lane_Type values
+_LANE_TYPE = {"dashed": 0, "solid": 1, "double": 4}
+_LANE_TYPE_INVALID = 6
+
+
+class CanPayload(NamedTuple):
+    """One CAN frame to write: time (ns since the epoch), arbitration id, data bytes."""
+
+    log_time_ns: int
+    can_id: int
+    data: bytes
+
+
+class FixSample(NamedTuple):
+    """One GNSS fix: time (ns), WGS84 position, ROS NavSatStatus, ENU covariance (m^2)."""
+
+    log_time_ns: int
+    lat_deg: float
+    lon_deg: float
+    alt_m: float
+    status: int
+    covariance_enu_m2: tuple[float, ...]
+
+
+def dbc_path(name: str) -> str:
+    """Return the filesystem path of a shipped DBC file (``slt_vehicle.dbc``...)."""
+    return str(resources.files("superlane_tools").joinpath("data", "dbc", name))
+
+
+@cache
+def load_shipped_dbc(name: str) -> Any:
+    """Load a shipped DBC with cantools (cached)."""
+    import cantools
+
+    return cantools.database.load_file(dbc_path(name))
+
+
+@dataclass(frozen=True)
+class RtkParams:
+    """GNSS receiver simulation.
+
+    Attributes:
+        rate_hz: Fix rate, Hz (10-20).
+        mode: ``fixed`` (RTK fixed, cm noise), ``float`` (RTK float, ~0.2 m) or
+            ``standalone`` (single point, metres of slowly wandering error).
+        dropouts_per_min: Mean number of outages per minute (each 1-4 s without fixes).
+        origin_lat_deg: Latitude of the world origin, degrees.
+        origin_lon_deg: Longitude of the world origin, degrees.
+        origin_alt_m: Ellipsoidal height of the world origin, metres.
+    """
+
+    rate_hz: float = 10.0
+    mode: str = "fixed"
+    dropouts_per_min: float = 0.0
+    origin_lat_deg: float = 48.137154
+    origin_lon_deg: float = 11.576124
+    origin_alt_m: float = 520.0
+
+    def validate(self) -> None:
+        """Raise :class:`ScenarioError` for an impossible setting."""
+        if not 1.0 <= self.rate_hz <= 50.0:
+            raise ScenarioError(f"RTK rate must be 1-50 Hz, got {self.rate_hz}")
+        if self.mode not in _RTK_MODES:
+            raise ScenarioError(f"RTK mode must be one of {', '.join(_RTK_MODES)}")
+
+
+# mode -> (NavSatStatus.status, white sigma horizontal m, vertical m, wander sigma m, tau s)
+_RTK_MODES: dict[str, tuple[int, float, float, float, float]] = {
+    "fixed": (2, 0.01, 0.02, 0.003, 60.0),
+    "float": (1, 0.05, 0.10, 0.20, 30.0),
+    "standalone": (0, 0.30, 0.60, 1.50, 60.0),
+}
+
+
+def _ar1(rng: np.random.Generator, n: int, dt_s: float, sigma: float, tau_s: float) -> FloatArray:
+    """Return ``n`` samples of a first-order Gauss-Markov process (stationary ``sigma``)."""
+    phi = float(np.exp(-dt_s / tau_s))
+    drive = rng.normal(0.0, sigma * np.sqrt(1.0 - phi * phi), n)
+    out = np.empty(n)
+    state = float(rng.normal(0.0, sigma))
+    for i in range(n):
+        state = phi * state + drive[i]
+        out[i] = state
+    return out
+
+
+def rtk_fixes(
+    world: World, params: RtkParams, start_ns: int, rng: np.random.Generator
+) -> list[FixSample]:
+    """Simulate NavSatFix samples of the ego antenna over the drive.
+
+    The true antenna position is the ego origin (world ENU, metres) raised by
+    :data:`ANTENNA_HEIGHT_M`, converted to WGS84 with ``pymap3d.enu2geodetic`` from the
+    configured origin.
+    """
+    import pymap3d
+
+    params.validate()
+    status, s_h, s_v, wander, tau = _RTK_MODES[params.mode]
+    dt = 1.0 / params.rate_hz
+    t = np.arange(0.0, world.duration_s + 1e-9, dt)
+    road, path = world.road, world.path
+    s = np.interp(t, path.t_s, path.s_m)
+    east = np.interp(s, road.s_m, path.x_m)
+    north = np.interp(s, road.s_m, path.y_m)
+    up = np.interp(s, road.s_m, road.z_m) + ANTENNA_HEIGHT_M
+    n = len(t)
+    east = east + rng.normal(0.0, s_h, n) + _ar1(rng, n, dt, wander, tau)
+    north = north + rng.normal(0.0, s_h, n) + _ar1(rng, n, dt, wander, tau)
+    up = up + rng.normal(0.0, s_v, n) + _ar1(rng, n, dt, 1.5 * wander, tau)
+    keep = np.ones(n, dtype=bool)
+    n_out = int(rng.poisson(params.dropouts_per_min * world.duration_s / 60.0))
+    for _ in range(n_out):
+        t0 = float(rng.uniform(0.0, world.duration_s))
+        keep &= ~((t >= t0) & (t < t0 + float(rng.uniform(1.0, 4.0))))
+    lat, lon, alt = pymap3d.enu2geodetic(
+        east, north, up, params.origin_lat_deg, params.origin_lon_deg, params.origin_alt_m
+    )
+    var_h = s_h * s_h + wander * wander
+    var_v = s_v * s_v + 2.25 * wander * wander
+    cov = (var_h, 0.0, 0.0, 0.0, var_h, 0.0, 0.0, 0.0, var_v)
+    return [
+        FixSample(
+            start_ns + round(float(t[i]) * 1e9),
+            float(lat[i]),
+            float(lon[i]),
+            float(alt[i]),
+            status,
+            cov,
+        )
+        for i in range(n)
+        if keep[i]
+    ]
+
+
+def vehicle_can(
+    world: World, start_ns: int, rng: np.random.Generator, rate_hz: float = 50.0
+) -> list[CanPayload]:
+    """Encode speed (0x180) and yaw rate (0x181) at ``rate_hz`` with sensor noise and bias."""
+    db = load_shipped_dbc(VEHICLE_DBC)
+    speed_msg = db.get_message_by_name("VehicleSpeed")
+    yaw_msg = db.get_message_by_name("YawRate")
+    dt = 1.0 / rate_hz
+    t = np.arange(0.0, world.duration_s + 1e-9, dt)
+    path, road = world.path, world.road
+    v = np.interp(t, path.t_s, path.speed_mps)
+    s = np.interp(t, path.t_s, path.s_m)
+    k = np.interp(s, road.s_m, path.curvature)
+    accel = np.gradient(v, dt)
+    yaw_bias = float(rng.normal(0.0, 0.002))
+    v_meas = np.clip(v * (1.0 + 0.002) + rng.normal(0.0, 0.02, len(t)), 0.0, 655.0)
+    yaw_meas = k * v + yaw_bias + rng.normal(0.0, 0.003, len(t))
+    lat_acc = k * v * v + rng.normal(0.0, 0.05, len(t))
+    out: list[CanPayload] = []
+    for i, ti in enumerate(t):
+        t_ns = start_ns + round(float(ti) * 1e9)
+        counter = i % 16
+        out.append(
+            CanPayload(
+                t_ns,
+                speed_msg.frame_id,
+                speed_msg.encode(
+                    {
+                        "VehicleSpeed": round(float(v_meas[i]), 2),
+                        "SpeedValid": 1,
+                        "LongitudinalAccel": round(float(np.clip(accel[i], -32.0, 32.0)), 3),
+                        "Counter": counter,
+                    }
+                ),
+            )
+        )
+        out.append(
+            CanPayload(
+                t_ns + 1000,  # 1 us later: a deterministic order on the bus
+                yaw_msg.frame_id,
+                yaw_msg.encode(
+                    {
+                        "YawRate": round(float(np.clip(yaw_meas[i], -3.2, 3.2)), 4),
+                        "YawRateValid": 1,
+                        "LateralAccel": round(float(np.clip(lat_acc[i], -32.0, 32.0)), 3),
+                        "Counter": counter,
+                    }
+                ),
+            )
+        )
+    return out
+
+
+@dataclass(frozen=True)
+class MobileyeParams:
+    """Mobileye-style lane sensor simulation.
+
+    Attributes:
+        latency_s: Delay between the camera frame and the CAN output, seconds.
+        quality: Nominal quality 0-3 (scenario dependent; bad weather and faded lines lower).
+        max_view_m: Longest reported view range, metres.
+    """
+
+    latency_s: float = 0.1
+    quality: int = 3
+    max_view_m: float = 90.0
+
+
+# quality -> (noise scale, probability of a dropped (quality 0) frame, view-range scale)
+_QUALITY = {3: (1.0, 0.0, 1.0), 2: (1.6, 0.03, 0.8), 1: (3.0, 0.15, 0.55), 0: (6.0, 0.5, 0.3)}
+
+
+def mobileye_can(
+    truth: LaneTruth, frame_ns: int, params: MobileyeParams, rng: np.random.Generator
+) -> list[CanPayload]:
+    """Encode the ego lane's left/right lines of one frame as 0x766-0x769 frames.
+
+    Coefficients are converted to the Mobileye sign convention (y right positive: every
+    coefficient negated, see ``slt_mobileye_lanes.dbc``) and written ``latency_s`` after the
+    frame time.
+    """
+    db = load_shipped_dbc(MOBILEYE_DBC)
+    t_ns = frame_ns + round(params.latency_s * 1e9)
+    scale, p_drop, view_scale = _QUALITY[int(np.clip(params.quality, 0, 3))]
+    out: list[CanPayload] = []
+    for side, pos in (("Left", truth.ego_left), ("Right", truth.ego_right)):
+        msg_a = db.get_message_by_name(f"{side}_Lane_A")
+        msg_b = db.get_message_by_name(f"{side}_Lane_B")
+        noise = rng.normal(0.0, 1.0, 5)
+        dropped = rng.random() < p_drop
+        if pos < 0 or dropped:
+            c = np.zeros(4)
+            quality, lane_type, width, view = 0, _LANE_TYPE_INVALID, 0.0, 0.0
+        else:
+            c = truth.cubic[pos].copy()
+            c += scale * noise[:4] * np.array([0.03, 0.002, 2e-5, 2e-7])
+            quality = int(params.quality)
+            lane_type = _LANE_TYPE.get(truth.styles[pos], 2)
+            width = truth.widths_m[pos]
+            view = min(truth.view_range_m[pos], params.max_view_m) * view_scale
+            view = max(0.0, view * (1.0 + 0.05 * float(noise[4])))
+        me = -c  # Mobileye: y right positive
+        data_a = msg_a.encode(
+            {
+                "Lane_Type": lane_type,
+                "Quality": quality,
+                "Model_Degree": 3,
+                "Curve_Parameter_C0": float(np.clip(me[0], -127.9, 127.9)),
+                "Curve_Parameter_C2": float(np.clip(me[2], -0.0319, 0.0319)),
+                "Curve_Parameter_C3": float(np.clip(me[3], -0.000122, 0.000122)),
+                f"Width_{side}_Marking": round(float(width), 2),
+            }
+        )
+        data_b = msg_b.encode(
+            {
+                "Curve_Parameter_C1": float(np.clip(me[1], -31.9, 31.9)),
+                "View_Range": float(np.clip(view, 0.0, 127.9)),
+                "View_Range_Available": int(view > 0),
+            }
+        )
+        out.append(CanPayload(t_ns, msg_a.frame_id, data_a))
+        out.append(CanPayload(t_ns + 1000, msg_b.frame_id, data_b))
+    return out
+
+
+def mobileye_to_lane_model(c0: float, c1: float, c2: float, c3: float) -> tuple[float, ...]:
+    """Convert Mobileye ``C0..C3`` (y right positive) to this package's ``a0..a3`` (left positive).
+
+    ``C2`` is half the curvature, so the lane curvature (1/m, left positive) is ``2 * a2``.
+    """
+    return (-c0, -c1, -c2, -c3)
+
+
+def camera_quaternion_xyzw(camera: CameraModel) -> tuple[float, float, float, float]:
+    """Return the rotation of the camera optical frame in the vehicle frame as ``(x, y, z, w)``."""
+    from scipy.spatial.transform import Rotation
+
+    q = Rotation.from_matrix(camera.extrinsics.rotation).as_quat()
+    return (float(q[0]), float(q[1]), float(q[2]), float(q[3]))
+
+
+def camera_metadata(camera: CameraModel, parent: str, child: str) -> dict[str, str]:
+    """Return the MCAP metadata record ``slt_camera`` describing the camera (string values).
+
+    Keys: ``name``, ``parent_frame``, ``child_frame``, ``width``, ``height``, ``fx``, ``fy``,
+    ``cx``, ``cy``, ``dist`` (comma-separated k1,k2,p1,p2,k3), ``height_m``, ``pitch_rad``,
+    ``roll_rad``, ``yaw_rad``, ``x_m``, ``y_m`` (angles as in ``camera/model.py``),
+    ``translation_m`` and ``quaternion_xyzw`` (comma-separated, as in ``/tf_static``).
+    """
+    k, e = camera.intrinsics, camera.extrinsics
+    q = camera_quaternion_xyzw(camera)
+    return {
+        "name": camera.name,
+        "parent_frame": parent,
+        "child_frame": child,
+        "width": str(k.width),
+        "height": str(k.height),
+        "fx": repr(k.fx),
+        "fy": repr(k.fy),
+        "cx": repr(k.cx),
+        "cy": repr(k.cy),
+        "dist": ",".join(repr(float(d)) for d in k.dist),
+        "height_m": repr(e.height_m),
+        "pitch_rad": repr(e.pitch_rad),
+        "roll_rad": repr(e.roll_rad),
+        "yaw_rad": repr(e.yaw_rad),
+        "x_m": repr(e.x_m),
+        "y_m": repr(e.y_m),
+        "translation_m": ",".join(repr(float(v)) for v in e.position),
+        "quaternion_xyzw": ",".join(repr(v) for v in q),
+    }
