@@ -7,7 +7,7 @@ import sys
 import typer
 
 from superlane_tools._version import __version__
-from superlane_tools.cli import camera, extract, info, lanes, simulate
+from superlane_tools.cli import camera, extract, info, lanes, segment, simulate
 from superlane_tools.cli import eval as eval_cmd
 from superlane_tools.cli._common import EXIT_CODES_HELP, debug_enabled, err_console
 from superlane_tools.errors import ExitCode
