@@ -90,22 +90,37 @@ def baseline(path: Path) -> int:
     return count
 
 
-def run_extract(path: Path, out: Path, dbc: Path) -> dict[str, int]:
+def run_extract(path: Path, dbc: Path, out: Path, frames: str = "jpg") -> dict[str, int]:
     """The full extract (frames as JPEG files, CAN raw + decoded, RTK table)."""
     from superlane_tools.pipeline import ExtractConfig, extract
 
-    if out.exists():
-        shutil.rmtree(out)
-    result = extract(path, out, ExtractConfig(dbc_paths=(dbc,)), command="bench")
+    config = ExtractConfig(dbc_paths=(dbc,), frame_format=frames)
+    result = extract(path, out, config, command="bench")
     return dict(result.counts)
 
 
-def median_time(func, *args) -> tuple[float, object]:  # type: ignore[no-untyped-def]
+def run_extract_index_only(path: Path, dbc: Path, out: Path) -> dict[str, int]:
+    """The extract without writing image files (``--frames none``)."""
+    return run_extract(path, dbc, out, frames="none")
+
+
+def write_only(pool: list[bytes], count: int, out: Path) -> int:
+    """Just write ``count`` JPEG files of the pool: the disk's share of the full extract."""
+    out.mkdir(parents=True)
+    for i in range(count):
+        (out / f"{i:06d}.jpg").write_bytes(pool[i % len(pool)])
+    return count
+
+
+def median_time(func, *args, out: Path | None = None) -> tuple[float, object]:  # type: ignore[no-untyped-def]
+    """Median wall time of 3 runs; ``out`` (an output folder) is removed between runs."""
     times, value = [], None
     for _ in range(3):
         start = time.perf_counter()
-        value = func(*args)
+        value = func(*args) if out is None else func(*args, out)
         times.append(time.perf_counter() - start)
+        if out is not None:
+            shutil.rmtree(out)
     return statistics.median(times), value
 
 
@@ -116,7 +131,7 @@ def peak_rss_mib(path: Path, out: Path, dbc: Path) -> float:
         f"sys.path.insert(0, {str(Path(__file__).parent)!r})\n"
         "from bench_extract import run_extract\n"
         "from pathlib import Path\n"
-        f"run_extract(Path({str(path)!r}), Path({str(out)!r}), Path({str(dbc)!r}))\n"
+        f"run_extract(Path({str(path)!r}), Path({str(dbc)!r}), Path({str(out)!r}))\n"
         "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)\n"
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
@@ -132,8 +147,9 @@ def main() -> None:
         short, long = work / "60s.mcap", work / "600s.mcap"
         make_recording(short, 60, pool)
         t_base, n_msgs = median_time(baseline, short)
-        t_extract, counts = median_time(run_extract, short, work / "out", dbc)
-        shutil.rmtree(work / "out")
+        t_extract, counts = median_time(run_extract, short, dbc, out=work / "out")
+        t_index, _ = median_time(run_extract_index_only, short, dbc, out=work / "out")
+        t_write, _ = median_time(write_only, pool, 900, out=work / "out")
         rss_short = peak_rss_mib(short, work / "out-s", dbc)
         shutil.rmtree(work / "out-s")
         make_recording(long, 600, pool)
@@ -145,6 +161,10 @@ def main() -> None:
             "baseline_mcap_decode_s": round(t_base, 3),
             "extract_s": round(t_extract, 3),
             "extract_over_baseline": round(t_extract / t_base, 2),
+            "write_900_jpeg_files_only_s": round(t_write, 3),
+            "extract_over_baseline_plus_writes": round(t_extract / (t_base + t_write), 2),
+            "extract_frames_none_s": round(t_index, 3),
+            "extract_frames_none_over_baseline": round(t_index / t_base, 2),
             "target_ratio": 1.5,
             "counts": counts,
             "peak_rss_60s_mib": round(rss_short, 1),

@@ -100,7 +100,8 @@ def _run(
         task = progress.add_task("corridor", total=len(images))
         for path in images:
             progress.advance(task)
-            image = cv2.imread(str(path), cv2.IMREAD_COLOR)
+            raw = cv2.imread(str(path), cv2.IMREAD_COLOR)
+            image = None if raw is None else np.asarray(raw, dtype=np.uint8)
             if image is None or image.shape[0] < 8 or image.shape[1] < 8:
                 skipped.append(Skipped("unreadable image", str(path), 1))
                 smoother.reset()

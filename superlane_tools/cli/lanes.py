@@ -1,10 +1,110 @@
-"""`slt lanes` command (being built; see the issue tracker)."""
+"""`slt lanes`: fit the SUPER multi-lane model to segmentation masks; export TuSimple JSON."""
 
 from __future__ import annotations
 
+from pathlib import Path
+from typing import Annotated
+
 import typer
+
+from superlane_tools.cli._common import (
+    EXIT_CODES_HELP,
+    cli_errors,
+    command_line,
+    err_console,
+    exit_with,
+    report_skipped,
+)
+
+lanes_app = typer.Typer(
+    name="lanes",
+    help=f"Multi-lane fit (SUPER paper section III) and TuSimple export.\n\n{EXIT_CODES_HELP}",
+    no_args_is_help=True,
+    rich_markup_mode=None,
+)
+
+
+@lanes_app.command("fit")
+def fit_cmd(
+    seg_dir: Annotated[
+        Path, typer.Argument(help="Folder of class-id PNG masks (searched recursively).")
+    ],
+    camera: Annotated[str, typer.Option(help="Camera profile name or camera YAML file.")],
+    out: Annotated[Path, typer.Option(help="Output Parquet file (one row per mask).")],
+    classes: Annotated[
+        Path | None,
+        typer.Option(help="YAML mapping class nodes to mask ids [default: SEG_DIR/classes.yaml]."),
+    ] = None,
+    sequential: Annotated[
+        bool, typer.Option(help="Warm-start each frame from the previous one (a video sequence).")
+    ] = False,
+    no_slope: Annotated[
+        bool, typer.Option("--no-slope", help="Fit a flat road (no slope compensation).")
+    ] = False,
+) -> None:
+    """Fit lanes, heading, curvature and road slope to every mask under SEG_DIR."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeRemainingColumn
+
+    from superlane_tools.camera import load_camera
+    from superlane_tools.lanes import FitParams
+    from superlane_tools.pipeline.lanes_fit import fit_masks, load_classes
+
+    with cli_errors():
+        cam = load_camera(camera)
+        class_map = load_classes(classes if classes is not None else seg_dir / "classes.yaml")
+        params = FitParams(slope=not no_slope)
+        with Progress(
+            "[progress.description]{task.description}",
+            BarColumn(),
+            MofNCompleteColumn(),
+            TimeRemainingColumn(),
+            console=err_console,
+            transient=True,
+        ) as bar:
+            task = bar.add_task("fitting lanes", total=None)
+
+            def on_progress(done: int, total: int) -> None:
+                bar.update(task, completed=done, total=total)
+
+            result = fit_masks(
+                seg_dir,
+                cam,
+                out,
+                class_map,
+                params,
+                sequential=sequential,
+                command=command_line(),
+                progress=on_progress,
+            )
+        err_console.print(
+            f"fitted {result.n_fitted} of {result.n_frames} frames -> {result.out}", markup=False
+        )
+    exit_with(report_skipped(result.skipped))
+
+
+@lanes_app.command("export-tusimple")
+def export_cmd(
+    lanes_parquet: Annotated[Path, typer.Argument(help="lanes.parquet from `slt lanes fit`.")],
+    camera: Annotated[str, typer.Option(help="Camera profile name or camera YAML file.")],
+    out: Annotated[Path, typer.Option(help="Output TuSimple JSON-lines file.")],
+    h_samples: Annotated[
+        str, typer.Option(help="Image rows START:STOP:STEP (stop exclusive).")
+    ] = "160:720:10",
+    raw_ext: Annotated[
+        str, typer.Option(help="Extension that replaces the mask's in raw_file.")
+    ] = ".jpg",
+) -> None:
+    """Project fitted lanes into the image at the h_samples rows; write TuSimple JSON lines."""
+    from superlane_tools.camera import load_camera
+    from superlane_tools.pipeline.lanes_fit import export_tusimple, parse_h_samples
+
+    with cli_errors():
+        rows = parse_h_samples(h_samples)
+        cam = load_camera(camera)
+        result = export_tusimple(lanes_parquet, cam, rows, out, raw_ext)
+        err_console.print(f"wrote {result.n_records} frames -> {result.out}", markup=False)
 
 
 def register(app: typer.Typer) -> None:
-    """Add this module's commands to the root app."""
-    del app
+    """Add the ``lanes`` command group to the root app."""
+    app.add_typer(lanes_app)

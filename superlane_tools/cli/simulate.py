@@ -111,6 +111,7 @@ def simulate(
             f"{o.groundtruth.name}, {o.tusimple.name}"
             + (f", {o.labels_dir.name}/" if labels else ""),
             markup=False,
+            soft_wrap=True,
         )
 
 

@@ -1,4 +1,4 @@
-"""`slt train`: train the segmentation or corridor network on a simulated dataset (extra `train`)."""
+"""`slt train`: train the segmentation or corridor network on simulated data (extra train)."""
 
 from __future__ import annotations
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections import deque
+from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -44,6 +46,10 @@ CAMERA_INFO_SCHEMA = pa.schema(
 RAW_TYPES = {"sensor_msgs/msg/Image", "foxglove.RawImage"}
 _EXT = {"jpg": ("jpeg", ".jpg"), "png": ("png", ".png")}
 FLUSH_ROWS = 4096
+WRITE_THREADS = 4
+"""Image files are written by a few threads: file creation and I/O release the GIL."""
+MAX_PENDING_WRITES = 32
+"""At most this many encoded frames wait in memory for their file write."""
 
 
 def _field(data: Any, *names: str) -> Any:
@@ -86,6 +92,8 @@ class FrameSink:
         self._info_rows: list[dict[str, Any]] = []
         self._last_info: dict[str, tuple[Any, ...]] = {}
         self._provenance = provenance
+        self._pool = ThreadPoolExecutor(WRITE_THREADS, thread_name_prefix="slt-frames")
+        self._pending: deque[Future[Path]] = deque()
 
     def add(self, msg: Message) -> None:
         """Index (and write) one image message, honouring ``every``."""
@@ -142,8 +150,14 @@ class FrameSink:
             if fmt != wanted[0]:
                 payload = _encode(_decode(payload), wanted[1])
         rel_path = folder / f"{index:06d}{wanted[1]}"
-        write_bytes_atomic(self.out_dir / rel_path, payload)
+        self._submit(self.out_dir / rel_path, payload)
         return width, height, encoding, rel_path.as_posix()
+
+    def _submit(self, path: Path, payload: bytes) -> None:
+        """Write a file in the background, keeping the number of pending writes bounded."""
+        while len(self._pending) >= MAX_PENDING_WRITES:
+            self._pending.popleft().result()  # re-raises OutputError from the thread
+        self._pending.append(self._pool.submit(write_bytes_atomic, path, payload))
 
     def add_camera_info(self, msg: Message) -> None:
         """Keep a camera calibration (one row per topic whenever it changes)."""
@@ -183,9 +197,17 @@ class FrameSink:
         from superlane_tools.reporting import write_table
 
         written = []
-        if ok:
-            self._flush()
-        self._writer.__exit__(None if ok else RuntimeError, None, None)
+        try:
+            while self._pending:
+                self._pending.popleft().result()
+        except BaseException:
+            ok = False
+            raise
+        finally:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+            if ok:
+                self._flush()
+            self._writer.__exit__(None if ok else RuntimeError, None, None)
         if ok:
             written.append(self._writer.path)
             if self._info_rows:

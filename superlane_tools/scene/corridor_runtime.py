@@ -57,7 +57,9 @@ class OnnxCorridorModel:
         prob = self.probability_at_input(image_bgr)
         height, width = image_bgr.shape[:2]
         if prob.shape != (height, width):
-            prob = cv2.resize(prob, (width, height), interpolation=cv2.INTER_LINEAR)
+            prob = np.asarray(
+                cv2.resize(prob, (width, height), interpolation=cv2.INTER_LINEAR), np.float32
+            )
         return prob
 
 

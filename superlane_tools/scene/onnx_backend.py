@@ -124,7 +124,9 @@ def resize_labels(labels: NDArray[np.uint8], width: int, height: int) -> NDArray
 
     if labels.shape == (height, width):
         return labels
-    out: NDArray[np.uint8] = cv2.resize(labels, (width, height), interpolation=cv2.INTER_NEAREST)
+    out = np.asarray(
+        cv2.resize(labels, (width, height), interpolation=cv2.INTER_NEAREST), dtype=np.uint8
+    )
     return out
 
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import torch
-import torch.nn.functional as F
+import torch.nn.functional as F  # noqa: N812  (torch convention)
 from torch import nn
 
 from superlane_tools.training._blocks import ConvBNReLU, DSConv, UpJoin

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import torch
-import torch.nn.functional as F
+import torch.nn.functional as F  # noqa: N812  (torch convention)
 from numpy.typing import NDArray
 
 from superlane_tools.scene.adapters.loader import DatasetAdapter
@@ -70,8 +70,14 @@ def _read(path: Path, flags: int) -> NDArray[np.uint8]:
     image = cv2.imread(str(path), flags)
     if image is None:
         raise TrainingError(f"cannot read image {path}")
-    out: NDArray[np.uint8] = image
-    return out
+    return np.asarray(image, dtype=np.uint8)
+
+
+def _nearest(labels: NDArray[np.uint8], width: int, height: int) -> NDArray[np.uint8]:
+    import cv2
+
+    resized = cv2.resize(labels, (width, height), interpolation=cv2.INTER_NEAREST)
+    return np.asarray(resized, dtype=np.uint8)
 
 
 def load_frames(
@@ -111,19 +117,21 @@ def load_frames(
     targets: list[NDArray[np.uint8]] = []
     for image_rel, target_rel in zip(table["image"], table[column], strict=True):
         image = _read(root / str(image_rel), cv2.IMREAD_COLOR)
-        image = cv2.resize(image, (width, height), interpolation=cv2.INTER_AREA)
+        image = np.asarray(
+            cv2.resize(image, (width, height), interpolation=cv2.INTER_AREA), np.uint8
+        )
         target = _read(root / str(target_rel), cv2.IMREAD_UNCHANGED)
         if target.ndim == 3:
             target = target[:, :, 0]
         if task == "segmentation":
             assert adapter is not None
             codes = adapter.to_codes(target)
-            target = cv2.resize(codes, (width, height), interpolation=cv2.INTER_NEAREST)
+            target = _nearest(codes, width, height)
             images.append(image)
         else:
             mask = (target > 0).astype(np.uint8)
-            target = cv2.resize(mask, (width, height), interpolation=cv2.INTER_NEAREST)
-            images.append(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)[:, :, None])
+            target = _nearest(mask, width, height)
+            images.append(np.asarray(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY), np.uint8)[:, :, None])
         targets.append(target)
     names = tuple(Path(str(p)).name for p in table["image"])
     return FrameSet(np.stack(images), np.stack(targets), names)

@@ -1,5 +1,7 @@
-"""Accuracy of trained models: simulator hold-out (mIoU per level, marking and corridor IoU) and
-real frames (TuSimple lane points on predicted markings, KITTI ego-lane IoU). No torch needed.
+"""Accuracy of trained models on simulator hold-out data and on real frames (no torch needed).
+
+Simulator: mIoU per hierarchy level, lane-marking IoU, corridor IoU. Real frames: the fraction of
+TuSimple lane points on predicted markings, and KITTI ego-lane IoU.
 """
 
 from __future__ import annotations
@@ -79,8 +81,7 @@ def _read_image(path: Path, flags: int) -> NDArray[np.uint8]:
     image = cv2.imread(str(path), flags)
     if image is None:
         raise TrainingError(f"cannot read image {path}")
-    out: NDArray[np.uint8] = image
-    return out
+    return np.asarray(image, dtype=np.uint8)
 
 
 def evaluate_segmentation_on_dataset(
@@ -126,9 +127,11 @@ def evaluate_corridor_on_dataset(
 def tusimple_marking_hit_rate(
     model: str | os.PathLike[str], frames_dir: str | os.PathLike[str], tol_px: float = 3.0
 ) -> dict[str, float]:
-    """Return the fraction of labelled TuSimple lane points within ``tol_px`` of a predicted
-    lane-marking pixel, and the fraction of predicted marking pixels within ``tol_px`` of a
-    labelled lane polyline (a precision proxy), over ``frames_dir/labels.json``.
+    """Score lane-marking predictions against TuSimple labels (``frames_dir/labels.json``).
+
+    Returns the fraction of labelled lane points within ``tol_px`` of a predicted lane-marking
+    pixel, and the fraction of predicted marking pixels within ``tol_px`` of a labelled lane
+    polyline (a precision proxy).
     """
     import cv2
 
@@ -169,8 +172,10 @@ def tusimple_marking_hit_rate(
 def kitti_ego_lane_iou(
     model: str | os.PathLike[str], kitti_dir: str | os.PathLike[str]
 ) -> dict[str, float]:
-    """Return the corridor model's IoU with KITTI's ego-lane ground truth (magenta in
-    ``gt_um_lane_*.png``) for every ``image_um_*.png`` with a ground truth beside it.
+    """Return the corridor model's IoU with KITTI's ego-lane ground truth.
+
+    The ground truth is the magenta region of ``gt_um_lane_*.png``, for every ``image_um_*.png``
+    with a ground truth beside it.
     """
     import cv2
 

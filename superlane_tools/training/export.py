@@ -54,7 +54,7 @@ def export_onnx(
                 # the TorchScript exporter is deprecated in favour of torch.export, which needs
                 # onnxscript (not a dependency); the TorchScript path is what static CNNs need
                 warnings.simplefilter("ignore", DeprecationWarning)
-                warnings.simplefilter("ignore", torch.jit.TracerWarning)
+                warnings.simplefilter("ignore", getattr(torch.jit, "TracerWarning", UserWarning))
                 torch.onnx.export(
                     model,
                     (example,),

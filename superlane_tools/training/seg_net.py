@@ -1,4 +1,4 @@
-"""Hierarchical segmentation network: a light depthwise-separable encoder-decoder, one head per parent.
+"""Hierarchical segmentation network: light separable encoder-decoder, one head per parent.
 
 The encoder downsamples to 1/16 with depthwise-separable blocks (dilated at the bottom for
 context), the decoder joins skips at 1/8, 1/4 and 1/2, and a 1x1 convolution produces the logits
@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import torch
-import torch.nn.functional as F
+import torch.nn.functional as F  # noqa: N812  (torch convention)
 from torch import nn
 
 from superlane_tools.scene.adapters.heads import HEADS

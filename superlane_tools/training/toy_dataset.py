@@ -88,7 +88,7 @@ def toy_frame(
 def write_toy_dataset(
     out: str | os.PathLike[str], frames: int = 8, width: int = 128, height: int = 64, seed: int = 0
 ) -> Path:
-    """Write ``frames`` toy frames and ``index.parquet`` (columns image, labels, corridor) to ``out``.
+    """Write ``frames`` toy frames and ``index.parquet`` (image, labels, corridor) to ``out``.
 
     Returns:
         The dataset folder.

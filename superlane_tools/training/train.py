@@ -185,11 +185,9 @@ def train(params: TrainParams, progress: Progress | None = None) -> TrainResult:
     torch.manual_seed(params.seed)
     gen = torch.Generator().manual_seed(params.seed)
     with _torch_threads(params.threads):
-        model: nn.Module
-        if params.task == "segmentation":
-            model = HierarchicalSegNet()
-        else:
-            model = EgoCorridorNet()
+        model: nn.Module = (
+            HierarchicalSegNet() if params.task == "segmentation" else EgoCorridorNet()
+        )
         start = time.perf_counter()
         step_losses, epoch_losses = _fit(model, frames, params, gen, progress)
         seconds = time.perf_counter() - start
@@ -297,9 +295,10 @@ def _fit(
                 logits = model(x)
                 loss = hierarchical_loss(logits, targets, HEAD_WEIGHTS, class_weights)
             else:
+                assert isinstance(model, EgoCorridorNet)
                 loss = corridor_loss(model.logits(x), y.unsqueeze(1).float())
             optimizer.zero_grad(set_to_none=True)
-            loss.backward()
+            loss.backward()  # type: ignore[no-untyped-call]
             optimizer.step()
             scheduler.step()
             value = float(loss.detach())

@@ -49,7 +49,13 @@ def fraction_on_markings(scene: FrameScene, ahead_m: float = 90.0) -> float:
     hits, total = 0, 0
     for i in range(len(scene.road.lines)):
         uv, front = scene.camera.project(line_points(scene, i, ahead_m))
-        u, v = np.round(uv[front, 0]).astype(int), np.round(uv[front, 1]).astype(int)
+        # Points beyond a crest are hidden: keep those above every nearer point in the image,
+        # except at the crest's silhouette itself, where rays graze the surface (sub-pixel).
+        visible = uv[:, 1] <= np.minimum.accumulate(uv[:, 1]) + 0.5
+        if np.any(np.diff(uv[front, 1]) > 0):
+            visible &= uv[:, 1] > np.nanmin(uv[:, 1]) + 2.0
+        keep = front & visible
+        u, v = np.round(uv[keep, 0]).astype(int), np.round(uv[keep, 1]).astype(int)
         inside = (u >= 0) & (u < scene.camera.width) & (v >= 0) & (v < scene.camera.height)
         total += int(inside.sum())
         hits += int(near[v[inside], u[inside]].sum())

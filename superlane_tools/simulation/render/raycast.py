@@ -246,6 +246,9 @@ def cast_road(rays: CameraRays, tables: RoadTables) -> RoadHit:
         y = oy + (x - ox) * ay
         s, l_m, zsurf = road_coordinates(tables, x, y)
     z = oz + (x - ox) * q
+    hit &= np.isfinite(s) & np.isfinite(l_m) & (np.abs(l_m) < 1e4)
+    s = np.where(hit, s, np.float32(tables.s_first)).astype(np.float32)
+    l_m = np.where(hit, l_m, np.float32(1e4)).astype(np.float32)
     rng = np.where(hit, (x - ox) * rays.range_per_x[row0:], np.float32(np.inf)).astype(np.float32)
     foot_l = _footprint(l_m, hit)
     foot_s = _footprint(s, hit)

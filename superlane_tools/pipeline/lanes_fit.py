@@ -1,0 +1,414 @@
+"""Lane fitting over a folder of class-id masks, and TuSimple export of the fitted lanes.
+
+I/O edge of the lane stage: reads class-id PNGs (any folder depth, names sorted) and a
+``classes.yaml`` that maps hierarchy nodes to the integer ids in the PNGs, fits every frame with
+:func:`superlane_tools.lanes.fit_frame`, and writes one Parquet row per frame with provenance.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, NamedTuple
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+import yaml
+from numpy.typing import NDArray
+
+from superlane_tools.camera.model import CameraModel
+from superlane_tools.errors import ConfigError
+from superlane_tools.lanes import CODE_OF, FitParams, Lane, LaneFit, fit_frame, lanes_at_rows
+from superlane_tools.pipeline.errors import PipelineError
+from superlane_tools.records import Skipped
+from superlane_tools.reporting import (
+    Provenance,
+    input_identity,
+    read_provenance,
+    write_table,
+    write_text_atomic,
+)
+
+Progress = Callable[[int, int], None]
+"""Progress callback ``(done, total)``."""
+
+MAX_LANE_PIXELS = 50_000
+"""Lane pixels per frame passed to the fit at most (deterministic subsample above it)."""
+MAX_ROAD_PIXELS = 20_000
+"""Road pixels per frame passed to the fit at most."""
+
+SCHEMA = pa.schema(
+    [
+        ("name", pa.string()),
+        ("width", pa.int32()),
+        ("height", pa.int32()),
+        ("a1", pa.float64()),
+        ("a2", pa.float64()),
+        ("curvature", pa.float64()),
+        ("b", pa.float64()),
+        ("offsets", pa.list_(pa.float64())),
+        ("lane_a1", pa.list_(pa.float64())),
+        ("lane_a2", pa.list_(pa.float64())),
+        ("colours", pa.list_(pa.string())),
+        ("styles", pa.list_(pa.string())),
+        ("range_min", pa.list_(pa.float64())),
+        ("range_max", pa.list_(pa.float64())),
+        ("n_lane_points", pa.list_(pa.int64())),
+        ("ego_left", pa.int32()),
+        ("ego_right", pa.int32()),
+        ("lane_width", pa.float64()),
+        ("cost", pa.float64()),
+        ("iterations", pa.int32()),
+        ("converged", pa.bool_()),
+        ("fit_time_ms", pa.float64()),
+        ("quality", pa.float64()),
+        ("reason", pa.string()),
+    ]
+)
+"""Columns of ``lanes.parquet``: one row per mask; list columns hold one entry per lane."""
+
+
+class ClassMap(NamedTuple):
+    """Which class ids of the masks are lane markings and road.
+
+    Attributes:
+        lane_ids: Ids of lane-marking pixels (``lane_marking`` and its finer marking nodes).
+        road_ids: Ids of road pixels for J1 (``road`` plus the lane markings on it).
+        code_of_id: Lane-marking id -> level-4 attribute code (0 when unspecific).
+    """
+
+    lane_ids: tuple[int, ...]
+    road_ids: tuple[int, ...]
+    code_of_id: dict[int, int]
+
+
+def parse_classes(data: Any, source: str = "<classes>") -> ClassMap:
+    """Build a :class:`ClassMap` from a parsed ``classes.yaml`` mapping (node -> id or ids).
+
+    Raises:
+        ConfigError: If the mapping is malformed or names no lane-marking node.
+    """
+    if not isinstance(data, dict):
+        raise ConfigError(f"{source}: expected a mapping of class nodes to integer ids")
+    ids: dict[str, list[int]] = {}
+    for node, value in data.items():
+        values = value if isinstance(value, list) else [value]
+        if not values or not all(isinstance(v, int) and not isinstance(v, bool) for v in values):
+            raise ConfigError(f"{source}: {node!r} must map to an integer id or a list of ids")
+        ids[str(node)] = [int(v) for v in values]
+    code_of_id: dict[int, int] = {}
+    for node, code in CODE_OF.items():
+        for class_id in ids.get(node, []):
+            code_of_id[class_id] = code
+    if not code_of_id:
+        raise ConfigError(
+            f"{source}: no lane-marking node (lane_marking, dividing_white_solid, ...) is mapped"
+        )
+    lane_ids = tuple(sorted(code_of_id))
+    road_ids = tuple(sorted(set(ids.get("road", [])) | set(lane_ids)))
+    return ClassMap(lane_ids, road_ids, code_of_id)
+
+
+def load_classes(path: str | os.PathLike[str]) -> ClassMap:
+    """Read ``classes.yaml``.
+
+    Raises:
+        ConfigError: If the file is missing, not YAML, or malformed.
+    """
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except OSError as err:
+        raise ConfigError(f"cannot read class map {path}: {err.strerror}") from err
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as err:
+        raise ConfigError(f"{path}: not valid YAML: {err}") from err
+    return parse_classes(data, str(path))
+
+
+class MaskPoints(NamedTuple):
+    """Pixels of one mask that the fit uses.
+
+    Attributes:
+        lane_uv: ``(N, 2)`` lane-marking pixels ``(u, v)``.
+        road_uv: ``(M, 2)`` road pixels.
+        codes: ``(N,)`` level-4 attribute codes of the lane pixels.
+    """
+
+    lane_uv: NDArray[np.float64]
+    road_uv: NDArray[np.float64]
+    codes: NDArray[np.intp]
+
+
+def mask_points(mask: NDArray[Any], classes: ClassMap, seed: int = 0) -> MaskPoints:
+    """Return the lane and road pixels of a class-id mask (deterministic caps on their number).
+
+    Args:
+        mask: ``(H, W)`` integer class ids.
+        classes: Which ids are lane markings and road.
+        seed: Seed of the subsampling above :data:`MAX_LANE_PIXELS` / :data:`MAX_ROAD_PIXELS`.
+    """
+    lut = np.zeros(max(int(mask.max(initial=0)), *classes.road_ids, *classes.lane_ids) + 1, np.intp)
+    for class_id, code in classes.code_of_id.items():
+        lut[class_id] = code + 1
+    label = lut[mask]
+    rows, cols = np.nonzero(label)
+    rng = np.random.default_rng(seed)
+    if rows.size > MAX_LANE_PIXELS:
+        keep = np.sort(rng.choice(rows.size, MAX_LANE_PIXELS, replace=False))
+        rows, cols = rows[keep], cols[keep]
+    lane_uv = np.stack([cols, rows], axis=1).astype(np.float64)
+    codes = label[rows, cols] - 1
+    road = np.isin(mask, classes.road_ids)
+    r_rows, r_cols = np.nonzero(road)
+    if r_rows.size > MAX_ROAD_PIXELS:
+        keep = np.sort(rng.choice(r_rows.size, MAX_ROAD_PIXELS, replace=False))
+        r_rows, r_cols = r_rows[keep], r_cols[keep]
+    road_uv = np.stack([r_cols, r_rows], axis=1).astype(np.float64)
+    return MaskPoints(lane_uv, road_uv, codes)
+
+
+def find_masks(seg_dir: str | os.PathLike[str]) -> list[Path]:
+    """Return the PNG files under ``seg_dir`` (recursively), sorted by relative path.
+
+    Raises:
+        PipelineError: If ``seg_dir`` is not a folder.
+    """
+    root = Path(seg_dir)
+    if not root.is_dir():
+        raise PipelineError(f"segmentation folder not found: {root}")
+    return sorted(
+        (p for p in root.rglob("*") if p.is_file() and p.suffix.lower() == ".png"),
+        key=lambda p: p.relative_to(root).as_posix(),
+    )
+
+
+def _read_mask(path: Path) -> NDArray[Any] | str:
+    """Return the mask array, or why it cannot be used."""
+    import cv2  # late: heavy import
+
+    mask = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    if mask is None:
+        return "unreadable PNG"
+    if mask.ndim != 2:
+        return f"not a single-channel class-id image (shape {mask.shape})"
+    return mask
+
+
+def fit_row(name: str, width: int, height: int, fit: LaneFit) -> dict[str, Any]:
+    """Return the ``lanes.parquet`` row of one frame's fit (see :data:`SCHEMA`)."""
+    lanes = fit.lanes
+    return {
+        "name": name,
+        "width": width,
+        "height": height,
+        "a1": fit.a1,
+        "a2": fit.a2,
+        "curvature": fit.curvature,
+        "b": fit.b,
+        "offsets": [ln.offset_m for ln in lanes],
+        "lane_a1": [ln.a1 for ln in lanes],
+        "lane_a2": [ln.a2 for ln in lanes],
+        "colours": [ln.colour for ln in lanes],
+        "styles": [ln.style for ln in lanes],
+        "range_min": [ln.range_min_m for ln in lanes],
+        "range_max": [ln.range_max_m for ln in lanes],
+        "n_lane_points": [ln.n_points for ln in lanes],
+        "ego_left": fit.ego_left,
+        "ego_right": fit.ego_right,
+        "lane_width": fit.lane_width_m,
+        "cost": fit.cost,
+        "iterations": fit.iterations,
+        "converged": fit.converged,
+        "fit_time_ms": fit.fit_time_s * 1e3,
+        "quality": fit.quality,
+        "reason": fit.reason,
+    }
+
+
+@dataclass(frozen=True)
+class LanesFitResult:
+    """Outcome of :func:`fit_masks`.
+
+    Attributes:
+        out: The written Parquet file.
+        n_frames: Rows written (masks read).
+        n_fitted: Frames with at least one lane.
+        skipped: Masks that could not be used.
+    """
+
+    out: Path
+    n_frames: int
+    n_fitted: int
+    skipped: tuple[Skipped, ...]
+
+
+def fit_masks(
+    seg_dir: str | os.PathLike[str],
+    camera: CameraModel,
+    out: str | os.PathLike[str],
+    classes: ClassMap,
+    params: FitParams | None = None,
+    sequential: bool = False,
+    command: str = "",
+    progress: Progress | None = None,
+) -> LanesFitResult:
+    """Fit every class-id PNG under ``seg_dir`` and write ``lanes.parquet``.
+
+    Args:
+        seg_dir: Folder of class-id PNG masks (searched recursively; names sorted).
+        camera: Camera of the images; resized when a mask's size differs.
+        out: Target Parquet path.
+        classes: Class ids of lane markings and road.
+        params: Fit parameters (paper defaults when None).
+        sequential: Warm-start each frame from the previous frame's fit.
+        command: Command line recorded in the provenance.
+        progress: Called with ``(done, total)`` after each mask.
+
+    Raises:
+        PipelineError: If there is no PNG, or no mask could be read.
+    """
+    p = params or FitParams()
+    root = Path(seg_dir)
+    paths = find_masks(root)
+    if not paths:
+        raise PipelineError(f"no PNG masks found under {root}")
+    rows: list[dict[str, Any]] = []
+    skipped: list[Skipped] = []
+    previous: LaneFit | None = None
+    cameras: dict[tuple[int, int], CameraModel] = {}
+    for done, path in enumerate(paths, start=1):
+        name = path.relative_to(root).as_posix()
+        mask = _read_mask(path)
+        if isinstance(mask, str):
+            skipped.append(Skipped("mask", f"{name}: {mask}", 1))
+        else:
+            height, width = mask.shape
+            cam = cameras.get((width, height))
+            if cam is None:
+                cam = camera if camera.width == width and camera.height == height else (
+                    camera.resized(width, height)
+                )
+                cameras[(width, height)] = cam
+            pts = mask_points(mask, classes, p.seed)
+            init = previous if sequential and previous is not None and previous.ok else None
+            fit = fit_frame(pts.lane_uv, pts.road_uv, cam, p, init=init, attributes=pts.codes)
+            previous = fit
+            rows.append(fit_row(name, width, height, fit))
+        if progress is not None:
+            progress(done, len(paths))
+    if not rows:
+        raise PipelineError(f"none of the {len(paths)} masks under {root} could be read")
+    table = pa.Table.from_pylist(rows, schema=SCHEMA)
+    provenance = Provenance(
+        command=command,
+        inputs=(input_identity(root),),
+        config={
+            "fit_params": p.to_dict(),
+            "camera": camera.to_dict(),
+            "classes": classes._asdict(),
+            "sequential": sequential,
+        },
+    )
+    path_out = write_table(table, out, provenance)
+    n_fitted = sum(1 for row in rows if row["offsets"])
+    return LanesFitResult(path_out, len(rows), n_fitted, tuple(skipped))
+
+
+def lanes_from_row(row: dict[str, Any]) -> tuple[list[Lane], float]:
+    """Rebuild a frame's lanes and slope ``b`` from its ``lanes.parquet`` row."""
+    lanes = [
+        Lane(
+            offset_m=float(o),
+            a1=float(a1),
+            a2=float(a2),
+            range_min_m=float(lo),
+            range_max_m=float(hi),
+        )
+        for o, a1, a2, lo, hi in zip(
+            row["offsets"],
+            row["lane_a1"],
+            row["lane_a2"],
+            row["range_min"],
+            row["range_max"],
+            strict=True,
+        )
+    ]
+    b = row["b"]
+    return lanes, float(b) if b is not None and math.isfinite(b) else 0.0
+
+
+def tusimple_lanes(
+    lanes: Sequence[Lane], slope: float, camera: CameraModel, h_samples: Sequence[float]
+) -> list[list[float]]:
+    """Return TuSimple lane lists: x (pixels) per h_sample, -2 outside each lane's range."""
+    cols = lanes_at_rows(list(lanes), slope, camera, np.asarray(h_samples, dtype=np.float64))
+    inside = np.isfinite(cols) & (cols >= 0) & (cols <= camera.width - 1)
+    out = np.where(inside, np.round(cols, 1), -2.0)
+    return [[float(v) if v != -2.0 else -2 for v in row] for row in out if (row != -2.0).any()]
+
+
+def parse_h_samples(spec: str) -> list[int]:
+    """Parse ``START:STOP:STEP`` (stop inclusive, like TuSimple's 160:720:10 -> 160..710)."""
+    try:
+        parts = [int(v) for v in spec.split(":")]
+    except ValueError as err:
+        raise ConfigError(f"h-samples must be START:STOP:STEP integers, got {spec!r}") from err
+    if len(parts) != 3 or parts[2] <= 0 or parts[1] <= parts[0] or parts[0] < 0:
+        raise ConfigError(f"h-samples must be START:STOP:STEP with STOP > START >= 0, got {spec!r}")
+    return list(range(parts[0], parts[1], parts[2]))
+
+
+@dataclass(frozen=True)
+class ExportResult:
+    """Outcome of :func:`export_tusimple`: the JSON-lines file and its record count."""
+
+    out: Path
+    n_records: int
+
+
+def export_tusimple(
+    lanes_parquet: str | os.PathLike[str],
+    camera: CameraModel,
+    h_samples: Sequence[int],
+    out: str | os.PathLike[str],
+    raw_ext: str = ".jpg",
+) -> ExportResult:
+    """Write TuSimple prediction JSON lines from ``lanes.parquet``.
+
+    ``raw_file`` is the mask's path relative to its folder with the extension replaced by
+    ``raw_ext``; ``run_time`` is the fit time in milliseconds.
+
+    Raises:
+        PipelineError: If the file is not a ``lanes.parquet`` written by ``slt lanes fit``.
+    """
+    src = Path(lanes_parquet)
+    try:
+        read_provenance(src)
+        table = pq.read_table(src)
+    except (OSError, pa.ArrowInvalid) as err:
+        raise PipelineError(f"cannot read {src}: {err}") from err
+    missing = [name for name in SCHEMA.names if name not in table.column_names]
+    if missing:
+        raise PipelineError(f"{src}: not a lanes.parquet file (missing {', '.join(missing)})")
+    ext = raw_ext if raw_ext.startswith(".") else f".{raw_ext}"
+    lines = []
+    for row in table.to_pylist():
+        cam = camera
+        if (row["width"], row["height"]) != (camera.width, camera.height):
+            cam = camera.resized(int(row["width"]), int(row["height"]))
+        lanes, slope = lanes_from_row(row)
+        record = {
+            "raw_file": Path(row["name"]).with_suffix(ext).as_posix(),
+            "lanes": tusimple_lanes(lanes, slope, cam, h_samples),
+            "h_samples": list(h_samples),
+            "run_time": round(float(row["fit_time_ms"]), 3),
+        }
+        lines.append(json.dumps(record))
+    path = write_text_atomic(out, "".join(f"{line}\n" for line in lines))
+    return ExportResult(path, len(lines))
