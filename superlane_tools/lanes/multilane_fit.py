@@ -30,7 +30,11 @@ IntArray = NDArray[np.intp]
 
 ASSIGN_ANGLE_RAD = 0.008
 """Assignment radius growth with distance (radians): segmentation noise grows with range."""
+REFIT_COST_SLACK = 0.05
+"""Largest increase of J (nats) that a least-squares refit may cause and still be kept."""
 SCAN_POINTS = 300
+INIT_ROUNDS = 2
+"""Coordinate-wise passes over the loss curves in the initial search."""
 """Lane points used by the batched loss-curve search."""
 _STEP = np.array([0.01, 0.0005, 0.01, 0.5])
 """Nelder-Mead unit step of (a1 rad, a2 1/m, b, a0c m); tolerances are in these units."""
@@ -77,7 +81,13 @@ class _Points:
 
 
 def _initial_guess(cost: CostFunction, params: FitParams, free: list[int]) -> FloatArray:
-    """Loss-curve search of III-C: scan each free parameter with the others at zero, batched."""
+    """Loss-curve search of III-C, batched: one vectorised evaluation per curve.
+
+    The paper scans each parameter's loss curve with the others at zero. Far from zero (a strong
+    slope with a curve) those curves mislead, so the scan is repeated coordinate-wise from the
+    best point so far, and curvature and slope, which both bend the lines apart in the BEV, get
+    a joint grid at the end.
+    """
     grids = {
         0: np.linspace(-params.heading_bound_rad, params.heading_bound_rad, params.grid_heading),
         1: np.linspace(-params.curvature_bound, params.curvature_bound, params.grid_curvature)
@@ -85,26 +95,24 @@ def _initial_guess(cost: CostFunction, params: FitParams, free: list[int]) -> Fl
         2: np.linspace(-params.slope_bound, params.slope_bound, params.grid_slope),
         3: np.linspace(-params.offset_range_m / 2, params.offset_range_m / 2, 13),
     }
-    rows, owner = [], []
-    for k in free:
-        for value in grids[k]:
-            row = np.zeros(4)
-            row[k] = value
-            rows.append(row)
-            owner.append(k)
-    thetas = np.asarray(rows)
-    costs = cost.batch(thetas)
-    combo = np.zeros(4)
-    owners = np.asarray(owner)
-    best_rows = []
-    for k in free:
-        sel = np.flatnonzero(owners == k)
-        best = sel[np.argmin(costs[sel])]
-        combo[k] = thetas[best, k]
-        best_rows.append(thetas[best])
-    candidates = np.asarray([combo, *best_rows])
-    result: FloatArray = candidates[int(np.argmin(cost.batch(candidates)))]
-    return result
+    best = np.zeros(4)
+    best_cost = np.inf
+    if 1 in free and 2 in free:
+        a2_grid, b_grid = np.meshgrid(grids[1], grids[2])
+        thetas = np.zeros((a2_grid.size, 4))
+        thetas[:, 1], thetas[:, 2] = a2_grid.ravel(), b_grid.ravel()
+        costs = cost.batch(thetas)
+        i = int(np.argmin(costs))
+        best, best_cost = thetas[i].copy(), float(costs[i])
+    for _ in range(INIT_ROUNDS):
+        for k in free:
+            thetas = np.repeat(best[None, :], grids[k].size, axis=0)
+            thetas[:, k] = grids[k]
+            costs = cost.batch(thetas)
+            i = int(np.argmin(costs))
+            if costs[i] < best_cost:
+                best, best_cost = thetas[i].copy(), float(costs[i])
+    return best
 
 
 def _theta_from_init(init: LaneFit | tuple[float, float, float], params: FitParams) -> FloatArray:
@@ -127,7 +135,7 @@ def _nelder_mead(
     scale = _STEP[free]
     bounds_abs = {
         0: 2.0 * params.heading_bound_rad,
-        1: params.curvature_bound,
+        1: params.curvature_bound / 2.0,
         2: params.slope_bound,
         3: params.offset_range_m,
     }
@@ -339,6 +347,12 @@ def fit_frame(
             )
             merged = merge_close(np.sort(model.offsets), 0.5 * p.min_peak_separation_m)
             model = model._replace(offsets=merged)
+        # Keep the refit only if J agrees it is no worse: a wrong assignment can make least
+        # squares run away from the optimum.
+        j_refit = cost(np.array([model.a1, model.a2, model.b, a0c]))
+        if not (np.isfinite(j_refit) and j_refit <= j_final + REFIT_COST_SLACK):
+            model = SharedModel(a1, a2, b, offsets)
+        extras["refit_rejected"] = float(model.offsets is offsets)
 
     lanes, quality = _build_lanes(lane, model, codes, height, p)
     n_lines = len(lanes)

@@ -25,9 +25,18 @@ def test_output_shapes_types_and_label_classes() -> None:
     assert frame.labels.dtype == np.uint8
     assert frame.corridor.dtype == np.bool_
     present = set(np.unique(frame.labels).tolist())
-    for name in ("sky", "road", "vehicle", "vegetation", "building_wall_fence",
-                 "pole_sign_utility", "terrain_ground", "dividing_white_solid",
-                 "dividing_white_dashed", "dividing_yellow_solid"):
+    for name in (
+        "sky",
+        "road",
+        "vehicle",
+        "vegetation",
+        "building_wall_fence",
+        "pole_sign_utility",
+        "terrain_ground",
+        "dividing_white_solid",
+        "dividing_white_dashed",
+        "dividing_yellow_solid",
+    ):
         assert LEAF_IDS[name] in present, name
     assert 0 not in present  # every pixel is labelled
     assert frame.labels[0, 0] == LEAF_IDS["sky"]
@@ -49,7 +58,7 @@ def test_preceding_vehicle_occludes_road_and_cuts_the_corridor() -> None:
     scene = replace(base, objects=(car,), corridor_length_m=12.75)
     frame = render(scene)
     uv, _ = SMALL.project(np.array([[12.75, 0.0, 0.7]]))
-    u, v = int(round(uv[0, 0])), int(round(uv[0, 1]))
+    u, v = round(uv[0, 0]), round(uv[0, 1])
     assert frame.labels[v, u] == LEAF_IDS["vehicle"]
     assert not frame.corridor[v, u]
     # No corridor above the car's contact row: it stops at the vehicle.
@@ -62,8 +71,18 @@ def test_road_hides_a_vehicle_behind_the_crest() -> None:
     base = example_scene("hill", camera=SMALL, with_objects=False)
     road = base.road
     i = int(np.searchsorted(road.x_m, 160.0))
-    car = SceneObject("vehicle", road.x_m[i], road.y_m[i], road.z_m[i], 4.5, 1.8, 1.4,
-                      road.heading_rad[i], (30, 30, 160), "car")
+    car = SceneObject(
+        "vehicle",
+        road.x_m[i],
+        road.y_m[i],
+        road.z_m[i],
+        4.5,
+        1.8,
+        1.4,
+        road.heading_rad[i],
+        (30, 30, 160),
+        "car",
+    )
     frame = render(replace(base, objects=(car,)))
     assert LEAF_IDS["vehicle"] not in np.unique(frame.labels)
     tall = replace(car, height_m=12.0, style="truck")
@@ -76,10 +95,22 @@ def test_road_hides_a_vehicle_behind_the_crest() -> None:
     [
         ("night", Conditions(name="night", daylight=0.05)),
         ("tunnel", Conditions(name="tunnel", tunnel=True, daylight=0.3)),
-        ("heavy_rain", Conditions(name="heavy_rain", rain=1.0, wet=1.0, fog=0.3, daylight=0.6,
-                                  motion_blur_px=4.0)),
-        ("sun_after_rain", Conditions(name="sun_after_rain", wet=0.8, glare=0.6,
-                                      sun_elevation_deg=6.0, sun_azimuth_rad=0.1)),
+        (
+            "heavy_rain",
+            Conditions(
+                name="heavy_rain", rain=1.0, wet=1.0, fog=0.3, daylight=0.6, motion_blur_px=4.0
+            ),
+        ),
+        (
+            "sun_after_rain",
+            Conditions(
+                name="sun_after_rain",
+                wet=0.8,
+                glare=0.6,
+                sun_elevation_deg=6.0,
+                sun_azimuth_rad=0.1,
+            ),
+        ),
         ("direct_sunlight", Conditions(name="direct_sunlight", glare=1.0, sun_elevation_deg=4.0)),
         ("tar_seams", Conditions(name="tar_seams", tar_seams=1.0, cracks=0.8)),
         ("randomized", Conditions(randomize=1.0)),

@@ -46,8 +46,9 @@ def test_recording_is_read_by_rosbags_and_the_project(tmp_path: Path, fmt: str, 
 
         with AnyReader([result.outputs.recording], default_typestore=default_typestore()) as r:
             counts = {c.topic: c.msgcount for c in r.connections}
-            fix = next(r.deserialize(raw, c.msgtype)
-                       for c, _, raw in r.messages() if c.topic == TOPIC_FIX)
+            fix = next(
+                r.deserialize(raw, c.msgtype) for c, _, raw in r.messages() if c.topic == TOPIC_FIX
+            )
         assert counts[TOPIC_IMAGE] == 5 and counts[TOPIC_FIX] == 11
         assert 48.0 < fix.latitude < 48.3 and fix.status.status == 2
 
@@ -83,7 +84,9 @@ def test_ground_truth_files_beside_the_recording(tmp_path: Path) -> None:
     assert (np.diff(df["t_ns"]) == 200_000_000).all()
     row = df.iloc[2]
     assert row["scenario"] == "highway_curves"
-    assert row["line_offset_m"][row["ego_left_line"]] > 0 > row["line_offset_m"][row["ego_right_line"]]
+    assert (
+        row["line_offset_m"][row["ego_left_line"]] > 0 > row["line_offset_m"][row["ego_right_line"]]
+    )
     assert 3.6 < row["corridor_width_m"] < 3.8
     prov = read_provenance(out.groundtruth)
     assert prov["config"]["seed"] == 3 and prov["config"]["camera"]["intrinsics"]["width"] == 320
@@ -104,7 +107,10 @@ def test_same_arguments_give_byte_identical_files(tmp_path: Path) -> None:
         pa_, pb = getattr(a.outputs, name), getattr(b.outputs, name)
         assert pa_.read_bytes() == pb.read_bytes(), name
     for f in sorted(a.outputs.labels_dir.rglob("*.png")):
-        assert f.read_bytes() == (b.outputs.labels_dir / f.relative_to(a.outputs.labels_dir)).read_bytes()
+        assert (
+            f.read_bytes()
+            == (b.outputs.labels_dir / f.relative_to(a.outputs.labels_dir)).read_bytes()
+        )
     assert a.outputs.recording.read_bytes() != c.outputs.recording.read_bytes()
 
 

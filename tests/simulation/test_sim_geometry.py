@@ -15,13 +15,25 @@ from superlane_tools.simulation.scenarios import SCENARIOS
 from superlane_tools.simulation.world import build_world, frame_world
 
 MARKING_IDS = np.array(leaf_ids_under("lane_marking"))
-OCCLUDERS = np.array([LEAF_IDS[n] for n in ("vehicle", "person", "building_wall_fence",
-                                            "vegetation", "pole_sign_utility", "sky")])
+OCCLUDERS = np.array(
+    [
+        LEAF_IDS[n]
+        for n in (
+            "vehicle",
+            "person",
+            "building_wall_fence",
+            "vegetation",
+            "pole_sign_utility",
+            "sky",
+        )
+    ]
+)
 
 
-@pytest.mark.parametrize(("scenario", "seed", "t_s"), [("highway_curves", 4, 9.0),
-                                                      ("hills", 1, 6.0),
-                                                      ("merge_split", 2, 4.0)])
+@pytest.mark.parametrize(
+    ("scenario", "seed", "t_s"),
+    [("highway_curves", 4, 9.0), ("hills", 1, 6.0), ("merge_split", 2, 4.0)],
+)
 def test_projected_lines_hit_lane_marking_pixels(scenario: str, seed: int, t_s: float) -> None:
     camera = load_camera("sim_default")
     world = build_world(SCENARIOS[scenario], seed, 20.0)
@@ -37,8 +49,13 @@ def test_projected_lines_hit_lane_marking_pixels(scenario: str, seed: int, t_s: 
         s_on, pts = line_points(fw.scene.road, line, s)
         # only where paint is: inside dashes, away from dash ends by 0.3 m
         painted = painted_mask(str(line.style), line.dash_m, line.gap_m, line.phase_m, s_on)
-        inner = painted_mask(str(line.style), line.dash_m - 0.6, line.gap_m + 0.6,
-                             line.phase_m + 0.3, s_on) if line.dash_m > 0 else painted
+        inner = (
+            painted_mask(
+                str(line.style), line.dash_m - 0.6, line.gap_m + 0.6, line.phase_m + 0.3, s_on
+            )
+            if line.dash_m > 0
+            else painted
+        )
         uv, front = camera.project(pts)
         u = np.round(uv[:, 0]).astype(int)
         v = np.round(uv[:, 1]).astype(int)

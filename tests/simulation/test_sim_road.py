@@ -22,8 +22,10 @@ from superlane_tools.simulation.scenarios import SCENARIOS
 
 
 @settings(max_examples=25, deadline=None)
-@given(k=st.floats(-MAX_CURVATURE, MAX_CURVATURE).filter(lambda v: abs(v) > 1e-5),
-       h0=st.floats(-3.0, 3.0))
+@given(
+    k=st.floats(-MAX_CURVATURE, MAX_CURVATURE).filter(lambda v: abs(v) > 1e-5),
+    h0=st.floats(-3.0, 3.0),
+)
 def test_constant_curvature_integrates_to_a_circle(k: float, h0: float) -> None:
     s = np.arange(0.0, 400.0, 0.1)
     heading, x, y = _integrate_plan(s, np.full_like(s, k), h0)
@@ -80,8 +82,11 @@ def test_merge_tapers_the_right_edge_inwards() -> None:
 
 @pytest.mark.parametrize(
     "recipe",
-    [RoadRecipe(lane_widths_m=(3.5,)), RoadRecipe(lane_widths_m=(3.5, 4.5)),
-     RoadRecipe(lane_widths_m=(3.5,) * 6)],
+    [
+        RoadRecipe(lane_widths_m=(3.5,)),
+        RoadRecipe(lane_widths_m=(3.5, 4.5)),
+        RoadRecipe(lane_widths_m=(3.5,) * 6),
+    ],
 )
 def test_impossible_recipes_are_refused(recipe: RoadRecipe) -> None:
     with pytest.raises(ScenarioError):
@@ -92,8 +97,14 @@ def test_road_ahead_is_in_the_vehicle_frame() -> None:
     road = build_road(SCENARIOS["highway_curves"].road, 900.0, np.random.default_rng(1))
     s0 = 300.0
     smp = road.sample(np.array([s0]))
-    pose = EgoPose(s0, float(smp["x"][0]), float(smp["y"][0]), float(smp["z"][0]),
-                   float(smp["heading"][0]), float(np.arctan(smp["grade"][0])))
+    pose = EgoPose(
+        s0,
+        float(smp["x"][0]),
+        float(smp["y"][0]),
+        float(smp["z"][0]),
+        float(smp["heading"][0]),
+        float(np.arctan(smp["grade"][0])),
+    )
     prof = road_ahead(road, pose)
     assert np.all(np.diff(prof.x_m) > 0)
     i0 = int(np.argmin(np.abs(prof.s_m - s0)))

@@ -102,8 +102,9 @@ def test_rtk_trajectory_curvature_matches_the_path(curvy_world) -> None:  # type
     lat = np.array([f.lat_deg for f in fixes])
     lon = np.array([f.lon_deg for f in fixes])
     alt = np.array([f.alt_m for f in fixes])
-    e, n, _ = pymap3d.geodetic2enu(lat, lon, alt, params.origin_lat_deg, params.origin_lon_deg,
-                                   params.origin_alt_m)
+    e, n, _ = pymap3d.geodetic2enu(
+        lat, lon, alt, params.origin_lat_deg, params.origin_lon_deg, params.origin_alt_m
+    )
     k_rtk = _curvature_from_enu(np.asarray(e), np.asarray(n))
     t = np.array([(f.log_time_ns - START) / 1e9 for f in fixes])
     path, road = curvy_world.path, curvy_world.road

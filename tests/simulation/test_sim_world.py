@@ -25,8 +25,9 @@ def test_ego_kinematics_are_consistent(name: str) -> None:
     # speed integrates to the path length driven
     s_drive = np.interp(path.s_m, world.road.s_m, path.sigma_m)
     travelled = np.diff(s_drive)
-    assert np.allclose(travelled / 0.01, 0.5 * (path.speed_mps[1:] + path.speed_mps[:-1]),
-                       rtol=1e-2)
+    assert np.allclose(
+        travelled / 0.01, 0.5 * (path.speed_mps[1:] + path.speed_mps[:-1]), rtol=1e-2
+    )
     st = ego_state(world.road, path, 10.0)
     assert st.yaw_rate_rps == pytest.approx(st.curvature * st.speed_mps)
     # ego curvature stays near the road's (lane changes and wander add a little)

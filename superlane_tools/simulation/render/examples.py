@@ -68,9 +68,9 @@ def reference_line(
     return d + s0_m, x, y, z, heading
 
 
-def standard_lines(lane_m: float = 3.6, lanes_right: int = 1, lanes_left: int = 1) -> tuple[
-    LaneLine, ...
-]:
+def standard_lines(
+    lane_m: float = 3.6, lanes_right: int = 1, lanes_left: int = 1
+) -> tuple[LaneLine, ...]:
     """Return the lines of a road with the ego lane centred on the reference line.
 
     Lines are ordered right to left, ``lanes_right`` of them right of the reference line; the
@@ -114,9 +114,16 @@ def example_scene(
     s, x, y, z, hd = reference_line(s0_m, k, crest, 0.06)
     lines = standard_lines(3.6, lanes_right=1, lanes_left=2)
     road = RoadProfile(
-        s_m=s, x_m=x, y_m=y, z_m=z, heading_rad=hd, lines=lines,
-        left_edge_m=lines[-1].offset_m + 1.0, right_edge_m=lines[0].offset_m - 2.5,
-        shoulder_m=2.5, surface="concrete" if kind == "straight" else "asphalt",
+        s_m=s,
+        x_m=x,
+        y_m=y,
+        z_m=z,
+        heading_rad=hd,
+        lines=lines,
+        left_edge_m=lines[-1].offset_m + 1.0,
+        right_edge_m=lines[0].offset_m - 2.5,
+        shoulder_m=2.5,
+        surface="concrete" if kind == "straight" else "asphalt",
     )
     objects: tuple[SceneObject, ...] = ()
     if with_objects:
@@ -137,22 +144,44 @@ def example_scene(
         for d in range(8, 240, 4):
             px, py, pz, ph = on_road(float(d), road.right_edge_m - 0.6)
             objs.append(
-                SceneObject("building_wall_fence", px, py, pz, 4.0, 0.3, 0.8, ph,
-                            (150, 155, 160), "guard_rail")
+                SceneObject(
+                    "building_wall_fence",
+                    px,
+                    py,
+                    pz,
+                    4.0,
+                    0.3,
+                    0.8,
+                    ph,
+                    (150, 155, 160),
+                    "guard_rail",
+                )
             )
         rng = np.random.default_rng(seed)
         for d in range(20, 260, 9):
-            px, py, pz, ph = on_road(float(d) + rng.uniform(0, 5), road.right_edge_m - 6
-                                     - rng.uniform(0, 8))
+            px, py, pz, ph = on_road(
+                float(d) + rng.uniform(0, 5), road.right_edge_m - 6 - rng.uniform(0, 8)
+            )
             hgt = rng.uniform(6, 14)
-            objs.append(SceneObject("vegetation", px, py, pz, hgt * 0.6, hgt * 0.6, hgt, 0.0,
-                                    (45, 90, 60), "tree"))
+            objs.append(
+                SceneObject(
+                    "vegetation", px, py, pz, hgt * 0.6, hgt * 0.6, hgt, 0.0, (45, 90, 60), "tree"
+                )
+            )
         px, py, pz, ph = on_road(70.0, road.right_edge_m - 1.5)
-        objs.append(SceneObject("pole_sign_utility", px, py, pz, 0.2, 2.4, 3.8, ph,
-                                (70, 120, 20), "sign"))
+        objs.append(
+            SceneObject("pole_sign_utility", px, py, pz, 0.2, 2.4, 3.8, ph, (70, 120, 20), "sign")
+        )
         objects = tuple(objs)
     return FrameScene(
-        t_ns=0, camera=camera, road=road, objects=objects,
-        conditions=conditions or Conditions(), ego_left_line=1, ego_right_line=0,
-        corridor_length_m=26.0 if with_objects else 100.0, world_seed=seed, frame_seed=seed,
+        t_ns=0,
+        camera=camera,
+        road=road,
+        objects=objects,
+        conditions=conditions or Conditions(),
+        ego_left_line=1,
+        ego_right_line=0,
+        corridor_length_m=26.0 if with_objects else 100.0,
+        world_seed=seed,
+        frame_seed=seed,
     )

@@ -134,26 +134,32 @@ def _lead_box(scene: FrameScene) -> tuple[float, float, float, float] | None:
     """Return the image box of the nearest vehicle ahead in the ego lane, or None."""
     best: SceneObject | None = None
     for o in scene.objects:
-        if o.kind == "vehicle" and o.x_m > 3.0 and abs(o.y_m) < 2.0 and (
-            best is None or o.x_m < best.x_m
+        if (
+            o.kind == "vehicle"
+            and o.x_m > 3.0
+            and abs(o.y_m) < 2.0
+            and (best is None or o.x_m < best.x_m)
         ):
             best = o
     if best is None:
         return None
     c, s = np.cos(best.yaw_rad), np.sin(best.yaw_rad)
-    pts = []
-    for a in (-0.5, 0.5):
-        for b in (-0.5, 0.5):
-            for z in (0.0, best.height_m):
-                pts.append(
-                    [
-                        best.x_m + c * a * best.length_m - s * b * best.width_m,
-                        best.y_m + s * a * best.length_m + c * b * best.width_m,
-                        best.z_m + z,
-                    ]
-                )
+    pts = [
+        [
+            best.x_m + c * a * best.length_m - s * b * best.width_m,
+            best.y_m + s * a * best.length_m + c * b * best.width_m,
+            best.z_m + z,
+        ]
+        for a in (-0.5, 0.5)
+        for b in (-0.5, 0.5)
+        for z in (0.0, best.height_m)
+    ]
     uv, front = scene.camera.project(np.array(pts))
     if not np.all(front):
         return None
-    return (float(uv[:, 0].min()), float(uv[:, 1].min()), float(uv[:, 0].max()),
-            float(uv[:, 1].max()))
+    return (
+        float(uv[:, 0].min()),
+        float(uv[:, 1].min()),
+        float(uv[:, 0].max()),
+        float(uv[:, 1].max()),
+    )

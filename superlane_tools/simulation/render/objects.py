@@ -40,6 +40,9 @@ _FACES = (
 )
 
 
+Detail = tuple[float, float, float, float, tuple[float, ...]]
+
+
 class Light(NamedTuple):
     """A small light source seen in the image (for bloom and night glow)."""
 
@@ -67,7 +70,9 @@ class _Box(NamedTuple):
 
 
 def _seed(obj: SceneObject) -> int:
-    key = f"{obj.kind}{obj.style}{obj.length_m:.3f}{obj.width_m:.3f}{obj.height_m:.3f}{obj.color_bgr}"
+    key = (
+        f"{obj.kind}{obj.style}{obj.length_m:.3f}{obj.width_m:.3f}{obj.height_m:.3f}{obj.color_bgr}"
+    )
     return zlib.crc32(key.encode())
 
 
@@ -129,15 +134,16 @@ class _Painter:
         box: _Box,
         color: tuple[float, ...],
         label: int,
-        details: dict[int, list[tuple[float, float, float, float, tuple[float, ...]]]]
-        | None = None,
+        details: dict[int, list[Detail]] | None = None,
     ) -> None:
         """Draw a box's visible faces, with detail rectangles on some faces."""
         pts = _box_points(box, _CORNERS)
         uv = self.project(pts)
         if uv is None or not self.visible(uv):
             return
-        depth = float(np.linalg.norm(box.centre + [0, 0, box.size[2] / 2] - self.cam_pos))
+        depth = float(
+            np.linalg.norm(box.centre + np.array([0.0, 0.0, box.size[2] / 2]) - self.cam_pos)
+        )
         c, s = np.cos(box.yaw), np.sin(box.yaw)
         shade = 0.35 + 0.65 * self.daylight
         for idx, (quad, n) in enumerate(_FACES):
@@ -146,7 +152,7 @@ class _Painter:
             to_face = corner - self.cam_pos
             if normal[0] * to_face[0] + normal[1] * to_face[1] + normal[2] * to_face[2] >= 0:
                 continue
-            lit = (0.62 + 0.38 * max(0.0, normal[0] * 0.3 + normal[1] * 0.5 + normal[2] * 0.8))
+            lit = 0.62 + 0.38 * max(0.0, normal[0] * 0.3 + normal[1] * 0.5 + normal[2] * 0.8)
             lit *= shade
             q = uv[list(quad)]
             self.fill(q, (color[0] * lit, color[1] * lit, color[2] * lit), label, depth)
@@ -209,8 +215,11 @@ def _scaled(box: _Box, a0: float, a1: float, w: float, z0: float, z1: float) -> 
 
 
 def _vehicle(p: _Painter, obj: SceneObject, label: int) -> None:
-    box = _Box(np.array([obj.x_m, obj.y_m, obj.z_m]), np.array(
-        [obj.length_m, obj.width_m, obj.height_m]), obj.yaw_rad)
+    box = _Box(
+        np.array([obj.x_m, obj.y_m, obj.z_m]),
+        np.array([obj.length_m, obj.width_m, obj.height_m]),
+        obj.yaw_rad,
+    )
     col = tuple(float(c) for c in obj.color_bgr)
     dark = (22.0, 22.0, 24.0)
     glass = (58.0, 52.0, 50.0)
@@ -222,16 +231,16 @@ def _vehicle(p: _Painter, obj: SceneObject, label: int) -> None:
             wheel = _scaled(box, a0, a1, 0.22, 0.0, 0.26)
             c, s = np.cos(box.yaw), np.sin(box.yaw)
             off = w0 * 0.39 * obj.width_m
-            wheel = _Box(wheel.centre + [-s * off, c * off, 0.0], wheel.size, box.yaw)
+            wheel = _Box(wheel.centre + np.array([-s * off, c * off, 0.0]), wheel.size, box.yaw)
             p.box(wheel, dark, label)
     lamp_rows = (0.55, 0.8) if not truck else (0.1, 0.25)
-    rear_details = [
+    rear_details: list[Detail] = [
         (0.0, 1.0, 0.0, 0.22, tuple(0.45 * c for c in col)),
         (0.03, 0.2, *lamp_rows, tail),
         (0.8, 0.97, *lamp_rows, tail),
         (0.4, 0.6, 0.25, 0.45, (200.0, 205.0, 210.0)),
     ]
-    front_details = [
+    front_details: list[Detail] = [
         (0.0, 1.0, 0.0, 0.2, tuple(0.5 * c for c in col)),
         (0.05, 0.22, 0.55, 0.75, (210.0, 220.0, 225.0)),
         (0.78, 0.95, 0.55, 0.75, (210.0, 220.0, 225.0)),
@@ -245,7 +254,7 @@ def _vehicle(p: _Painter, obj: SceneObject, label: int) -> None:
     body = _scaled(box, 0.0, 1.0, 1.0, 0.12, 0.58)
     p.box(body, col, label, {1: rear_details, 0: front_details})
     cabin = _scaled(box, 0.18, 0.78, 0.86, 0.58, 1.0)
-    win = [(0.08, 0.92, 0.1, 0.9, glass)]
+    win: list[Detail] = [(0.08, 0.92, 0.1, 0.9, glass)]
     p.box(cabin, col, label, {0: win, 1: win, 2: win, 3: win})
     if p.daylight < 0.6:
         for a in (0.12, 0.88):
@@ -260,13 +269,16 @@ def _vehicle(p: _Painter, obj: SceneObject, label: int) -> None:
 def _tree(p: _Painter, obj: SceneObject, label: int, rng: np.random.Generator) -> None:
     import cv2
 
-    box = _Box(np.array([obj.x_m, obj.y_m, obj.z_m]), np.array(
-        [obj.length_m, obj.width_m, obj.height_m]), obj.yaw_rad)
+    box = _Box(
+        np.array([obj.x_m, obj.y_m, obj.z_m]),
+        np.array([obj.length_m, obj.width_m, obj.height_m]),
+        obj.yaw_rad,
+    )
     bush = obj.style == "bush"
     if not bush:
         trunk = _scaled(box, 0.45, 0.55, 0.1, 0.0, 0.45)
         p.box(trunk, (40.0, 55.0, 70.0), label)
-    centre = box.centre + [0.0, 0.0, obj.height_m * (0.45 if bush else 0.65)]
+    centre = box.centre + np.array([0.0, 0.0, obj.height_m * (0.45 if bush else 0.65)])
     r_m = 0.5 * max(obj.width_m, obj.length_m)
     h_m = obj.height_m * (0.5 if bush else 0.4)
     depth = float(np.linalg.norm(centre - p.cam_pos))
@@ -292,8 +304,15 @@ def _rail(p: _Painter, obj: SceneObject, label: int) -> None:
     col = tuple(float(c) for c in obj.color_bgr)
     for box in _pieces(obj):
         band = _scaled(box, 0.0, 1.0, 1.0, 0.55, 1.0)
-        p.box(band, col, label, {2: [(0, 1, 0.3, 0.6, tuple(0.7 * c for c in col))],
-                                 3: [(0, 1, 0.3, 0.6, tuple(0.7 * c for c in col))]})
+        p.box(
+            band,
+            col,
+            label,
+            {
+                2: [(0, 1, 0.3, 0.6, tuple(0.7 * c for c in col))],
+                3: [(0, 1, 0.3, 0.6, tuple(0.7 * c for c in col))],
+            },
+        )
         if float(np.hypot(*(box.centre[:2] - p.cam_pos[:2]))) > 70.0:
             continue  # posts are sub-pixel there
         n_posts = max(1, int(box.size[0] / 2.0))
@@ -304,14 +323,23 @@ def _rail(p: _Painter, obj: SceneObject, label: int) -> None:
 
 
 def _pole(p: _Painter, obj: SceneObject, label: int) -> None:
-    box = _Box(np.array([obj.x_m, obj.y_m, obj.z_m]), np.array(
-        [obj.length_m, obj.width_m, obj.height_m]), obj.yaw_rad)
+    box = _Box(
+        np.array([obj.x_m, obj.y_m, obj.z_m]),
+        np.array([obj.length_m, obj.width_m, obj.height_m]),
+        obj.yaw_rad,
+    )
     col = tuple(float(c) for c in obj.color_bgr)
     if obj.style == "sign":
         p.box(_scaled(box, 0.45, 0.55, 0.06, 0.0, 0.65), (110.0, 110.0, 112.0), label)
-        p.box(_scaled(box, 0.0, 1.0, 1.0, 0.65, 1.0), col, label,
-              {i: [(0.06, 0.94, 0.08, 0.92, col), (0.02, 0.98, 0.02, 0.06, (230.0, 230.0, 230.0))]
-               for i in range(4)})
+        p.box(
+            _scaled(box, 0.0, 1.0, 1.0, 0.65, 1.0),
+            col,
+            label,
+            {
+                i: [(0.06, 0.94, 0.08, 0.92, col), (0.02, 0.98, 0.02, 0.06, (230.0, 230.0, 230.0))]
+                for i in range(4)
+            },
+        )
     else:
         p.box(box, col, label)
 
@@ -320,10 +348,9 @@ def _building(p: _Painter, obj: SceneObject, label: int, rng: np.random.Generato
     col = tuple(float(c) for c in obj.color_bgr)
     win_col = (70.0, 60.0, 55.0) if p.daylight > 0.4 else (120.0, 200.0, 230.0)
     for box in _pieces(obj):
-        details: dict[int, list[tuple[float, float, float, float, tuple[float, ...]]]] = {}
         floors = max(1, int(box.size[2] / 3.2))
         cols = max(1, int(box.size[0] / 2.5))
-        wins = [
+        wins: list[Detail] = [
             ((i + 0.25) / cols, (i + 0.75) / cols, (j + 0.3) / floors, (j + 0.75) / floors, win_col)
             for i in range(cols)
             for j in range(floors)
@@ -354,9 +381,7 @@ def draw_objects(
     )
     painter = _Painter(camera, layers, daylight)
     cam = camera.extrinsics.position
-    order = sorted(
-        objects, key=lambda o: -float(np.hypot(o.x_m - cam[0], o.y_m - cam[1]))
-    )
+    order = sorted(objects, key=lambda o: -float(np.hypot(o.x_m - cam[0], o.y_m - cam[1])))
     for obj in order:
         if obj.x_m + 0.5 * max(obj.length_m, obj.width_m) < cam[0] + _NEAR_M:
             continue

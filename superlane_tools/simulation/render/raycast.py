@@ -224,7 +224,7 @@ def cast_road(rays: CameraRays, tables: RoadTables) -> RoadHit:
         keep = xs > origin[0] + 0.5
         q_max = max(0.0, float(np.max((zs[keep] - origin[2]) / (xs[keep] - origin[0]))))
     rows = np.nonzero(rays.row_min_slope < q_max)[0]
-    h, w = rays.slope_z.shape
+    h, _w = rays.slope_z.shape
     row0 = int(rows[0]) if rows.size else h
     q = rays.slope_z[row0:]
     if rays.per_row:

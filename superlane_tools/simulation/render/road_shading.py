@@ -8,6 +8,7 @@ pixel where a line is thinner than a pixel, so far lines stay connected in the m
 
 from __future__ import annotations
 
+import itertools
 from typing import NamedTuple
 
 import numpy as np
@@ -82,17 +83,19 @@ def line_label(line: LaneLine) -> int:
     if line.style is LineStyle.DOUBLE:
         return LEAF_IDS["double_yellow"] if line.color is LineColor.YELLOW else 13
     if line.color is LineColor.YELLOW:
-        return LEAF_IDS["dividing_yellow_dashed" if line.style is LineStyle.DASHED else
-                        "dividing_yellow_solid"]
-    return LEAF_IDS["dividing_white_dashed" if line.style is LineStyle.DASHED else
-                    "dividing_white_solid"]
+        return LEAF_IDS[
+            "dividing_yellow_dashed" if line.style is LineStyle.DASHED else "dividing_yellow_solid"
+        ]
+    return LEAF_IDS[
+        "dividing_white_dashed" if line.style is LineStyle.DASHED else "dividing_white_solid"
+    ]
 
 
 def line_offset(line: LaneLine, s: F32) -> F32 | np.float32:
     """Return the line centre's lateral offset (m) at ``s`` (a scalar when it has no taper)."""
     if np.isnan(line.taper_start_s_m) or line.taper_length_m <= 0:
         return np.float32(line.offset_m)
-    return line.offset_at(s).astype(np.float32)
+    return line.offset_at(s.astype(np.float64)).astype(np.float32)
 
 
 def _stroke(d: F32, half_w: float, foot: F32) -> tuple[F32, NDArray[np.bool_]]:
@@ -120,7 +123,8 @@ def _tex_levels(foot: F32, texel_m: float, n_levels: int) -> NDArray[np.int32]:
     """Return the mip level per row (from the footprint at the centre column)."""
     rows = foot[:, foot.shape[1] // 2] / (2.0 * texel_m)
     lev = np.floor(np.log2(np.maximum(rows, 1.0))).astype(np.int32)
-    return np.clip(lev, 0, n_levels - 1)
+    out: NDArray[np.int32] = np.clip(lev, 0, n_levels - 1).astype(np.int32)
+    return out
 
 
 def _sample_mip(mips: F32, texel_m: float, a: F32, b: F32, levels: NDArray[np.int32]) -> F32:
@@ -181,7 +185,7 @@ def shade_ground(
     offsets = sorted(ln.offset_m for ln in road.lines)
     prof_l = np.arange(-40.0, 40.0, 0.02, dtype=np.float32)
     prof = np.ones_like(prof_l)
-    for a, b in zip(offsets[:-1], offsets[1:], strict=True):
+    for a, b in itertools.pairwise(offsets):
         c = 0.5 * (a + b)
         for wheel in (-0.85, 0.85):
             prof -= 0.07 * np.exp(-(((prof_l - c - wheel) / 0.35) ** 2))
@@ -228,9 +232,7 @@ def shade_ground(
         for ch in range(3):
             terr = (palette.grass[ch] * (1 - mix) + palette.dirt[ch] * mix) * tshade
             side_c = palette.sidewalk[ch] * (np.float32(1.0) + np.float32(0.05) * grain)
-            color[..., ch] = np.where(
-                off_road, np.where(side, side_c, terr), color[..., ch]
-            )
+            color[..., ch] = np.where(off_road, np.where(side, side_c, terr), color[..., ch])
 
     # --- painted lines --------------------------------------------------------------------
     in_view = valid & (s >= road.s_m[0]) & (s <= road.s_m[-1])

@@ -74,9 +74,7 @@ def _noise_bank() -> F32:
     return np.random.default_rng(0x5E75).standard_normal(_BANK + 4096).astype(np.float32)
 
 
-def finish(
-    img: F32, vignette: F32, cond: Conditions, look: Look, rng: np.random.Generator
-) -> U8:
+def finish(img: F32, vignette: F32, cond: Conditions, look: Look, rng: np.random.Generator) -> U8:
     """Apply exposure, tone, vignetting, motion blur and sensor noise; return uint8 BGR.
 
     Args:
@@ -90,7 +88,7 @@ def finish(
 
     h, w = img.shape[:2]
     if cond.motion_blur_px >= 1.0:
-        k = int(round(cond.motion_blur_px))
+        k = round(cond.motion_blur_px)
         blurred = cv2.blur(img, (max(1, k // 2), k))
         # Motion blur grows towards the image bottom (closer, faster-moving road).
         wgt = np.linspace(0.0, 1.0, h, dtype=np.float32)[:, None, None]

@@ -45,7 +45,10 @@ def sun_direction(elevation_deg: float, azimuth_rad: float) -> NDArray[np.float6
 
 @lru_cache(maxsize=16)
 def sky_layer(
-    camera: CameraModel, world_seed: int, sun_elevation_deg: float, sun_azimuth_rad: float,
+    camera: CameraModel,
+    world_seed: int,
+    sun_elevation_deg: float,
+    sun_azimuth_rad: float,
     night: bool,
 ) -> SkyLayer:
     """Return the (cached) sky of a camera, world and sun position.

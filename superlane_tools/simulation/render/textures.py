@@ -64,7 +64,7 @@ def _mip_chain(base: F32, levels: int) -> F32:
     cur = base
     for _ in range(1, levels):
         pad = cv2.copyMakeBorder(cur, 8, 8, 8, 8, cv2.BORDER_WRAP)
-        cur = cv2.GaussianBlur(pad, (0, 0), 1.5)[8:-8, 8:-8]
+        cur = np.asarray(cv2.GaussianBlur(pad, (0, 0), 1.5)[8:-8, 8:-8], dtype=np.float32)
         out.append(cur)
     return np.stack(out).astype(np.float32)
 

@@ -20,7 +20,7 @@ _LAMP_PERIOD_M = 10.0
 
 
 def _first_below(f: NDArray[np.float64], xs: NDArray[np.float64], q: F32) -> F32:
-    """Return the first ``x`` (m) where ``f(x) <= q`` (running minimum, interpolated); inf if none."""
+    """Return the first ``x`` (m) where ``f(x) <= q`` (running minimum, interpolated), or inf."""
     m = np.minimum.accumulate(f)
     x = np.interp(-q.astype(np.float64), -m, xs, left=np.inf, right=np.inf)
     return np.where(q >= m[-1], x, np.inf).astype(np.float32)

@@ -48,7 +48,12 @@ def wet_reflection(img: F32, rays: CameraRays, gloss: F32, row0: int, wet: float
     refl = cv2.remap(src, mu, mv, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
     # Streak the reflections vertically like a real wet road (micro-ripples).
     refl = cv2.blur(refl, (3, 15))
-    a = (gloss * np.float32(0.55)) * (mu >= 0)
+    # Fade out where the mirrored direction leaves the image (no hard reflection border).
+    w = img.shape[1]
+    edge = np.clip(mv / np.float32(80.0), 0.0, 1.0) * np.clip(
+        np.minimum(mu, np.float32(w - 1) - mu) / np.float32(60.0), 0.0, 1.0
+    )
+    a = gloss * np.float32(0.45) * edge
     part = img[row0:]
     part += a[..., None] * (refl - part)
 
@@ -90,8 +95,7 @@ def add_glare(img: F32, sun_uv: tuple[float, float] | None, glare: float, elev_d
     cx, cy = w / 2, h / 2
     for k, rad in ((-0.4, 10), (-0.9, 18), (0.5, 6), (-1.4, 28)):
         gu, gv = cx + k * (u - cx), cy + k * (v - cy)
-        cv2.circle(ghosts, (int(gu / 4 * 16), int(gv / 4 * 16)), rad * 16, 0.12, -1,
-                   cv2.LINE_AA, 4)
+        cv2.circle(ghosts, (int(gu / 4 * 16), int(gv / 4 * 16)), rad * 16, 0.12, -1, cv2.LINE_AA, 4)
     ghosts = cv2.GaussianBlur(ghosts, (0, 0), 2.0)
     low = np.float32(1.0 + 1.5 * np.clip((20.0 - elev_deg) / 20.0, 0.0, 1.0))
     tot = cv2.resize(bloom * low + ghosts, (w, h), interpolation=cv2.INTER_LINEAR)
@@ -120,10 +124,11 @@ def add_rain(img: F32, rng: np.random.Generator, rain: float) -> None:
     for _ in range(int(40 * rain)):
         cx, cy = int(rng.uniform(0, w)), int(rng.uniform(0, h))
         r = int(rng.uniform(6, 28))
-        cv2.ellipse(mask, (cx, cy), (r, int(r * rng.uniform(0.7, 1.0))), 0, 0, 360, 1.0, -1,
-                    cv2.LINE_AA)
-    mask = cv2.GaussianBlur(mask, (0, 0), 2.0)[..., None]
-    img += mask * (blurred * np.float32(1.08) - img)
+        cv2.ellipse(
+            mask, (cx, cy), (r, int(r * rng.uniform(0.7, 1.0))), 0, 0, 360, 1.0, -1, cv2.LINE_AA
+        )
+    soft = cv2.GaussianBlur(mask, (0, 0), 2.0)[..., None]
+    img += soft * (blurred * np.float32(1.08) - img)
 
 
 def add_spray(img: F32, box_uv: tuple[float, float, float, float] | None, rain: float) -> None:
@@ -137,8 +142,16 @@ def add_spray(img: F32, box_uv: tuple[float, float, float, float] | None, rain: 
     mask = np.zeros((h // 4, w // 4), np.float32)
     bw = u1 - u0
     cu, cv_ = (u0 + u1) / 2, v1 - 0.15 * (v1 - v0)
-    cv2.ellipse(mask, (int(cu / 4), int(cv_ / 4)), (int(bw * 0.75 / 4) + 1, int(bw * 0.3 / 4) + 1),
-                0, 0, 360, 1.0, -1)
+    cv2.ellipse(
+        mask,
+        (int(cu / 4), int(cv_ / 4)),
+        (int(bw * 0.75 / 4) + 1, int(bw * 0.3 / 4) + 1),
+        0,
+        0,
+        360,
+        1.0,
+        -1,
+    )
     mask = cv2.GaussianBlur(mask, (0, 0), max(1.0, bw / 20))
     mask = cv2.resize(mask, (w, h))[..., None] * np.float32(0.6 * rain)
     img += mask * (np.float32(175.0) - img)

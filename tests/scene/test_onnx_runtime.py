@@ -1,0 +1,109 @@
+"""ONNX runtimes: carded models load, run and decode; mismatching models are refused."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from superlane_tools.hierarchy import LEAF_IDS
+from superlane_tools.scene import SegmentationBackend
+from superlane_tools.scene.corridor_runtime import CorridorSmoother, OnnxCorridorModel
+from superlane_tools.scene.model_card import card_path_for, load_card
+from superlane_tools.scene.model_errors import ModelError
+from superlane_tools.scene.onnx_backend import OnnxSegmentationBackend, resolve_model
+from superlane_tools.training.toy_dataset import toy_frame, write_toy_dataset
+from superlane_tools.training.train import TrainParams, train
+
+
+@pytest.fixture(scope="module")
+def models(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    root = tmp_path_factory.mktemp("onnx_models")
+    data = write_toy_dataset(root / "data", frames=2, width=96, height=48)
+    out = {}
+    for task in ("segmentation", "corridor"):
+        params = TrainParams(task, data, root / f"{task}.onnx", epochs=1, batch=2, size=(64, 32))
+        out[task] = train(params).model_path
+    return out
+
+
+def _copy(model: Path, folder: Path) -> Path:
+    target = folder / model.name
+    shutil.copy(model, target)
+    shutil.copy(card_path_for(model), card_path_for(target))
+    return target
+
+
+def test_segmentation_backend_returns_leaf_ids_at_image_size(models: dict[str, Path]) -> None:
+    backend = OnnxSegmentationBackend(models["segmentation"])
+    assert isinstance(backend, SegmentationBackend)
+    image, _, _ = toy_frame(np.random.default_rng(0), 150, 70)
+    labels = backend.segment(image)
+    assert labels.shape == (70, 150)
+    assert labels.dtype == np.uint8
+    assert set(np.unique(labels)) <= set(LEAF_IDS.values())
+    assert len(backend.segment_batch([image, image])) == 2
+    assert backend.name == "onnx:segmentation"
+    assert len(backend.sha256) == 64
+
+
+def test_corridor_runtime_and_smoother(models: dict[str, Path]) -> None:
+    runtime = OnnxCorridorModel(models["corridor"])
+    image, _, _ = toy_frame(np.random.default_rng(1), 130, 72)
+    prob = runtime.probability(image)
+    assert prob.shape == (72, 130)
+    assert prob.dtype == np.float32
+    assert 0.0 <= prob.min() <= prob.max() <= 1.0
+    smoother = CorridorSmoother(3)
+    frames = [np.full((2, 2), v, np.float32) for v in (0.0, 0.3, 0.6, 0.9)]
+    outs = [smoother.update(f) for f in frames]
+    assert outs[0][0, 0] == pytest.approx(0.0)
+    assert outs[1][0, 0] == pytest.approx(0.15)
+    assert outs[3][0, 0] == pytest.approx(0.6)  # mean of the last three frames only
+
+
+def test_tampered_model_is_refused(models: dict[str, Path], tmp_path: Path) -> None:
+    model = _copy(models["segmentation"], tmp_path)
+    with model.open("ab") as handle:
+        handle.write(b"\0")
+    with pytest.raises(ModelError, match="does not match its card: sha256"):
+        OnnxSegmentationBackend(model)
+
+
+def test_card_with_wrong_io_is_refused(models: dict[str, Path], tmp_path: Path) -> None:
+    model = _copy(models["segmentation"], tmp_path)
+    card_file = card_path_for(model)
+    data = yaml.safe_load(card_file.read_text(encoding="utf-8"))
+    data["input"]["width"] = 128
+    card_file.write_text(yaml.safe_dump(data), encoding="utf-8")
+    with pytest.raises(ModelError, match="input shape"):
+        OnnxSegmentationBackend(model)
+    data["input"]["width"] = 64
+    data["outputs"][0]["name"] = "logits"
+    card_file.write_text(yaml.safe_dump(data), encoding="utf-8")
+    with pytest.raises(ModelError, match="not a model output"):
+        OnnxSegmentationBackend(model)
+
+
+def test_missing_card_wrong_task_unknown_name(models: dict[str, Path], tmp_path: Path) -> None:
+    lonely = tmp_path / "lonely.onnx"
+    shutil.copy(models["corridor"], lonely)
+    with pytest.raises(ModelError, match="model card not found"):
+        OnnxCorridorModel(lonely)
+    with pytest.raises(ModelError, match="is a corridor model"):
+        OnnxSegmentationBackend(models["corridor"])
+    with pytest.raises(ModelError, match="unknown model 'no_such_model'"):
+        resolve_model("no_such_model")
+
+
+def test_card_rejects_heads_off_the_hierarchy(models: dict[str, Path], tmp_path: Path) -> None:
+    model = _copy(models["segmentation"], tmp_path)
+    card_file = card_path_for(model)
+    data = yaml.safe_load(card_file.read_text(encoding="utf-8"))
+    data["outputs"][3]["classes"][0] = "sky"  # sky is not below drivable
+    card_file.write_text(yaml.safe_dump(data), encoding="utf-8")
+    with pytest.raises(ModelError, match="not below 'drivable'"):
+        load_card(card_file)
