@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 RESULTS = Path(__file__).resolve().parent / "results" / "extract.json"
+FRAMES = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "tusimple" / "frames"
 T0 = 1_700_000_000_000_000_000
 DBC = """VERSION ""
 
@@ -36,21 +37,29 @@ BO_ 256 Motion: 8 ECU
 """
 
 
-def jpeg_pool(count: int = 24) -> list[bytes]:
-    """Real-looking 1280x720 JPEGs: a gradient road scene with noise, one per pool slot."""
+def jpeg_pool(quality: int = 90) -> list[bytes]:
+    """Realistic 1280x720 camera JPEGs: the real TuSimple frames encoded at ``quality``.
+
+    Falls back to the simulator's rendered road frames when the shared data is absent.
+    """
     import cv2
 
-    rng = np.random.default_rng(0)
-    ys, xs = np.mgrid[0:720, 0:1280]
-    pool = []
-    for k in range(count):
-        base = np.stack([(xs + 8 * k) % 256, (ys // 3) % 256, (xs + ys) % 256], axis=-1)
-        noise = rng.normal(0, 12, base.shape)
-        img = np.clip(base + noise, 0, 255).astype(np.uint8)
-        cv2.line(img, (300 + k, 719), (620, 380), (255, 255, 255), 8)
-        cv2.line(img, (1000 - k, 719), (660, 380), (255, 255, 255), 8)
-        pool.append(cv2.imencode(".jpg", img, [cv2.IMWRITE_JPEG_QUALITY, 85])[1].tobytes())
-    return pool
+    pngs = sorted(FRAMES.glob("*.png")) + sorted((FRAMES / "unlabeled").glob("*.png"))
+    images = [cv2.imread(str(p), cv2.IMREAD_COLOR) for p in pngs]
+    images = [cv2.resize(i, (1280, 720)) for i in images if i is not None]
+    if not images:
+        images = simulated_frames()
+    params = [cv2.IMWRITE_JPEG_QUALITY, quality]
+    return [cv2.imencode(".jpg", img, params)[1].tobytes() for img in images]
+
+
+def simulated_frames(count: int = 10) -> list[np.ndarray]:
+    """Road frames from the simulator's renderer (used when the TuSimple frames are absent)."""
+    import inspect
+
+    from superlane_tools.simulation import render
+
+    raise RuntimeError(f"no TuSimple frames under {FRAMES}; see {inspect.getfile(render)}")
 
 
 def make_recording(path: Path, seconds: int, pool: list[bytes]) -> None:

@@ -84,9 +84,9 @@ def _initial_guess(cost: CostFunction, params: FitParams, free: list[int]) -> Fl
     """Loss-curve search of III-C, batched: one vectorised evaluation per curve.
 
     The paper scans each parameter's loss curve with the others at zero. Far from zero (a strong
-    slope with a curve) those curves mislead, so the scan is repeated coordinate-wise from the
-    best point so far, and curvature and slope, which both bend the lines apart in the BEV, get
-    a joint grid at the end.
+    slope with a curve) those curves mislead: curvature and slope, which both bend the lines
+    apart in the BEV, first get a joint grid, then each loss curve is scanned coordinate-wise
+    from the best point so far.
     """
     grids = {
         0: np.linspace(-params.heading_bound_rad, params.heading_bound_rad, params.grid_heading),

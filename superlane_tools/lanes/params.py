@@ -89,7 +89,7 @@ class FitParams:
     curvature_bound: float = 1.0 / 100.0
     grid_heading: int = 21
     grid_curvature: int = 11
-    grid_slope: int = 5
+    grid_slope: int = 9
     max_iterations: int = 400
     xatol: float = 0.05
     fatol: float = 1e-3

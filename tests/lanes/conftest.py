@@ -63,3 +63,9 @@ def render_lanes(
 def renderer() -> Renderer:
     """Return :func:`render_lanes`."""
     return render_lanes
+
+
+@pytest.fixture
+def camera_factory() -> Callable[..., CameraModel]:
+    """Return :func:`make_camera`."""
+    return make_camera

@@ -42,7 +42,8 @@ def test_drive_command_writes_recording_and_truth(tmp_path: Path) -> None:
         ],
     )
     assert result.exit_code == 0, result.output
-    assert out.is_file() and (tmp_path / "drive.gt.parquet").is_file()
+    assert out.is_file()
+    assert (tmp_path / "drive.gt.parquet").is_file()
     assert len(pd.read_parquet(tmp_path / "drive.gt.parquet")) == 6
 
 

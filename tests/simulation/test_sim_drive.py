@@ -49,8 +49,10 @@ def test_recording_is_read_by_rosbags_and_the_project(tmp_path: Path, fmt: str, 
             fix = next(
                 r.deserialize(raw, c.msgtype) for c, _, raw in r.messages() if c.topic == TOPIC_FIX
             )
-        assert counts[TOPIC_IMAGE] == 5 and counts[TOPIC_FIX] == 11
-        assert 48.0 < fix.latitude < 48.3 and fix.status.status == 2
+        assert counts[TOPIC_IMAGE] == 5
+        assert counts[TOPIC_FIX] == 11
+        assert 48.0 < fix.latitude < 48.3
+        assert fix.status.status == 2
 
 
 def test_mcap_is_read_by_mcaps_reader_with_camera_metadata(tmp_path: Path) -> None:
@@ -67,7 +69,8 @@ def test_mcap_is_read_by_mcaps_reader_with_camera_metadata(tmp_path: Path) -> No
                 assert msg.id in {0x180, 0x181, 0x766, 0x767, 0x768, 0x769}
             if channel.topic == TOPIC_TF:
                 tf = msg.transforms[0]
-                assert tf.header.frame_id == "base_link" and tf.transform.translation.z == 1.5
+                assert tf.header.frame_id == "base_link"
+                assert tf.transform.translation.z == 1.5
         f.seek(0)
         metadata = {m.name: m.metadata for m in make_reader(f).iter_metadata()}
     assert n_can > 100
@@ -80,7 +83,8 @@ def test_ground_truth_files_beside_the_recording(tmp_path: Path) -> None:
     out = result.outputs
     assert out == DriveOutputs.beside(tmp_path / "g.mcap")
     df = pd.read_parquet(out.groundtruth)
-    assert len(df) == 5 and df["frame_index"].tolist() == [0, 1, 2, 3, 4]
+    assert len(df) == 5
+    assert df["frame_index"].tolist() == [0, 1, 2, 3, 4]
     assert (np.diff(df["t_ns"]) == 200_000_000).all()
     row = df.iloc[2]
     assert row["scenario"] == "highway_curves"
@@ -89,10 +93,12 @@ def test_ground_truth_files_beside_the_recording(tmp_path: Path) -> None:
     )
     assert 3.6 < row["corridor_width_m"] < 3.8
     prov = read_provenance(out.groundtruth)
-    assert prov["config"]["seed"] == 3 and prov["config"]["camera"]["intrinsics"]["width"] == 320
+    assert prov["config"]["seed"] == 3
+    assert prov["config"]["camera"]["intrinsics"]["width"] == 320
     lines = out.tusimple.read_text().splitlines()
     first = json.loads(lines[0])
-    assert first["h_samples"][0] == 40 and len(first["h_samples"]) == 56
+    assert first["h_samples"][0] == 40
+    assert len(first["h_samples"]) == 56
     assert first["raw_file"] == "frames/000000.jpg"
     assert (out.labels_dir / first["raw_file"]).is_file()
     assert len(list((out.labels_dir / "labels").glob("*.png"))) == 5

@@ -65,7 +65,8 @@ def test_hills_have_crests_and_sags() -> None:
 
 def test_urban_has_crosswalks_and_stop_lines_with_line_gaps() -> None:
     road = build_road(SCENARIOS["urban"].road, 900.0, np.random.default_rng(0))
-    assert road.stop_lines_s_m and road.crosswalks_s_m
+    assert road.stop_lines_s_m
+    assert road.crosswalks_s_m
     stop = road.stop_lines_s_m[0]
     assert not any(ln.start_s_m <= stop + 10.0 < ln.end_s_m for ln in road.lines)
 
@@ -108,7 +109,9 @@ def test_road_ahead_is_in_the_vehicle_frame() -> None:
     prof = road_ahead(road, pose)
     assert np.all(np.diff(prof.x_m) > 0)
     i0 = int(np.argmin(np.abs(prof.s_m - s0)))
-    assert abs(prof.x_m[i0]) < 1e-6 and abs(prof.y_m[i0]) < 1e-6 and abs(prof.z_m[i0]) < 1e-6
+    assert abs(prof.x_m[i0]) < 1e-6
+    assert abs(prof.y_m[i0]) < 1e-6
+    assert abs(prof.z_m[i0]) < 1e-6
     assert abs(prof.heading_rad[i0]) < 1e-3
     # lateral offsets are metric: the line through the left edge sits exactly 0 m from the
     # reference line, the next one a lane width to the right

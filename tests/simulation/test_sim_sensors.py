@@ -1,4 +1,4 @@
-"""Simulated sensors: CAN decodes with the shipped DBCs, Mobileye signs, RTK trajectory curvature."""
+"""Simulated sensors: CAN decodes with the shipped DBCs, Mobileye signs, RTK curvature."""
 
 from __future__ import annotations
 
@@ -72,7 +72,8 @@ def test_mobileye_frames_decode_to_the_lane_model_with_flipped_signs(curvy_world
         a["Curve_Parameter_C0"], b["Curve_Parameter_C1"], a["Curve_Parameter_C2"], 0.0
     )
     left = truth.cubic[truth.ego_left]
-    assert a0 == pytest.approx(left[0], abs=0.15) and a0 > 0
+    assert a0 == pytest.approx(left[0], abs=0.15)
+    assert a0 > 0
     assert a1 == pytest.approx(left[1], abs=0.01)
     assert a2 == pytest.approx(left[2], abs=1e-4)
     assert a["Quality"] == 3
@@ -98,7 +99,8 @@ def _curvature_from_enu(e: np.ndarray, n: np.ndarray, window_m: float = 30.0) ->
 def test_rtk_trajectory_curvature_matches_the_path(curvy_world) -> None:  # type: ignore[no-untyped-def]
     params = RtkParams()
     fixes = rtk_fixes(curvy_world, params, START, np.random.default_rng(2))
-    assert len(fixes) == 10 * 30 + 1 and all(f.status == 2 for f in fixes)
+    assert len(fixes) == 10 * 30 + 1
+    assert all(f.status == 2 for f in fixes)
     lat = np.array([f.lat_deg for f in fixes])
     lon = np.array([f.lon_deg for f in fixes])
     alt = np.array([f.alt_m for f in fixes])

@@ -21,7 +21,8 @@ CAMERA = CameraModel(
 def test_ego_kinematics_are_consistent(name: str) -> None:
     world = build_world(SCENARIOS[name], 5, 20.0)
     path = world.path
-    assert path.speed_mps.min() >= 5.0 and path.speed_mps.max() <= 35.0
+    assert path.speed_mps.min() >= 5.0
+    assert path.speed_mps.max() <= 35.0
     # speed integrates to the path length driven
     s_drive = np.interp(path.s_m, world.road.s_m, path.sigma_m)
     travelled = np.diff(s_drive)
@@ -40,7 +41,8 @@ def test_world_is_deterministic_and_seed_dependent() -> None:
     a = build_world(SCENARIOS["urban"], 11, 10.0)
     b = build_world(SCENARIOS["urban"], 11, 10.0)
     c = build_world(SCENARIOS["urban"], 12, 10.0)
-    assert np.array_equal(a.road.x_m, b.road.x_m) and np.array_equal(a.path.s_m, b.path.s_m)
+    assert np.array_equal(a.road.x_m, b.road.x_m)
+    assert np.array_equal(a.path.s_m, b.path.s_m)
     assert len(a.tracks) == len(b.tracks)
     assert not np.array_equal(a.road.x_m, c.road.x_m)
 
@@ -64,7 +66,8 @@ def test_lane_truth_on_a_straight_road_recovers_offsets() -> None:
     # offsets are relative to the ego, in the vehicle frame (small heading from wander)
     assert np.allclose(got, np.asarray(expected) - lat, atol=0.1)
     assert abs(truth.curvature) < 1e-3
-    assert truth.ego_left >= 0 and truth.ego_right == truth.ego_left + 1
+    assert truth.ego_left >= 0
+    assert truth.ego_right == truth.ego_left + 1
     assert got[truth.ego_left] > 0 > got[truth.ego_right]
 
 
@@ -86,7 +89,8 @@ def test_tusimple_points_lie_on_projected_lines() -> None:
     truth = lane_truth(fw)
     rows = h_samples(720)
     lanes = tusimple_lanes(fw.scene.road, CAMERA, truth.profile_index, rows)
-    assert len(lanes) == len(truth.offsets_m) and all(len(ln) == len(rows) for ln in lanes)
+    assert len(lanes) == len(truth.offsets_m)
+    assert all(len(ln) == len(rows) for ln in lanes)
     ego = lanes[truth.ego_left]
     assert sum(c != -2 for c in ego) > 20
     # near the bottom the ego's left line is left of centre, the right line right of it

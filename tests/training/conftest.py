@@ -2,12 +2,23 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
 
 from superlane_tools.training.toy_dataset import write_toy_dataset
 from superlane_tools.training.train import TrainParams, TrainResult, train
+
+
+def _tiny_params(task: str, data: Path, out: Path) -> TrainParams:
+    """One epoch of 4 steps on the 8 toy frames at 64x32, no augmentation, seed 0."""
+    return TrainParams(task, data, out, epochs=1, batch=2, lr=5e-3, size=(64, 32), augment=None)
+
+
+@pytest.fixture(scope="session")
+def tiny_params() -> Callable[[str, Path, Path], TrainParams]:
+    return _tiny_params
 
 
 @pytest.fixture(scope="session")
@@ -18,14 +29,10 @@ def toy_data(tmp_path_factory: pytest.TempPathFactory) -> Path:
 @pytest.fixture(scope="session")
 def tiny_seg(toy_data: Path, tmp_path_factory: pytest.TempPathFactory) -> TrainResult:
     out = tmp_path_factory.mktemp("seg") / "tiny_seg.onnx"
-    return train(
-        TrainParams("segmentation", toy_data, out, epochs=1, batch=2, size=(64, 32), max_frames=4)
-    )
+    return train(_tiny_params("segmentation", toy_data, out))
 
 
 @pytest.fixture(scope="session")
 def tiny_corridor(toy_data: Path, tmp_path_factory: pytest.TempPathFactory) -> TrainResult:
     out = tmp_path_factory.mktemp("cor") / "tiny_corridor.onnx"
-    return train(
-        TrainParams("corridor", toy_data, out, epochs=1, batch=2, size=(64, 32), max_frames=4)
-    )
+    return train(_tiny_params("corridor", toy_data, out))

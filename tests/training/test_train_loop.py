@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -20,57 +21,22 @@ from superlane_tools.training.seg_net import HierarchicalSegNet
 from superlane_tools.training.train import TrainParams, TrainResult, train
 
 
-def test_segmentation_loss_decreases_over_one_epoch(toy_data: Path, tmp_path: Path) -> None:
-    result = train(
-        TrainParams(
-            "segmentation",
-            toy_data,
-            tmp_path / "s.onnx",
-            epochs=1,
-            batch=2,
-            lr=5e-3,
-            size=(64, 32),
-            augment=None,
-        )
-    )
-    assert len(result.step_losses) == 4
-    assert result.step_losses[-1] < result.step_losses[0]
+def test_loss_decreases_over_one_epoch(tiny_seg: TrainResult, tiny_corridor: TrainResult) -> None:
+    for result in (tiny_seg, tiny_corridor):
+        assert len(result.step_losses) == 4
+        assert result.step_losses[-1] < result.step_losses[0]
+        assert len(result.epoch_losses) == 1
 
 
-def test_corridor_loss_decreases_over_one_epoch(toy_data: Path, tmp_path: Path) -> None:
-    result = train(
-        TrainParams(
-            "corridor",
-            toy_data,
-            tmp_path / "c.onnx",
-            epochs=1,
-            batch=2,
-            lr=5e-3,
-            size=(64, 32),
-            augment=None,
-        )
-    )
-    assert result.step_losses[-1] < result.step_losses[0]
-
-
-def test_same_seed_same_run(toy_data: Path, tmp_path: Path) -> None:
-    runs = [
-        train(
-            TrainParams(
-                "corridor",
-                toy_data,
-                tmp_path / f"{i}.onnx",
-                epochs=1,
-                batch=4,
-                size=(64, 32),
-                max_frames=4,
-                seed=7,
-            )
-        )
-        for i in range(2)
-    ]
-    assert runs[0].step_losses == runs[1].step_losses
-    assert runs[0].card.sha256 == runs[1].card.sha256
+def test_same_seed_same_run(
+    toy_data: Path,
+    tiny_corridor: TrainResult,
+    tiny_params: Callable[[str, Path, Path], TrainParams],
+    tmp_path: Path,
+) -> None:
+    again = train(tiny_params("corridor", toy_data, tmp_path / "again.onnx"))
+    assert again.step_losses == tiny_corridor.step_losses
+    assert again.card.sha256 == tiny_corridor.card.sha256
 
 
 @pytest.mark.parametrize("net", ["segmentation", "corridor"])

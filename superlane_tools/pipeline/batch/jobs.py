@@ -43,6 +43,9 @@ class JobKind(NamedTuple):
     identities: Callable[[Mapping[str, Any]], dict[str, str]]
     load: Callable[[Mapping[str, Any]], Any]
     run: Callable[[Path, Path, Mapping[str, Any], Any], JobResult]
+    split_sequences: bool = True
+    """True: one job per manifest sequence (config keys ``start_s``/``end_s``). False: one job
+    per recording, its sequences passed as ``segments`` and its ``category`` in the config."""
 
 
 # --- extract --------------------------------------------------------------------------------
@@ -114,7 +117,9 @@ def _extract_run(
     )
 
 
-EXTRACT = JobKind("extract", _extract_check, _extract_identities, _extract_load, _extract_run)
+EXTRACT = JobKind(
+    "extract", _extract_check, _extract_identities, _extract_load, _extract_run, True
+)
 
 
 # --- registry -------------------------------------------------------------------------------
@@ -122,7 +127,12 @@ EXTRACT = JobKind("extract", _extract_check, _extract_identities, _extract_load,
 
 def reprocess_available() -> bool:
     """Return True when the ``reprocess`` pipeline is part of this installation."""
-    return importlib.util.find_spec("superlane_tools.pipeline.reprocess") is not None
+    try:
+        spec = importlib.util.find_spec("superlane_tools.pipeline.reprocess")
+    except ImportError:
+        return False
+    # A folder without __init__.py (work in progress) is a namespace package: origin None.
+    return spec is not None and spec.origin is not None
 
 
 def default_kind() -> str:

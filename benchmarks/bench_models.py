@@ -1,0 +1,124 @@
+"""Benchmark the scene networks with onnxruntime on CPU, beside a conv-only baseline.
+
+For each model (the shipped ones by default, or the architectures freshly initialised when no
+model is shipped) the median milliseconds per frame at its input size are measured, together with
+a baseline graph of the same input size in the same run: a single 3x3 convolution to 16
+channels (the cheapest useful layer: it bounds the cost of reading the input and writing a
+feature map). The ratio model / baseline is comparable across machines.
+
+Usage:
+    python benchmarks/bench_models.py [--threads 2] [--repeats 30] [--out FILE.json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import statistics
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+TARGET_MS = {"segmentation": 40.0, "corridor": 30.0}
+
+
+def _session(path: Path, threads: int) -> Any:
+    import onnxruntime as ort
+
+    options = ort.SessionOptions()
+    options.intra_op_num_threads = threads
+    options.inter_op_num_threads = 1
+    return ort.InferenceSession(str(path), options, providers=["CPUExecutionProvider"])
+
+
+def _median_ms(session: Any, tensor: np.ndarray, repeats: int) -> float:
+    name = session.get_inputs()[0].name
+    for _ in range(3):
+        session.run(None, {name: tensor})
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        session.run(None, {name: tensor})
+        times.append(1000.0 * (time.perf_counter() - start))
+    return statistics.median(times)
+
+
+def _export(model: Any, shape: tuple[int, ...], path: Path, outputs: list[str]) -> None:
+    from superlane_tools.training.export import export_onnx
+
+    export_onnx(model, shape, path, "image", outputs)
+
+
+def _baseline(shape: tuple[int, ...], path: Path) -> None:
+    import torch
+
+    _export(torch.nn.Conv2d(shape[1], 16, 3, padding=1), shape, path, ["features"])
+
+
+def _model_file(task: str, scratch: Path) -> tuple[Path, str, tuple[int, ...]]:
+    from superlane_tools.models import MODELS_DIR
+    from superlane_tools.scene.model_card import load_card
+
+    name = "super_seg_v1" if task == "segmentation" else "ego_corridor_v1"
+    shipped = MODELS_DIR / f"{name}.onnx"
+    if shipped.is_file():
+        card = load_card(MODELS_DIR / f"{name}.card.yaml")
+        return shipped, f"shipped {name}", card.input.shape
+    from superlane_tools.scene.adapters.heads import HEADS
+    from superlane_tools.training.corridor_net import EgoCorridorNet
+    from superlane_tools.training.seg_net import HierarchicalSegNet
+
+    if task == "segmentation":
+        shape: tuple[int, ...] = (1, 3, 288, 512)
+        net: Any = HierarchicalSegNet()
+        outputs = [h.name for h in HEADS]
+    else:
+        shape, net, outputs = (1, 1, 360, 652), EgoCorridorNet(), ["corridor"]
+    path = scratch / f"{task}.onnx"
+    _export(net, shape, path, outputs)
+    return path, f"untrained {task} architecture (no shipped model)", shape
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--repeats", type=int, default=30)
+    ap.add_argument("--out", type=Path, default=Path("benchmarks/results/models.json"))
+    args = ap.parse_args()
+    results: dict[str, Any] = {
+        "machine": f"{platform.machine()} {os.cpu_count()} cpus, {args.threads} threads",
+        "runtime": "onnxruntime CPUExecutionProvider, network only, batch 1",
+        "models": {},
+    }
+    with tempfile.TemporaryDirectory() as tmp:
+        scratch = Path(tmp)
+        for task in ("segmentation", "corridor"):
+            path, what, shape = _model_file(task, scratch)
+            tensor = np.random.default_rng(0).normal(size=shape).astype(np.float32)
+            _baseline(shape, scratch / f"{task}_baseline.onnx")
+            model_ms = _median_ms(_session(path, args.threads), tensor, args.repeats)
+            base_ms = _median_ms(
+                _session(scratch / f"{task}_baseline.onnx", args.threads), tensor, args.repeats
+            )
+            results["models"][task] = {
+                "model": what,
+                "input": f"{shape[3]}x{shape[2]}x{shape[1]}",
+                "median_ms": round(model_ms, 2),
+                "baseline_conv3x3_ms": round(base_ms, 2),
+                "ratio_to_baseline": round(model_ms / base_ms, 2),
+                "target_ms": TARGET_MS[task],
+                "meets_target": model_ms <= TARGET_MS[task],
+            }
+            print(f"{task}: {model_ms:.1f} ms (baseline {base_ms:.1f} ms) {what}")
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(json.dumps(results, indent=2) + "\n", encoding="utf-8")
+    print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()

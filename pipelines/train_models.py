@@ -1,0 +1,224 @@
+"""Train, evaluate and (optionally) ship the scene models: segmentation and ego corridor.
+
+Steps, all seeded:
+
+1. Simulate a training set and a held-out set (``slt simulate dataset``; different seeds, so
+   different worlds). ``--toy`` uses the procedural toy dataset instead (no simulator needed).
+2. Train both networks on CPU (``slt train segmentation|corridor``), export ONNX + model cards.
+3. Evaluate: held-out simulator metrics (mIoU per level, lane-marking IoU, corridor IoU), real
+   frames (TuSimple: labelled lane points on predicted markings; KITTI: ego-lane IoU), and the
+   onnxruntime milliseconds per frame; the numbers go into the model cards.
+4. ``--ship``: copy models and cards into ``superlane_tools/models/``.
+
+The exact commands run are recorded in each card (the library is called directly, with the
+equivalent ``slt`` command line recorded, so the pipeline also runs before ``slt train`` is
+wired into the CLI).
+
+Usage:
+    python pipelines/train_models.py [--quick] [--toy] [--work DIR] [--out DIR] [--ship]
+        [--train-frames N] [--test-frames N] [--seg-epochs N] [--corridor-epochs N]
+        [--realdata DIR] [--json results.json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+REPO = Path(__file__).resolve().parents[1]
+TRAIN_SEED, TEST_SEED, MODEL_SEED = 11, 99, 0
+SEG_NAME, COR_NAME = "super_seg_v1", "ego_corridor_v1"
+
+
+@dataclass(frozen=True)
+class Plan:
+    """Sizes of one pipeline run."""
+
+    train_frames: int
+    test_frames: int
+    image_size: tuple[int, int]
+    seg_size: tuple[int, int]
+    seg_crop: tuple[int, int] | None
+    cor_size: tuple[int, int]
+    cor_crop: tuple[int, int] | None
+    seg_epochs: int
+    cor_epochs: int
+    batch: int
+
+
+FULL = Plan(300, 40, (640, 360), (512, 288), (256, 160), (652, 360), (320, 192), 12, 8, 8)
+QUICK = Plan(4, 2, (256, 144), (128, 72), None, (163, 90), None, 1, 1, 2)
+
+
+def _size(size: tuple[int, int]) -> str:
+    return f"{size[0]}x{size[1]}"
+
+
+def make_dataset(folder: Path, frames: int, seed: int, size: tuple[int, int], toy: bool) -> str:
+    """Write a dataset into ``folder`` (reused if its index exists); return the command."""
+    if toy:
+        from superlane_tools.training.toy_dataset import write_toy_dataset
+
+        command = f"write_toy_dataset({str(folder)!r}, frames={frames}, seed={seed})"
+        if not (folder / "index.parquet").is_file():
+            write_toy_dataset(folder, frames, size[0], size[1], seed)
+        return command
+    from superlane_tools.simulation.dataset import simulate_dataset
+
+    command = (
+        f"slt simulate dataset --out {folder} --frames {frames} --seed {seed} "
+        f"--width {size[0]} --height {size[1]}"
+    )
+    if not (folder / "index.parquet").is_file():
+        simulate_dataset(folder, frames, None, seed, size[0], size[1], command=command)
+    return command
+
+
+def train_one(
+    task: str, data: Path, out: Path, plan: Plan, threads: int
+) -> tuple[float, dict[str, Any]]:
+    """Train one model; return (seconds, training summary)."""
+    from superlane_tools.training.train import TrainParams, train
+
+    seg = task == "segmentation"
+    size, crop = (plan.seg_size, plan.seg_crop) if seg else (plan.cor_size, plan.cor_crop)
+    epochs = plan.seg_epochs if seg else plan.cor_epochs
+    command = (
+        f"slt train {task} --data {data} --out {out} --epochs {epochs} --batch {plan.batch} "
+        f"--size {_size(size)} --seed {MODEL_SEED}" + (f" --crop {_size(crop)}" if crop else "")
+    )
+    params = TrainParams(
+        task,
+        data,
+        out,
+        epochs=epochs,
+        batch=plan.batch,
+        size=size,
+        crop=crop,
+        seed=MODEL_SEED,
+        threads=threads,
+        name=out.name.removesuffix(".onnx"),
+        command=command,
+    )
+    start = time.perf_counter()
+    last = [0.0]
+
+    def progress(step: int, total: int, loss: float) -> None:
+        if time.perf_counter() - last[0] > 30 or step == total:
+            last[0] = time.perf_counter()
+            print(f"  {task}: step {step}/{total} loss {loss:.4f}", flush=True)
+
+    result = train(params, progress)
+    return time.perf_counter() - start, {"epoch_losses": [round(v, 4) for v in result.epoch_losses]}
+
+
+def evaluate(seg: Path, cor: Path, test: Path, realdata: Path | None) -> dict[str, Any]:
+    """Evaluate both models; write metrics and timings into their cards; return them."""
+    from superlane_tools.training.evaluate import (
+        evaluate_corridor_on_dataset,
+        evaluate_segmentation_on_dataset,
+        kitti_ego_lane_iou,
+        time_model,
+        tusimple_marking_hit_rate,
+        update_card,
+    )
+
+    results: dict[str, Any] = {}
+    seg_metrics: dict[str, Any] = {"sim_heldout": evaluate_segmentation_on_dataset(seg, test)}
+    cor_metrics: dict[str, Any] = {"sim_heldout": evaluate_corridor_on_dataset(cor, test)}
+    if realdata is not None and (realdata / "tusimple" / "frames" / "labels.json").is_file():
+        seg_metrics["tusimple_frames"] = tusimple_marking_hit_rate(
+            seg, realdata / "tusimple" / "frames"
+        )
+    if realdata is not None and (realdata / "kitti_road").is_dir():
+        cor_metrics["kitti_road_um_000000"] = kitti_ego_lane_iou(cor, realdata / "kitti_road")
+    results["segmentation"] = update_card(seg, seg_metrics, time_model(seg, "segmentation"))
+    results["corridor"] = update_card(cor, cor_metrics, time_model(cor, "corridor"))
+    return {k: {"metrics": v.metrics, "ms_per_frame": v.ms_per_frame} for k, v in results.items()}
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the pipeline; return the exit status."""
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+    ap.add_argument("--quick", action="store_true", help="tiny datasets, 1 epoch (CI)")
+    ap.add_argument("--toy", action="store_true", help="toy dataset instead of the simulator")
+    ap.add_argument("--work", type=Path, default=Path("work/train_models"), help="datasets")
+    ap.add_argument("--out", type=Path, default=Path("work/train_models/models"), help="models")
+    ap.add_argument("--ship", action="store_true", help="copy models into superlane_tools/models")
+    ap.add_argument("--train-frames", type=int, help="override the training set size")
+    ap.add_argument("--test-frames", type=int, help="override the held-out set size")
+    ap.add_argument("--seg-epochs", type=int, help="override segmentation epochs")
+    ap.add_argument("--corridor-epochs", type=int, help="override corridor epochs")
+    ap.add_argument("--threads", type=int, default=2, help="torch / onnxruntime threads")
+    ap.add_argument(
+        "--realdata",
+        type=Path,
+        default=Path(os.environ.get("SLT_REALDATA", REPO.parent / "shared" / "data")),
+        help="real data folder (TuSimple frames, KITTI road); skipped when absent",
+    )
+    ap.add_argument("--json", type=Path, help="write the results here too")
+    args = ap.parse_args(argv)
+
+    from superlane_tools.training import TrainingError, require_torch
+
+    try:
+        require_torch()
+    except TrainingError as err:
+        print(f"train_models: {err}", file=sys.stderr)
+        return 1
+    plan = QUICK if args.quick else FULL
+    plan = Plan(
+        args.train_frames or plan.train_frames,
+        args.test_frames or plan.test_frames,
+        plan.image_size,
+        plan.seg_size,
+        plan.seg_crop,
+        plan.cor_size,
+        plan.cor_crop,
+        args.seg_epochs or plan.seg_epochs,
+        args.corridor_epochs or plan.cor_epochs,
+        plan.batch,
+    )
+    kind = "toy" if args.toy else "sim"
+    train_dir = args.work / f"{kind}_train_{plan.train_frames}_{_size(plan.image_size)}"
+    test_dir = args.work / f"{kind}_test_{plan.test_frames}_{_size(plan.image_size)}"
+    print(f"datasets: {train_dir}, {test_dir}", flush=True)
+    commands = {
+        "train_dataset": make_dataset(
+            train_dir, plan.train_frames, TRAIN_SEED, plan.image_size, args.toy
+        ),
+        "test_dataset": make_dataset(
+            test_dir, plan.test_frames, TEST_SEED, plan.image_size, args.toy
+        ),
+    }
+    args.out.mkdir(parents=True, exist_ok=True)
+    seg, cor = args.out / f"{SEG_NAME}.onnx", args.out / f"{COR_NAME}.onnx"
+    timings = {}
+    for task, path in (("segmentation", seg), ("corridor", cor)):
+        seconds, summary = train_one(task, train_dir, path, plan, args.threads)
+        timings[task] = {"train_seconds": round(seconds, 1), **summary}
+        print(f"trained {task} in {seconds:.0f} s -> {path}", flush=True)
+    realdata = args.realdata if (args.realdata / "README.md").is_file() else None
+    results = {"commands": commands, "training": timings, **evaluate(seg, cor, test_dir, realdata)}
+    print(json.dumps(results, indent=2, default=str))
+    if args.json:
+        args.json.write_text(json.dumps(results, indent=2, default=str), encoding="utf-8")
+    if args.ship:
+        target = REPO / "superlane_tools" / "models"
+        for path in (seg, cor):
+            card = path.with_name(path.name.removesuffix(".onnx") + ".card.yaml")
+            shutil.copy(path, target / path.name)
+            shutil.copy(card, target / card.name)
+        print(f"shipped {seg.name}, {cor.name} into {target}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,93 @@
+"""Run reports: Markdown and a self-contained-looking HTML with the tables and plots."""
+
+from __future__ import annotations
+
+import html
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any, NamedTuple
+
+import pandas as pd
+
+from superlane_tools.reporting.atomic import write_text_atomic
+
+
+class Section(NamedTuple):
+    """One report section: a title, paragraphs / bullets, tables and images.
+
+    Attributes:
+        title: Heading.
+        lines: Markdown lines (bullets start with ``- ``).
+        tables: DataFrames shown as tables.
+        images: Image paths relative to the report.
+    """
+
+    title: str
+    lines: Sequence[str] = ()
+    tables: Sequence[pd.DataFrame] = ()
+    images: Sequence[str] = ()
+
+
+def _fmt(value: Any) -> str:
+    if isinstance(value, float):
+        if value != value:  # NaN
+            return "n/a"
+        return f"{value:.3g}" if abs(value) < 1e-2 or abs(value) >= 1e4 else f"{value:.3f}"
+    if value is None or value is pd.NA:
+        return "n/a"
+    return str(value)
+
+
+def markdown_table(frame: pd.DataFrame) -> str:
+    """Return a GitHub-flavoured Markdown table of a DataFrame (floats to 3 significant digits)."""
+    cols = [str(c) for c in frame.columns]
+    lines = ["| " + " | ".join(cols) + " |", "|" + "|".join("---" for _ in cols) + "|"]
+    for row in frame.itertuples(index=False):
+        lines.append("| " + " | ".join(_fmt(v) for v in row) + " |")
+    return "\n".join(lines)
+
+
+def html_table(frame: pd.DataFrame) -> str:
+    """Return an HTML table of a DataFrame."""
+    head = "".join(f"<th>{html.escape(str(c))}</th>" for c in frame.columns)
+    body = "".join(
+        "<tr>" + "".join(f"<td>{html.escape(_fmt(v))}</td>" for v in row) + "</tr>"
+        for row in frame.itertuples(index=False)
+    )
+    return f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
+
+
+def write_report(
+    out_dir: Path, title: str, sections: Sequence[Section], html_too: bool = True
+) -> list[Path]:
+    """Write ``report.md`` (and ``report.html``) into ``out_dir``; return the files."""
+    md = [f"# {title}", ""]
+    for sec in sections:
+        md += [f"## {sec.title}", "", *sec.lines, ""]
+        for table in sec.tables:
+            md += [markdown_table(table), ""]
+        for image in sec.images:
+            md += [f"![{Path(image).stem}]({image})", ""]
+    paths = [write_text_atomic(out_dir / "report.md", "\n".join(md))]
+    if html_too:
+        parts = [
+            "<!DOCTYPE html><html><head><meta charset='utf-8'>",
+            f"<title>{html.escape(title)}</title><style>body{{font-family:sans-serif;"
+            "max-width:1100px;margin:auto}table{border-collapse:collapse;margin:8px 0}"
+            "td,th{border:1px solid #ccc;padding:2px 6px;font-size:13px}img{max-width:100%}"
+            "</style></head><body>",
+            f"<h1>{html.escape(title)}</h1>",
+        ]
+        for sec in sections:
+            parts.append(f"<h2>{html.escape(sec.title)}</h2>")
+            bullets = [ln[2:] for ln in sec.lines if ln.startswith("- ")]
+            text = [ln for ln in sec.lines if not ln.startswith("- ") and ln]
+            parts += [f"<p>{html.escape(t)}</p>" for t in text]
+            if bullets:
+                parts.append("<ul>" + "".join(f"<li>{html.escape(b)}</li>" for b in bullets)
+                             + "</ul>")
+            parts += [html_table(t) for t in sec.tables]
+            parts += [f"<img src='{html.escape(i)}' alt='{html.escape(i)}'>" for i in sec.images]
+        parts.append("</body></html>")
+        paths.append(write_text_atomic(out_dir / "report.html", "\n".join(parts)))
+    return paths
