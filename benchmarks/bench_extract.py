@@ -10,6 +10,7 @@ extract on the 60 s recording and on a 10x longer one, each in a fresh subproces
 from __future__ import annotations
 
 import json
+import os
 import shutil
 import statistics
 import subprocess
@@ -21,7 +22,10 @@ from pathlib import Path
 import numpy as np
 
 RESULTS = Path(__file__).resolve().parent / "results" / "extract.json"
-FRAMES = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "tusimple" / "frames"
+REALDATA = Path(
+    os.environ.get("SLT_REALDATA", Path(__file__).resolve().parents[2] / "shared" / "data")
+)
+FRAMES = REALDATA / "tusimple" / "frames"
 T0 = 1_700_000_000_000_000_000
 DBC = """VERSION ""
 
@@ -40,26 +44,18 @@ BO_ 256 Motion: 8 ECU
 def jpeg_pool(quality: int = 90) -> list[bytes]:
     """Realistic 1280x720 camera JPEGs: the real TuSimple frames encoded at ``quality``.
 
-    Falls back to the simulator's rendered road frames when the shared data is absent.
+    About 160 KB per frame (a real highway camera's JPEG size); needs the shared data folder
+    (``$SLT_REALDATA`` or ``../shared/data``).
     """
     import cv2
 
-    pngs = sorted(FRAMES.glob("*.png")) + sorted((FRAMES / "unlabeled").glob("*.png"))
-    images = [cv2.imread(str(p), cv2.IMREAD_COLOR) for p in pngs]
+    files = sorted(FRAMES.glob("*.png")) + sorted((FRAMES / "unlabeled").glob("*.jpg"))
+    images = [cv2.imread(str(p), cv2.IMREAD_COLOR) for p in files]
     images = [cv2.resize(i, (1280, 720)) for i in images if i is not None]
     if not images:
-        images = simulated_frames()
+        raise SystemExit(f"no TuSimple frames under {FRAMES}: set SLT_REALDATA")
     params = [cv2.IMWRITE_JPEG_QUALITY, quality]
     return [cv2.imencode(".jpg", img, params)[1].tobytes() for img in images]
-
-
-def simulated_frames(count: int = 10) -> list[np.ndarray]:
-    """Road frames from the simulator's renderer (used when the TuSimple frames are absent)."""
-    import inspect
-
-    from superlane_tools.simulation import render
-
-    raise RuntimeError(f"no TuSimple frames under {FRAMES}; see {inspect.getfile(render)}")
 
 
 def make_recording(path: Path, seconds: int, pool: list[bytes]) -> None:

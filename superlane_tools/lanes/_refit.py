@@ -14,7 +14,6 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.intp]
 
@@ -37,8 +36,8 @@ def _solve(design: FloatArray, target: FloatArray, sqrt_w: FloatArray) -> FloatA
     t = target * sqrt_w
     normal = a.T @ a
     normal[np.diag_indices_from(normal)] += 1e-9 * (np.trace(normal) / normal.shape[0] + 1.0)
-    out: FloatArray = np.linalg.solve(normal, a.T @ t)
-    return out
+    out = np.linalg.solve(normal, a.T @ t)
+    return np.asarray(out, dtype=np.float64)
 
 
 def refit_shared(

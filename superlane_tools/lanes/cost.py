@@ -24,7 +24,6 @@ from numpy.typing import NDArray
 FloatArray = NDArray[np.float64]
 
 
-
 class Histogram(NamedTuple):
     """Layout of the offset histogram of Eq. 2.
 

@@ -1,4 +1,4 @@
-"""Parameters of the SUPER multi-lane fit (paper section III), with the paper's values as defaults."""
+"""Parameters of the SUPER multi-lane fit (paper section III); the paper's values are defaults."""
 
 from __future__ import annotations
 

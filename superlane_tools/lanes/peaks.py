@@ -63,9 +63,9 @@ def merge_close(offsets: FloatArray, min_gap_m: float) -> FloatArray:
     return np.asarray(keep, dtype=np.float64)
 
 
-def assign(residual_m: FloatArray, offsets: FloatArray, radius_m: FloatArray | float) -> NDArray[
-    np.intp
-]:
+def assign(
+    residual_m: FloatArray, offsets: FloatArray, radius_m: FloatArray | float
+) -> NDArray[np.intp]:
     """Assign each residual to the nearest offset within ``radius_m`` (else -1).
 
     Args:

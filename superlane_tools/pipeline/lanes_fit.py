@@ -291,8 +291,10 @@ def fit_masks(
             height, width = mask.shape
             cam = cameras.get((width, height))
             if cam is None:
-                cam = camera if camera.width == width and camera.height == height else (
-                    camera.resized(width, height)
+                cam = (
+                    camera
+                    if camera.width == width and camera.height == height
+                    else (camera.resized(width, height))
                 )
                 cameras[(width, height)] = cam
             pts = mask_points(mask, classes, p.seed)

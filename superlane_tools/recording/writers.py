@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import shutil
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 from types import TracebackType
 from typing import TYPE_CHECKING, Any, Literal, Protocol, Self, get_args
@@ -96,6 +96,9 @@ class _McapBackend:
             publish_time=log_time_ns,
             sequence=self._sequence[topic],
         )
+
+    def add_metadata(self, name: str, data: Mapping[str, str]) -> None:
+        self._writer.add_metadata(name=name, data=dict(data))
 
     def close(self) -> None:
         try:
@@ -207,6 +210,16 @@ class RecordingWriter:
             raise RecordingError(
                 f"cannot serialize a message for {topic} ({self._topics[topic]}): {err}"
             ) from err
+
+    def add_metadata(self, name: str, data: Mapping[str, str]) -> None:
+        """Add a named metadata record of string pairs (MCAP formats only).
+
+        Raises:
+            RecordingError: For bag formats, which have no metadata records.
+        """
+        if not isinstance(self._backend, _McapBackend):
+            raise RecordingError(f"metadata records are an MCAP feature; {self.fmt} has none")
+        self._backend.add_metadata(name, {str(k): str(v) for k, v in data.items()})
 
     def close(self) -> None:
         """Finish the recording and move it into place."""

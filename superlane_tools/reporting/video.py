@@ -1,4 +1,4 @@
-"""Overlay drawing and the review video (``overlay.mp4``, cv2 ``mp4v``), written atomically."""
+"""Overlay drawing and the review video (``overlay.mp4``, cv2 ``mp4v``), renamed into place."""
 
 from __future__ import annotations
 
@@ -9,7 +9,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from superlane_tools.reporting.atomic import atomic_path
 from superlane_tools.reporting.errors import OutputError
 
 COLOURS_BGR = {"white": (255, 255, 255), "yellow": (0, 215, 255), "unknown": (255, 255, 0)}
@@ -79,8 +78,12 @@ class OverlayVideo:
     def __init__(self, path: Path, fps: float) -> None:
         self.path = path
         self.fps = fps
-        self._ctx = atomic_path(path, suffix=".mp4")
-        self._tmp = self._ctx.__enter__()
+        # cv2 picks the container from the name's extension, so the temporary ends in .mp4
+        self._tmp = path.with_name(f".{path.name}.partial.mp4")
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as err:
+            raise OutputError(f"cannot write {path}: {err.strerror}") from err
         self._writer: Any = None
         self._size: tuple[int, int] | None = None
         self.frames = 0
@@ -112,6 +115,9 @@ class OverlayVideo:
         """Finish the file; return its path, or None when discarded or empty."""
         if self._writer is not None:
             self._writer.release()
-        keep = ok and self.frames > 0
-        self._ctx.__exit__(None if keep else RuntimeError, None, None)
+        keep = ok and self.frames > 0 and self._tmp.is_file()
+        if keep:
+            self._tmp.replace(self.path)
+        else:
+            self._tmp.unlink(missing_ok=True)
         return self.path if keep else None

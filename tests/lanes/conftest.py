@@ -43,7 +43,9 @@ def render_lanes(
         pix.append(uv[front])
     lane = np.unique(np.round(np.concatenate(pix)).astype(np.int64), axis=0)
     inside = (
-        (lane[:, 0] >= 0) & (lane[:, 0] < camera.width) & (lane[:, 1] >= 0)
+        (lane[:, 0] >= 0)
+        & (lane[:, 0] < camera.width)
+        & (lane[:, 1] >= 0)
         & (lane[:, 1] < camera.height)
     )
     lane = lane[inside].astype(np.float64)

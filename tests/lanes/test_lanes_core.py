@@ -36,8 +36,15 @@ def test_batch_cost_equals_single_evaluations() -> None:
     iq = rng.uniform(1 / 80, 1 / 5, 400)
     r = rng.normal(0.0, 0.2, 400)
     cost = CostFunction(
-        iq, r, 1.5, 200.0, Histogram.symmetric(15, 0.1), 2.0,
-        iq[:100], r[:100], lambda_road=0.001,
+        iq,
+        r,
+        1.5,
+        200.0,
+        Histogram.symmetric(15, 0.1),
+        2.0,
+        iq[:100],
+        r[:100],
+        lambda_road=0.001,
     )
     thetas = np.array([[0.0, 0.0, 0.0, 0.0], [0.02, -0.001, 0.03, 0.5], [-0.1, 0.002, -0.04, 1]])
     np.testing.assert_allclose(cost.batch(thetas), [cost(t) for t in thetas], rtol=1e-9)
@@ -62,7 +69,8 @@ def test_ray_form_matches_paper_eq10() -> None:
     xr, yr, okr = ray_points(1 / xf, yf / xf, 0.03, 1.5, 1000.0)
     np.testing.assert_allclose(x, xr)
     np.testing.assert_allclose(y, yr)
-    assert ok.all() and okr.all()
+    assert ok.all()
+    assert okr.all()
     # Eq. 10 in the paper's frame: y_fwd = yt / (yt b / h + 1), x_lat = xt (h - b y_fwd) / h.
     np.testing.assert_allclose(x, xf / (xf * 0.03 / 1.5 + 1))
     np.testing.assert_allclose(y, yf * (1.5 - 0.03 * x) / 1.5)
@@ -70,9 +78,13 @@ def test_ray_form_matches_paper_eq10() -> None:
 
 def test_find_offsets_keeps_small_outer_line() -> None:
     rng = np.random.default_rng(0)
-    res = np.concatenate([
-        rng.normal(-1.8, 0.03, 900), rng.normal(1.9, 0.03, 900), rng.normal(5.6, 0.03, 12),
-    ])
+    res = np.concatenate(
+        [
+            rng.normal(-1.8, 0.03, 900),
+            rng.normal(1.9, 0.03, 900),
+            rng.normal(5.6, 0.03, 12),
+        ]
+    )
     offsets = find_offsets(res, FitParams())
     np.testing.assert_allclose(offsets, [-1.8, 1.9, 5.6], atol=0.03)
 
@@ -118,11 +130,15 @@ def test_reasons_for_unfittable_frames(camera_factory, renderer) -> None:
     assert fit_frame(np.array([[640.0, 100.0]]), None, cam).reason == "no lane pixels"
     one, road = renderer(cam, [-1.8], 0.01, 0.0, 0.0)
     fit = fit_frame(one, None, cam)
-    assert fit.reason == "one line" and len(fit.lanes) == 1
+    assert fit.reason == "one line"
+    assert len(fit.lanes) == 1
     assert abs(fit.lanes[0].offset_m + 1.8) < 0.1
-    assert fit.ego_right == 0 and fit.ego_left == -1 and math.isnan(fit.lane_width_m)
+    assert fit.ego_right == 0
+    assert fit.ego_left == -1
+    assert math.isnan(fit.lane_width_m)
     only_road = fit_frame(np.empty((0, 2)), road, cam)
-    assert only_road.reason == "all road" and not only_road.lanes
+    assert only_road.reason == "all road"
+    assert not only_road.lanes
     assert abs(only_road.road_centre_m + 1.8) < 0.5
 
 

@@ -34,7 +34,11 @@ def scenes(draw: st.DrawFn) -> dict[str, object]:
     }
 
 
-@settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@settings(
+    max_examples=20,
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture],
+)
 @given(scene=scenes())
 def test_fit_recovers_random_scene(scene: dict, renderer, camera_factory) -> None:
     camera = camera_factory(scene["height"], scene["pitch"], scene["focal"])

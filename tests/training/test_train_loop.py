@@ -1,4 +1,4 @@
-"""Training loop, export and card: a tiny model trains, exports, and onnxruntime agrees with torch."""
+"""Training loop, export and card: a tiny model trains and exports; onnxruntime matches torch."""
 
 from __future__ import annotations
 
@@ -74,7 +74,7 @@ def test_card_is_written_beside_the_model(
         card = load_card(result.card_path)
         assert card.task == task
         assert card.sha256 == file_sha256(result.model_path)
-        assert card.input.width == 64 and card.input.height == 32
+        assert (card.input.width, card.input.height) == (64, 32)
         assert card.training["seed"] == 0
         assert card.training["onnx_vs_torch_max_abs_diff"] < 1e-4
     assert load_card(tiny_seg.card_path).input.color_order == "RGB"
@@ -82,7 +82,7 @@ def test_card_is_written_beside_the_model(
 
 
 def test_missing_dataset_is_a_training_error(tmp_path: Path) -> None:
-    with pytest.raises(TrainingError, match="no index.parquet"):
+    with pytest.raises(TrainingError, match=r"no index\.parquet"):
         train(TrainParams("corridor", tmp_path, tmp_path / "m.onnx"))
     with pytest.raises(TrainingError, match="unknown task"):
         train(TrainParams("detection", tmp_path, tmp_path / "m.onnx"))

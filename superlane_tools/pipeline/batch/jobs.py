@@ -117,9 +117,7 @@ def _extract_run(
     )
 
 
-EXTRACT = JobKind(
-    "extract", _extract_check, _extract_identities, _extract_load, _extract_run, True
-)
+EXTRACT = JobKind("extract", _extract_check, _extract_identities, _extract_load, _extract_run, True)
 
 
 # --- registry -------------------------------------------------------------------------------
@@ -155,3 +153,35 @@ def job_kind(name: str) -> JobKind:
 
         return _reprocess_job.REPROCESS
     raise UsageError(f"unknown job kind {name!r}: use 'reprocess' or 'extract'")
+
+
+def load_config_file(path: str | Path) -> dict[str, Any]:
+    """Read a job configuration mapping from a ``.toml``, ``.yaml``/``.yml`` or ``.json`` file.
+
+    Raises:
+        ConfigError: If the file cannot be read or is not a mapping.
+    """
+    import json
+
+    src = Path(path)
+    try:
+        text = src.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as err:
+        raise ConfigError(f"cannot read config {src}: {err}") from err
+    suffix = src.suffix.lower()
+    try:
+        if suffix == ".toml":
+            import tomllib
+
+            data: Any = tomllib.loads(text)
+        elif suffix == ".json":
+            data = json.loads(text)
+        else:
+            import yaml
+
+            data = yaml.safe_load(text) or {}
+    except Exception as err:  # TOMLDecodeError, JSONDecodeError, YAMLError
+        raise ConfigError(f"{src}: cannot parse config: {err}") from err
+    if not isinstance(data, dict):
+        raise ConfigError(f"{src}: the config must be a mapping")
+    return data

@@ -14,6 +14,8 @@ from superlane_tools.errors import UsageError
 from superlane_tools.pipeline.batch.engine import Job, OnDone, error_line, failed_outcome
 from superlane_tools.pipeline.batch.worker import execute, init_worker
 
+WORKER_MODULE = "superlane_tools.pipeline.batch.worker"
+"""Imported once by the fork server; every worker forked from it starts with it loaded."""
 THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 """Native thread-pool sizes set for the workers (unless already set), so N workers share the
 cores instead of each starting one thread per core."""
@@ -28,7 +30,7 @@ def default_workers() -> int:
 
 
 class LocalEngine:
-    """Run jobs in a ``ProcessPoolExecutor`` (``spawn`` context by default).
+    """Run jobs in a ``ProcessPoolExecutor`` (``forkserver`` context by default).
 
     Each worker process runs :func:`~.worker.init_worker` once (the job kind's ONNX sessions,
     DBCs), then one recording per task. A worker that dies (segfault, out of memory) fails only
@@ -38,7 +40,9 @@ class LocalEngine:
         kind: Job kind name.
         config: Batch configuration the workers load models with.
         workers: Worker processes (default: CPUs available).
-        start_method: ``spawn`` or ``forkserver`` (never ``fork``: unsafe with threads).
+        start_method: ``forkserver`` (default: workers fork from a server that has imported the
+            package once, so pools start fast) or ``spawn`` (never ``fork``: unsafe with
+            threads).
     """
 
     name = "local"
@@ -48,7 +52,7 @@ class LocalEngine:
         kind: str,
         config: Mapping[str, Any],
         workers: int | None = None,
-        start_method: str = "spawn",
+        start_method: str = "forkserver",
     ) -> None:
         if workers is not None and workers < 1:
             raise UsageError(f"--workers must be >= 1, got {workers}")
@@ -70,9 +74,12 @@ class LocalEngine:
         return max(1, default_workers() // self._workers)
 
     def _start(self) -> ProcessPoolExecutor:
+        context = multiprocessing.get_context(self._method)
+        if self._method == "forkserver":
+            context.set_forkserver_preload([WORKER_MODULE])
         return ProcessPoolExecutor(
             max_workers=self._workers,
-            mp_context=multiprocessing.get_context(self._method),
+            mp_context=context,
             initializer=init_worker,
             initargs=(self._kind, self._config, self._threads()),
         )

@@ -91,7 +91,9 @@ def expand_inputs(inputs: Sequence[Path]) -> list[BatchEntry]:
         if path.is_dir() and not is_ros2_bag(path):
             found = list(find_recordings(path))
             if not found:
-                raise UsageError(f"{path}: no recordings found (*.mcap, *.bag, ROS 2 bags, CAN logs)")
+                raise UsageError(
+                    f"{path}: no recordings found (*.mcap, *.bag, ROS 2 bags, CAN logs)"
+                )
             entries.extend(BatchEntry(p) for p in found)
         else:
             entries.append(BatchEntry(path))
@@ -144,7 +146,7 @@ def _rows(path: Path) -> list[Mapping[str, Any]]:
         raise
     except Exception as err:  # pandas/pyarrow/yaml raise many types for unreadable files
         raise ConfigError(f"{path}: cannot read manifest: {err}") from err
-    return [dict(r) for r in frame.to_dict(orient="records")]
+    return [{str(k): v for k, v in r.items()} for r in frame.to_dict(orient="records")]
 
 
 def read_manifest(path: str | os.PathLike[str]) -> list[BatchEntry]:

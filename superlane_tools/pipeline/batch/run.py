@@ -128,8 +128,13 @@ def config_sha256(config: Mapping[str, Any]) -> str:
 def job_key(sha256: str, kind: str, models: Mapping[str, str], config_hash: str) -> str:
     """Return the idempotency key: content + tool version + job kind + models + config."""
     text = json.dumps(
-        {"input": sha256, "tool": __version__, "kind": kind, "models": dict(models),
-         "config": config_hash},
+        {
+            "input": sha256,
+            "tool": __version__,
+            "kind": kind,
+            "models": dict(models),
+            "config": config_hash,
+        },
         sort_keys=True,
     )
     return hashlib.sha256(text.encode()).hexdigest()[:24]
@@ -270,8 +275,23 @@ def run_batch(
                 rid = _fallback_id(entry)
                 counts["failed"] += 1
                 failures[rid] = row_base
-                status.update(_row(entry, rid, "", 0, 0, "failed", "failed", row_base, kind_name,
-                                   models, config_hash, "", params.engine))
+                status.update(
+                    _row(
+                        entry,
+                        rid,
+                        "",
+                        0,
+                        0,
+                        "failed",
+                        "failed",
+                        row_base,
+                        kind_name,
+                        models,
+                        config_hash,
+                        "",
+                        params.engine,
+                    )
+                )
                 continue
             sha, size, mtime = row_base
             rid = recording_id(entry, sha)
@@ -285,11 +305,25 @@ def run_batch(
                 counts["skipped"] += 1
                 done_status = str(marker.get("status", "ok"))
                 status.update(
-                    _row(entry, rid, sha, size, mtime, "skipped", done_status,
-                         str(marker.get("note", "")), kind_name, models, config_hash, key,
-                         params.engine, timings=marker.get("timings") or {},
-                         outputs=int(marker.get("outputs", 0)),
-                         frames=int(marker.get("frames", 0)), attempts=0),
+                    _row(
+                        entry,
+                        rid,
+                        sha,
+                        size,
+                        mtime,
+                        "skipped",
+                        done_status,
+                        str(marker.get("note", "")),
+                        kind_name,
+                        models,
+                        config_hash,
+                        key,
+                        params.engine,
+                        timings=marker.get("timings") or {},
+                        outputs=int(marker.get("outputs", 0)),
+                        frames=int(marker.get("frames", 0)),
+                        attempts=0,
+                    ),
                     write=False,
                 )
                 continue
@@ -300,20 +334,28 @@ def run_batch(
         by_id = {p.job.recording_id: p for p in planned}
         total = len(planned)
         finished = 0
-        with engine:
+        workers = 0
+        with engine if planned else contextlib.nullcontext(engine):
             pending = [p.job for p in planned]
             for attempt in range(1, params.retries + 2):
                 retry: list[Job] = []
 
-                def on_done(outcome: JobOutcome, attempt: int = attempt,
-                            retry: list[Job] = retry) -> None:
+                def on_done(
+                    outcome: JobOutcome, attempt: int = attempt, retry: list[Job] = retry
+                ) -> None:
                     nonlocal finished
                     plan = by_id[outcome.recording_id]
                     last_try = attempt > params.retries
                     if outcome.status == "failed" and not last_try:
                         retry.append(
-                            Job(plan.job.recording, plan.job.out_dir, plan.job.config,
-                                plan.job.key, plan.job.kind, attempt + 1)
+                            Job(
+                                plan.job.recording,
+                                plan.job.out_dir,
+                                plan.job.config,
+                                plan.job.key,
+                                plan.job.kind,
+                                attempt + 1,
+                            )
                         )
                     else:
                         finished += 1
@@ -321,18 +363,35 @@ def run_batch(
                         if outcome.status == "failed":
                             failures[outcome.recording_id] = outcome.error
                     status.update(
-                        _row(plan.entry, outcome.recording_id, plan.sha256, plan.size_bytes,
-                             plan.mtime_ns, outcome.status, outcome.status, outcome.error,
-                             kind_name, models, config_hash, outcome.key, engine.name,
-                             timings=outcome.timings, outputs=outcome.outputs,
-                             frames=outcome.frames, attempts=attempt, host=outcome.host)
+                        _row(
+                            plan.entry,
+                            outcome.recording_id,
+                            plan.sha256,
+                            plan.size_bytes,
+                            plan.mtime_ns,
+                            outcome.status,
+                            outcome.status,
+                            outcome.error,
+                            kind_name,
+                            models,
+                            config_hash,
+                            outcome.key,
+                            engine.name,
+                            timings=outcome.timings,
+                            outputs=outcome.outputs,
+                            frames=outcome.frames,
+                            attempts=attempt,
+                            host=outcome.host,
+                        )
                     )
                     tell("running", finished, total, outcome)
 
                 if pending:
                     engine.run(pending, on_done)
                 pending = retry
-            workers = engine.workers
+            workers = engine.workers if planned else 0
+        with contextlib.suppress(OSError):
+            (root / TMP_DIR).rmdir()  # only when empty
         summary: tuple[Path, ...] = ()
         if params.summary:
             from superlane_tools.pipeline.batch.summary import write_summary

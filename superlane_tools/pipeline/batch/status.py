@@ -153,7 +153,8 @@ class StatusTable:
         self._provenance = Provenance(command=command, config=dict(config))
         frame = read_status(root)
         self._rows: dict[str, dict[str, Any]] = {
-            str(r["recording_id"]): r for r in frame.to_dict(orient="records")
+            str(r["recording_id"]): {str(k): v for k, v in r.items()}
+            for r in frame.to_dict(orient="records")
         }
 
     def previous(self, recording_id: str) -> dict[str, Any] | None:

@@ -24,6 +24,7 @@ from superlane_tools.pipeline.batch.engine import (
     TMP_DIR,
     Job,
     JobOutcome,
+    JobStatus,
     error_line,
     failed_outcome,
     one_line,
@@ -34,6 +35,7 @@ MARKER = ".slt_batch.json"
 """Marker file inside a finalised recording folder: key, status, timings (JSON)."""
 
 _LOADED: dict[str, Any] = {}
+_WINDOW_KEYS = frozenset({"start_s", "end_s", "category", "segments"})
 _HOST = socket.gethostname()
 
 
@@ -116,7 +118,7 @@ def execute(job: Job, batch_config: Mapping[str, Any] | None = None) -> JobOutco
         with contextlib.suppress(OSError):
             shutil.rmtree(tmp)
         return failed_outcome(job, error_line(err), _HOST, pid)
-    status = "partial" if result.status == "partial" else "ok"
+    status: JobStatus = "partial" if result.status == "partial" else "ok"
     return JobOutcome(
         recording_id=job.recording_id,
         key=job.key,
@@ -132,7 +134,7 @@ def execute(job: Job, batch_config: Mapping[str, Any] | None = None) -> JobOutco
 
 
 def _without_window(config: Mapping[str, Any]) -> dict[str, Any]:
-    return {k: v for k, v in config.items() if k not in {"start_s", "end_s"}}
+    return {k: v for k, v in config.items() if k not in _WINDOW_KEYS}
 
 
 def finalise(tmp: Path, final: Path, key: str) -> None:

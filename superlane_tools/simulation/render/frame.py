@@ -8,19 +8,19 @@ from numpy.typing import NDArray
 from superlane_tools.simulation.errors import ScenarioError
 from superlane_tools.simulation.render import weather
 from superlane_tools.simulation.render._rays import camera_rays
-from superlane_tools.simulation.render.objects import draw_objects
+from superlane_tools.simulation.render.objects import draw_objects, shadow_factor
 from superlane_tools.simulation.render.raycast import cast_road, road_coordinates, road_tables
 from superlane_tools.simulation.render.road_shading import DRIVABLE_IDS, line_offset, shade_ground
 from superlane_tools.simulation.render.sensor import finish, look_for
-from superlane_tools.simulation.render.sky import sky_layer
+from superlane_tools.simulation.render.sky import hazed_sky
 from superlane_tools.simulation.render.textures import road_textures
-from superlane_tools.simulation.render.tunnel import draw_tunnel
+from superlane_tools.simulation.render.tunnel import WALL, draw_tunnel
 from superlane_tools.simulation.scene import FrameScene, RenderedFrame, SceneObject
 
 F32 = NDArray[np.float32]
 
-_DRIVABLE_LUT = np.zeros(256, bool)
-_DRIVABLE_LUT[list(DRIVABLE_IDS)] = True
+_DRIVABLE_LUT = np.zeros(256, np.uint8)
+_DRIVABLE_LUT[list(DRIVABLE_IDS)] = 1
 
 
 def render(scene: FrameScene) -> RenderedFrame:
@@ -32,6 +32,8 @@ def render(scene: FrameScene) -> RenderedFrame:
     Raises:
         ScenarioError: If the scene is inconsistent (bad profile, ego line indices).
     """
+    import cv2
+
     road, cond, cam = scene.road, scene.conditions, scene.camera
     n_lines = len(road.lines)
     if not (0 <= scene.ego_left_line < n_lines and 0 <= scene.ego_right_line < n_lines):
@@ -50,53 +52,61 @@ def render(scene: FrameScene) -> RenderedFrame:
     h, w = cam.height, cam.width
 
     night = cond.daylight < 0.25 or cond.tunnel
-    sky = sky_layer(cam, scene.world_seed, cond.sun_elevation_deg, cond.sun_azimuth_rad, night)
+    vis = weather.visibility_m(cond.fog, cond.rain)
+    base = (205.0, 200.0, 196.0) if not night else (30.0, 28.0, 28.0)
+    dim = 0.5 + 0.5 * min(1.0, cond.daylight)
+    hz = (base[0] * dim, base[1] * dim, base[2] * dim)
+    sky = hazed_sky(
+        cam, scene.world_seed, cond.sun_elevation_deg, cond.sun_azimuth_rad, night, cond.fog, hz, vis
+    )
     img = sky.color.copy()
     labels = sky.labels.copy()
     range_m = sky.range_m.copy()
-    if cond.fog > 0:  # fog hides the skyline: the sky is a flat bright grey
-        f = np.float32(min(1.0, cond.fog * 1.3))
-        img += f * (np.float32(205.0 if not night else 40.0) - img)
     gh = ground.labels > 0
     layers = draw_objects(cam, scene.objects, cond.daylight, scene.world_seed)
-    # Lighting of the ground: daylight ambient, headlights at night, object contact shadows.
-    amb = np.float32(0.4 + 0.6 * min(1.0, cond.daylight)) if not cond.tunnel else np.float32(0.45)
-    light: F32 | np.float32 = amb
-    if night:
-        light = amb + weather.headlight_gain(rays, row0, hit.range_m, gh) * np.float32(0.9)
-    if scene.objects:
-        import cv2
 
-        shadow = cv2.GaussianBlur(layers.shadow[row0:], (0, 0), 2.0)
-        light = light * (np.float32(1.0) - np.float32(0.45 + 0.3 * cond.daylight) * shadow)
-    gcol = ground.color
-    if isinstance(light, np.ndarray):
-        gcol *= light[..., None]
+    # Ground: daylight ambient, headlights at night, object contact shadows, then haze.
+    amb = np.float32(0.4 + 0.6 * min(1.0, cond.daylight)) if not cond.tunnel else np.float32(0.45)
+    keep = weather.haze_keep(hit.range_m, vis)
+    add = np.float32(1.0) - keep
+    if night:
+        keep *= amb + weather.headlight_gain(rays, row0, hit.range_m, gh) * np.float32(0.9)
     else:
-        gcol *= light
-    part = img[row0:]
-    np.copyto(part, gcol, where=gh[..., None])
-    labels[row0:][gh] = ground.labels[gh]
-    range_m[row0:] = np.where(gh, hit.range_m, range_m[row0:])
-    ground_mask = np.zeros((h, w), bool)
-    ground_mask[row0:] = gh
+        keep *= amb
+    if scene.objects:
+        keep *= shadow_factor(layers.shadow, row0, (w, h), 0.45 + 0.3 * cond.daylight)
+    gcol = ground.color
+    gcol *= keep[..., None]
+    gcol += add[..., None] * np.array(hz, np.float32)
+    np.copyto(img[row0:], gcol, where=gh[..., None])
+    np.copyto(labels[row0:], ground.labels, where=gh)
+    np.copyto(range_m[row0:], hit.range_m, where=gh)
 
     if cond.tunnel:
+        ground_mask = np.zeros((h, w), bool)
+        ground_mask[row0:] = gh
         draw_tunnel(img, labels, range_m, ground_mask, rays, tables, road, hit)
         gh = ground_mask[row0:]
+        walls = labels == WALL
+        weather.haze_pixels(img, walls, range_m[walls], hz, vis)
 
-    # Objects composite by depth (the road occludes objects beyond a crest).
+    # Objects composite by depth (the road occludes objects beyond a crest), hazed per pixel.
     occl = layers.depth < range_m
     if scene.objects:
-        np.copyto(img, layers.color, where=occl[..., None])
-        np.copyto(labels, layers.labels, where=occl)
-        np.copyto(range_m, layers.depth, where=occl)
-    if cond.wet > 0:
-        gloss = ground.gloss * gh * ~occl[row0:]
-        weather.wet_reflection(img, rays, gloss, row0, cond.wet)
-    elif cond.tar_seams > 0:
-        gloss = ground.gloss * gh * ~occl[row0:] * np.float32(0.5)
-        weather.wet_reflection(img, rays, gloss, row0, 0.3)
+        idx = np.flatnonzero(occl)
+        depth = layers.depth.reshape(-1)[idx]
+        col = layers.color.reshape(-1, 3)[idx].astype(np.float32)
+        weather.haze_colors(col, depth, hz, vis)
+        img.reshape(-1, 3)[idx] = col
+        labels.reshape(-1)[idx] = layers.labels.reshape(-1)[idx]
+    if cond.wet > 0 or cond.tar_seams > 0:
+        gloss = ground.gloss * gh
+        gloss *= ~occl[row0:]
+        if cond.wet > 0:
+            weather.wet_reflection(img, rays, gloss, row0, cond.wet)
+        else:
+            gloss *= np.float32(0.5)
+            weather.wet_reflection(img, rays, gloss, row0, 0.3)
 
     # Corridor: drivable pixels between the ego lane's line centres, up to the corridor length.
     s_ego = float(road_coordinates(tables, np.zeros(1, np.float32), np.zeros(1, np.float32))[0][0])
@@ -112,13 +122,9 @@ def render(scene: FrameScene) -> RenderedFrame:
         & (hit.s_m - np.float32(s_ego) < np.float32(scene.corridor_length_m))
         & (hit.x_m > 0)
     )
-    corridor &= _DRIVABLE_LUT[labels]
+    corridor &= cv2.LUT(labels, _DRIVABLE_LUT).view(bool)
 
-    # Atmosphere, lights, weather, sensor.
-    vis = weather.visibility_m(cond.fog, cond.rain)
-    haze = (205.0, 200.0, 196.0) if not night else (30.0, 28.0, 28.0)
-    hz = tuple(float(c) * (0.5 + 0.5 * min(1.0, cond.daylight)) for c in haze)
-    weather.apply_haze(img, range_m, (hz[0], hz[1], hz[2]), vis)
+    # Lights, weather, sensor.
     if night or cond.fog > 0.3 or cond.rain > 0.3:
         weather.add_lights(img, layers.lights, 0.8 if night else 0.4)
     if cond.rain > 0:

@@ -54,7 +54,10 @@ class Light(NamedTuple):
 
 
 class Layers(NamedTuple):
-    """Full-frame object layers (``depth`` is +inf where no object is drawn)."""
+    """Full-frame object layers (``depth`` is +inf where no object is drawn).
+
+    ``shadow`` (contact shadow darkness 0..1 on the ground) has half the resolution.
+    """
 
     color: U8
     labels: U8
@@ -172,7 +175,8 @@ class _Painter:
         if uv is not None and self.visible(uv):
             import cv2
 
-            ip = np.round(uv * (1 << _SHIFT)).astype(np.int32)
+            # The shadow layer has half the resolution (it is blurred anyway).
+            ip = np.round((uv + 0.5) * (1 << (_SHIFT - 1)) - 0.5 * (1 << _SHIFT)).astype(np.int32)
             cv2.fillConvexPoly(self.layers.shadow, ip, strength, cv2.LINE_AA, _SHIFT)
 
 
@@ -376,7 +380,7 @@ def draw_objects(
         np.zeros((h, w, 3), np.uint8),
         np.zeros((h, w), np.uint8),
         np.full((h, w), np.inf, np.float32),
-        np.zeros((h, w), np.float32),
+        np.zeros(((h + 1) // 2, (w + 1) // 2), np.float32),
         [],
     )
     painter = _Painter(camera, layers, daylight)
@@ -402,3 +406,21 @@ def draw_objects(
             for box in _pieces(obj):
                 painter.box(box, col, label)
     return layers
+
+
+def shadow_factor(shadow: F32, row0: int, size: tuple[int, int], strength: float) -> F32:
+    """Return the ground light factor of rows ``row0:`` under the half-resolution shadow layer.
+
+    Args:
+        shadow: Half-resolution shadow layer (darkness 0..1).
+        row0: First image row of the ground.
+        size: Image ``(width, height)``, pixels.
+        strength: Darkness of a full shadow 0..1.
+    """
+    import cv2
+
+    blurred = cv2.GaussianBlur(shadow, (0, 0), 1.0)
+    full = cv2.resize(blurred[row0 // 2 :], (size[0], size[1] - (row0 // 2) * 2))
+    out = full[row0 % 2 :]
+    factor: F32 = np.float32(1.0) - np.float32(strength) * out
+    return factor

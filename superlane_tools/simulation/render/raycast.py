@@ -59,8 +59,9 @@ class RoadHit(NamedTuple):
         range_m: Distance from the optical centre, metres.
         s_m: Arc length along the reference line, metres.
         l_m: Lateral offset from the reference line in the road plane, metres, left positive.
-        foot_l_m: Pixel footprint across the road (metres per pixel).
-        foot_s_m: Pixel footprint along the road (metres per pixel).
+
+    Pixel footprints (metres per pixel) are computed where they are needed, with
+    :func:`footprint` (every pixel) or :func:`footprint_at` (a few pixels).
     """
 
     row0: int
@@ -71,8 +72,6 @@ class RoadHit(NamedTuple):
     range_m: F32
     s_m: F32
     l_m: F32
-    foot_l_m: F32
-    foot_s_m: F32
 
 
 def road_tables(road: RoadProfile) -> RoadTables:
@@ -148,36 +147,54 @@ def _lerp(cols: tuple[tuple[F32, F32], ...], t0: float, dt: float, value: F32) -
     extrapolation is exact there.
     """
     n = cols[0][0].size
-    fi = (value - np.float32(t0)) * np.float32(1.0 / dt)
+    fi = value - np.float32(t0)
+    fi *= np.float32(1.0 / dt)
     i = np.clip(fi, 0, n - 2).astype(np.int32)
-    f = fi - i.astype(np.float32)
-    return [np.take(val, i) + f * np.take(slope, i) for val, slope in cols]
+    fi -= i  # the fraction within the table step
+    out = []
+    for val, slope in cols:
+        v = np.take(slope, i)
+        v *= fi
+        v += np.take(val, i)
+        out.append(v)
+    return out
 
 
-def road_coordinates(tables: RoadTables, x: F32, y: F32) -> tuple[F32, F32, F32]:
+def road_coordinates(
+    tables: RoadTables, x: F32, y: F32, with_z: bool = True
+) -> tuple[F32, F32, F32 | None]:
     """Map vehicle-frame ground points to road coordinates.
 
     Args:
         tables: Resampled reference line.
         x: Forward positions, metres.
         y: Lateral positions, metres, left positive.
+        with_z: Also return the surface height (else None).
 
     Returns:
         Arc length ``s`` (m), lateral offset ``l`` (m, left positive) and the surface height
         ``z(s)`` (m).
     """
+    cols_x = (tables.x_cols[0], tables.x_cols[1], tables.x_cols[3])
     if x.ndim == 2 and x.shape[1] > 1 and x.strides[1] == 0:
         # Constant along rows (camera without roll): the first lookup is per row.
-        s0, yr, _, s_h = (a[:, :1] for a in _lerp(tables.x_cols, tables.x0, tables.dx, x[:, :1]))
+        s0, yr, s_h = (a[:, :1] for a in _lerp(cols_x, tables.x0, tables.dx, x[:, :1]))
     else:
-        s0, yr, _, s_h = _lerp(tables.x_cols, tables.x0, tables.dx, x)
-    s1 = s0 + (y - yr) * s_h
-    xr2, yr2, c2, s2, z = _lerp(tables.s_cols, tables.s0, tables.ds, s1)
+        s0, yr, s_h = _lerp(cols_x, tables.x0, tables.dx, x)
+    s1 = y - yr
+    s1 *= s_h
+    s1 += s0
+    cols_s = tables.s_cols if with_z else tables.s_cols[:4]
+    res = _lerp(cols_s, tables.s0, tables.ds, s1)
+    xr2, yr2, c2, s2 = res[:4]
     ex = x - xr2
     ey = y - yr2
-    s_m = s1 + ex * c2 + ey * s2
-    l_m = ey * c2 - ex * s2
-    return s_m, l_m, z
+    s_m = ex * c2
+    s_m += s1
+    s_m += ey * s2
+    l_m = ey * c2
+    l_m -= ex * s2
+    return s_m, l_m, (res[4] if with_z else None)
 
 
 def _first_hit_x(tables: RoadTables, origin: F64, q: F32) -> F32:
@@ -235,8 +252,8 @@ def cast_road(rays: CameraRays, tables: RoadTables) -> RoadHit:
     x = np.where(hit, x, np.float32(1e6)).astype(np.float32)
     ay = rays.slope_y[row0:]
     y = oy + (x - ox) * ay
-    s, l_m, zsurf = road_coordinates(tables, x, y)
-    if not tables.flat:
+    s, l_m, zsurf = road_coordinates(tables, x, y, with_z=not tables.flat)
+    if not tables.flat and zsurf is not None:
         # Newton step: the surface height is z(s); the first guess used z along the reference x.
         zray = oz + (x - ox) * q
         (z_ahead,) = _lerp(tables.s_cols[4:], tables.s0, tables.ds, s + np.float32(1.0))
@@ -244,19 +261,37 @@ def cast_road(rays: CameraRays, tables: RoadTables) -> RoadHit:
         denom = np.where(np.abs(grade - q) < 1e-4, np.float32(-1e-4), grade - q)
         x = np.where(hit, x + (zray - zsurf) / denom, x).astype(np.float32)
         y = oy + (x - ox) * ay
-        s, l_m, zsurf = road_coordinates(tables, x, y)
+        s, l_m, _ = road_coordinates(tables, x, y, with_z=False)
     z = oz + (x - ox) * q
     hit &= np.isfinite(s) & np.isfinite(l_m) & (np.abs(l_m) < 1e4)
     s = np.where(hit, s, np.float32(tables.s_first)).astype(np.float32)
     l_m = np.where(hit, l_m, np.float32(1e4)).astype(np.float32)
     rng = np.where(hit, (x - ox) * rays.range_per_x[row0:], np.float32(np.inf)).astype(np.float32)
-    foot_l = _footprint(l_m, hit)
-    foot_s = _footprint(s, hit)
-    return RoadHit(row0, hit, x, y, z.astype(np.float32), rng, s, l_m, foot_l, foot_s)
+    return RoadHit(row0, hit, x, y, z.astype(np.float32), rng, s, l_m)
 
 
-def _footprint(a: F32, hit: NDArray[np.bool_]) -> F32:
-    """Return |da/du| + |da/dv| per pixel (metres per pixel), clipped, from forward differences."""
+def footprint_at(a: F32, hit: NDArray[np.bool_], idx: NDArray[np.intp]) -> F32:
+    """Return :func:`footprint` of ``a`` at the flat indices ``idx`` only (same values)."""
+    rows, cols = a.shape
+    flat = a.reshape(-1)
+    r, c = np.divmod(idx, cols)
+    cu = np.where(c < cols - 1, idx, idx - 1)  # the last column reuses its left difference
+    fp = np.abs(flat[cu + 1] - flat[cu])
+    if rows > 1:
+        rv = np.where(r < rows - 1, idx, idx - cols)
+        fp += np.abs(flat[rv + cols] - flat[rv])
+    fp = np.where(hit.reshape(-1)[idx], fp, np.float32(_MAX_FOOTPRINT_M))
+    out: F32 = np.clip(fp, 1e-4, _MAX_FOOTPRINT_M).astype(np.float32)
+    return out
+
+
+def footprint(a: F32, hit: NDArray[np.bool_]) -> F32:
+    """Return |da/du| + |da/dv| per pixel (metres per pixel), clipped, from forward differences.
+
+    Args:
+        a: A road coordinate per pixel (``s_m`` or ``l_m`` of a :class:`RoadHit`), metres.
+        hit: Pixels whose ray meets the ground (others get the largest footprint).
+    """
     fp = np.zeros_like(a)
     du = np.abs(np.diff(a, axis=1))
     fp[:, :-1] += du

@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from superlane_tools.hierarchy import LEAF_IDS
-from superlane_tools.simulation.render.raycast import RoadHit
+from superlane_tools.simulation.render.raycast import RoadHit, footprint, footprint_at
 from superlane_tools.simulation.render.textures import (
     COARSE_TEXEL_M,
     FINE_TEXEL_M,
@@ -137,28 +137,9 @@ def _sample_mip(mips: F32, texel_m: float, a: F32, b: F32, levels: NDArray[np.in
     return out
 
 
-def shade_ground(
-    hit: RoadHit,
-    road: RoadProfile,
-    tex: RoadTextures,
-    palette: Palette,
-    cracks: float,
-    tar_seams: float,
-    wet: float,
-) -> Ground:
-    """Label and colour the ground pixels of ``hit`` (see the module docstring).
-
-    Args:
-        hit: Ray-cast road coordinates of the rows below the horizon.
-        road: The road profile (lines, edges, crosswalks, stop lines).
-        tex: Textures of this world.
-        palette: Base colours.
-        cracks: Crack and patch density 0..1.
-        tar_seams: Tar-seam (sealant line) density 0..1.
-        wet: Wetness 0..1 (darkens the surface, raises gloss).
-    """
-    s, l_m, valid = hit.s_m, hit.l_m, hit.hit
-    shape = s.shape
+def ground_labels(hit: RoadHit, road: RoadProfile) -> tuple[U8, NDArray[np.bool_], NDArray[np.bool_]]:
+    """Return the leaf ids of the bare ground (road, sidewalk, terrain), on-road and sidewalk masks."""
+    l_m, valid = hit.l_m, hit.hit
     on_road = valid & (l_m <= road.left_edge_m) & (l_m >= road.right_edge_m)
     labels = np.where(valid, np.uint8(TERRAIN), np.uint8(0)).astype(np.uint8)
     labels[on_road] = ROAD
@@ -171,17 +152,89 @@ def shade_ground(
         )
         labels[side] = SIDEWALK
     else:
-        side = np.zeros(shape, bool)
+        side = np.zeros(l_m.shape, bool)
+    return labels, on_road, side
 
-    # --- surface colour -------------------------------------------------------------------
-    lev = _tex_levels(hit.foot_l_m, FINE_TEXEL_M, tex.fine.shape[0])
-    grain = _sample_mip(tex.fine, FINE_TEXEL_M, s, l_m, lev)
-    ic = (s * np.float32(1.0 / COARSE_TEXEL_M)).astype(np.int32) & 255
-    jc = (l_m * np.float32(1.0 / COARSE_TEXEL_M)).astype(np.int32) & 255
-    blotch = tex.coarse[jc, ic]
-    surf = palette.concrete if road.surface == "concrete" else palette.asphalt
-    shade = np.float32(1.0) + np.float32(0.07) * grain + np.float32(0.06) * blotch
-    # Tyre tracks: darker (polished) wheel paths and an oil strip in each lane's centre.
+
+def shade_ground(
+    hit: RoadHit,
+    road: RoadProfile,
+    tex: RoadTextures,
+    palette: Palette,
+    cracks: float,
+    tar_seams: float,
+    wet: float,
+) -> Ground:
+    """Label and colour the ground pixels of ``hit`` (see the module docstring).
+
+    The surface colour (textures, tyre tracks, cracks, seams, terrain) is smooth at the pixel
+    scale, so it is evaluated on every second row and column and resized up; painted lines are
+    evaluated at full resolution, but only on the pixels near a line (found on that half grid).
+
+    Args:
+        hit: Ray-cast road coordinates of the rows below the horizon.
+        road: The road profile (lines, edges, crosswalks, stop lines).
+        tex: Textures of this world.
+        palette: Base colours.
+        cracks: Crack and patch density 0..1.
+        tar_seams: Tar-seam (sealant line) density 0..1.
+        wet: Wetness 0..1 (darkens the surface, raises gloss).
+    """
+    import cv2
+
+    s, l_m, valid = hit.s_m, hit.l_m, hit.hit
+    rows, cols = s.shape
+    labels, on_road, side = ground_labels(hit, road)
+    hs, hl, hv = s[::2, ::2], l_m[::2, ::2], valid[::2, ::2]
+    # Footprints of the half grid: differences over two pixels.
+    half = _Half(hs, hl, footprint(hl, hv), footprint(hs, hv), hv, on_road[::2, ::2], side[::2, ::2])
+    color_h, gloss_h = _surface(half, road, tex, palette, cracks, tar_seams)
+    if wet > 0:
+        color_h *= np.float32(1.0 - 0.35 * wet)
+        gloss_h = np.maximum(gloss_h, np.float32(wet) * half.on_road)
+    color = np.asarray(
+        cv2.resize(color_h, (cols, rows), interpolation=cv2.INTER_LINEAR), dtype=np.float32
+    )
+    gloss = np.asarray(
+        cv2.resize(gloss_h, (cols, rows), interpolation=cv2.INTER_LINEAR), dtype=np.float32
+    )
+    _paint_lines(hit, road, tex, palette, half, color, labels)
+
+    # --- stop lines and zebra crosswalks (urban scenes only) -----------------------------
+    crosswalk = _in_ranges(s, road.crosswalks_s_m) if road.crosswalks_s_m else None
+    if road.stop_lines_s_m:
+        foot_s = footprint(s, valid)
+        lo, hi = _stop_line_span(road)
+        across = on_road & (l_m >= lo) & (l_m <= hi)
+        for s_stop in road.stop_lines_s_m:
+            d = np.abs(s - np.float32(s_stop + 0.5 * _STOP_LINE_WIDTH_M))
+            cov, lab = _stroke(d, 0.5 * _STOP_LINE_WIDTH_M, foot_s)
+            _blend(color, cov * across, palette.white_paint)
+            labels[lab & across] = STOP_LINE
+    if crosswalk is not None:
+        zm = fmod_pos(l_m, 2 * _ZEBRA_STRIPE_M)
+        dz = np.abs(zm - np.float32(0.5 * _ZEBRA_STRIPE_M))
+        cov, lab = _stroke(dz, 0.5 * _ZEBRA_STRIPE_M, footprint(l_m, valid))
+        zone = crosswalk & on_road
+        _blend(color, cov * zone * np.float32(0.9), palette.white_paint)
+        labels[lab & zone] = CROSSWALK
+    return Ground(color, labels, gloss)
+
+
+class _Half(NamedTuple):
+    """Road coordinates on every second row and column (footprints of that coarser grid)."""
+
+    s: F32
+    l_m: F32
+    foot_l: F32
+    foot_s: F32
+    valid: NDArray[np.bool_]
+    on_road: NDArray[np.bool_]
+    side: NDArray[np.bool_]
+
+
+def _tyre_profile(road: RoadProfile) -> F32:
+    """Return the lateral shading profile (tyre tracks, slab joints) on a 2 cm grid from -40 m."""
     offsets = sorted(ln.offset_m for ln in road.lines)
     prof_l = np.arange(-40.0, 40.0, 0.02, dtype=np.float32)
     prof = np.ones_like(prof_l)
@@ -193,50 +246,123 @@ def shade_ground(
     if road.surface == "concrete":  # longitudinal slab joints under the lines, dark hairlines
         for o in offsets:
             prof -= 0.25 * np.exp(-(((prof_l - o - 0.12) / 0.02) ** 2))
-    li = np.clip(((l_m + 40.0) * 50.0).astype(np.int32), 0, prof_l.size - 1)
+    return prof
+
+
+def _surface(
+    g: _Half,
+    road: RoadProfile,
+    tex: RoadTextures,
+    palette: Palette,
+    cracks: float,
+    tar_seams: float,
+) -> tuple[F32, F32]:
+    """Return the unpainted ground colour ``(r, c, 3)`` and gloss ``(r, c)`` of the half grid."""
+    s, l_m = g.s, g.l_m
+    lev = _tex_levels(g.foot_l, FINE_TEXEL_M, tex.fine.shape[0])
+    grain = _sample_mip(tex.fine, FINE_TEXEL_M, s, l_m, lev)
+    ic = (s * np.float32(1.0 / COARSE_TEXEL_M)).astype(np.int32) & 255
+    jc = (l_m * np.float32(1.0 / COARSE_TEXEL_M)).astype(np.int32) & 255
+    blotch = tex.coarse[jc, ic]
+    surf = palette.concrete if road.surface == "concrete" else palette.asphalt
+    shade = np.float32(1.0) + np.float32(0.07) * grain + np.float32(0.06) * blotch
+    prof = _tyre_profile(road)
+    li = np.clip(((l_m + 40.0) * 50.0).astype(np.int32), 0, prof.size - 1)
     shade *= prof[li]
     if road.surface == "concrete":  # transverse slab joints every 4.6 m
         jm = fmod_pos(s, 4.6)
-        joint = np.clip(np.float32(0.03) / hit.foot_s_m, 0.0, 1.0) * (jm < 0.03 + hit.foot_s_m)
+        joint = np.clip(np.float32(0.03) / g.foot_s, 0.0, 1.0) * (jm < 0.03 + g.foot_s)
         shade *= np.float32(1.0) - np.float32(0.25) * joint
-    gloss = np.zeros(shape, np.float32)
+    gloss = np.zeros(s.shape, np.float32)
     if cracks > 0:
-        ic4 = (s * np.float32(4.0 / COARSE_TEXEL_M)).astype(np.int32) & 255
-        jc4 = (l_m * np.float32(4.0 / COARSE_TEXEL_M)).astype(np.int32) & 255
-        crack = tex.cracks[jc4, ic4] * np.float32(min(1.0, cracks * 1.5))
-        crack *= np.clip(np.float32(0.05) / hit.foot_l_m, 0.0, 1.0)
+        crack = _sample_bilinear(tex.cracks, s, l_m, 4.0 / COARSE_TEXEL_M)
+        crack *= np.float32(min(1.0, cracks * 1.5))
+        crack *= np.clip(np.float32(0.1) / g.foot_l, 0.0, 1.0)
         patch = (blotch > np.float32(2.2 - 1.2 * cracks)).astype(np.float32)
         shade *= (np.float32(1.0) - np.float32(0.45) * crack) * (
             np.float32(1.0) - np.float32(0.12) * patch
         )
-    color = np.empty((*shape, 3), np.float32)
-    for ch in range(3):
-        color[..., ch] = surf[ch] * shade
+    color = shade[..., None] * np.array(surf, np.float32)
     if tar_seams > 0:
-        i2 = (s * np.float32(1.5 / COARSE_TEXEL_M)).astype(np.int32) & 255
-        j2 = (l_m * np.float32(1.5 / COARSE_TEXEL_M)).astype(np.int32) & 255
-        seam = tex.seams[j2, i2] * np.float32(min(1.0, tar_seams))
-        seam *= np.clip(np.float32(0.04) / hit.foot_l_m, 0.0, 1.0) * on_road
+        seam = _sample_bilinear(tex.seams, s, l_m, 1.5 / COARSE_TEXEL_M)
+        seam *= np.float32(min(1.0, tar_seams))
+        seam *= np.clip(np.float32(0.08) / g.foot_l, 0.0, 1.0) * g.on_road
         _blend(color, seam, palette.seam)
         gloss = np.maximum(gloss, seam)
 
-    # --- terrain and sidewalks ------------------------------------------------------------
-    off_road = valid & ~on_road
+    off_road = g.valid & ~g.on_road
     if np.any(off_road):
-        glev = _tex_levels(hit.foot_l_m, 4 * FINE_TEXEL_M, tex.grass.shape[0])
-        g = _sample_mip(tex.grass, 4 * FINE_TEXEL_M, s, l_m, glev)
+        glev = _tex_levels(g.foot_l, 4 * FINE_TEXEL_M, tex.grass.shape[0])
+        gr = _sample_mip(tex.grass, 4 * FINE_TEXEL_M, s, l_m, glev)
         edge_d = np.maximum(l_m - np.float32(road.left_edge_m), np.float32(road.right_edge_m) - l_m)
         dirt_w = np.clip(np.float32(1.6) - edge_d, 0.0, 1.0)  # gravel strip next to the asphalt
         mix = np.clip(np.float32(0.5) + np.float32(0.35) * blotch + dirt_w, 0.0, 1.0)
-        tshade = np.float32(1.0) + np.float32(0.18) * g
-        for ch in range(3):
-            terr = (palette.grass[ch] * (1 - mix) + palette.dirt[ch] * mix) * tshade
-            side_c = palette.sidewalk[ch] * (np.float32(1.0) + np.float32(0.05) * grain)
-            color[..., ch] = np.where(off_road, np.where(side, side_c, terr), color[..., ch])
+        tshade = np.float32(1.0) + np.float32(0.18) * gr
+        grass = np.array(palette.grass, np.float32)
+        dirt = np.array(palette.dirt, np.float32)
+        terr = (grass + mix[..., None] * (dirt - grass)) * tshade[..., None]
+        if np.any(g.side):
+            side_c = (np.float32(1.0) + np.float32(0.05) * grain)[..., None] * np.array(
+                palette.sidewalk, np.float32
+            )
+            terr = np.where(g.side[..., None], side_c, terr)
+        np.copyto(color, terr, where=off_road[..., None])
+    return color, gloss
 
-    # --- painted lines --------------------------------------------------------------------
+
+def _sample_bilinear(tex: F32, s: F32, l_m: F32, texels_per_m: float) -> F32:
+    """Sample a wrapping ``(256, 256)`` texture bilinearly at ``(s, l)`` (smooth up close)."""
+    import cv2
+
+    n = tex.shape[0]
+    k = np.float32(texels_per_m)
+    u = fmod_pos(s * k, n)
+    v = fmod_pos(l_m * k, n)
+    out = cv2.remap(tex, u, v, cv2.INTER_LINEAR, borderMode=cv2.BORDER_WRAP)
+    return np.asarray(out, dtype=np.float32)
+
+
+def _paint_lines(
+    hit: RoadHit,
+    road: RoadProfile,
+    tex: RoadTextures,
+    palette: Palette,
+    half: _Half,
+    color: F32,
+    labels: U8,
+) -> None:
+    """Paint the longitudinal lines (colour and labels) at full resolution, in place.
+
+    Only pixels within a few footprints of a line on the half grid are evaluated: a full
+    resolution pixel lies at most one half-grid footprint from its half-grid sample, so the
+    candidate set (widened by one half-grid pixel) contains every painted or labelled pixel.
+    """
+    import cv2
+
+    rows, cols = color.shape[:2]
+    cand = np.zeros(half.s.shape, bool)
+    for line in road.lines:
+        d = np.abs(half.l_m - line_offset(line, half.s))
+        hw = 0.5 * line.width_m
+        if line.style is LineStyle.DOUBLE:
+            d = np.abs(d - np.float32(hw + 0.5 * _DOUBLE_GAP_M))
+        cand |= d < np.float32(hw) + np.float32(2.0) * half.foot_l
+    cand &= half.valid
+    grown = cv2.dilate(cand.view(np.uint8), np.ones((3, 3), np.uint8))
+    full = cv2.resize(grown, (cols, rows), interpolation=cv2.INTER_NEAREST)
+    idx = np.flatnonzero(full)
+    if idx.size == 0:
+        return
+    s = hit.s_m.reshape(-1)[idx]
+    l_m = hit.l_m.reshape(-1)[idx]
+    foot_l = footprint_at(hit.l_m, hit.hit, idx)
+    foot_s = footprint_at(hit.s_m, hit.hit, idx)
+    valid = hit.hit.reshape(-1)[idx]
+    col = color.reshape(-1, 3)[idx]
+    lab = labels.reshape(-1)[idx]
     in_view = valid & (s >= road.s_m[0]) & (s <= road.s_m[-1])
     crosswalk = _in_ranges(s, road.crosswalks_s_m) if road.crosswalks_s_m else None
+    wear_tex: F32 | None = None
     for line in road.lines:
         paint_col = palette.yellow_paint if line.color is LineColor.YELLOW else palette.white_paint
         off = line_offset(line, s)
@@ -245,7 +371,7 @@ def shade_ground(
         if line.style is LineStyle.DOUBLE:
             sep = hw + 0.5 * _DOUBLE_GAP_M
             d = np.abs(d - np.float32(sep))
-        cov, lab = _stroke(d, hw, hit.foot_l_m)
+        cov, mark = _stroke(d, hw, foot_l)
         span = in_view
         if np.isfinite(line.start_s_m) or np.isfinite(line.end_s_m):
             span = span & (s >= line.start_s_m) & (s < line.end_s_m)
@@ -255,42 +381,39 @@ def shade_ground(
             period = line.dash_m + line.gap_m
             m = fmod_pos(s - np.float32(line.phase_m), period)
             along = np.minimum(m, np.float32(line.dash_m) - m)
-            cov = cov * np.clip(along / hit.foot_s_m + np.float32(0.5), 0.0, 1.0)
-            lab &= m < line.dash_m
-        lab &= span
+            cov = cov * np.clip(along / foot_s + np.float32(0.5), 0.0, 1.0)
+            mark &= m < line.dash_m
+        mark &= span
         cov = cov * span
         if line.wear > 0:
+            if wear_tex is None:
+                wear_tex = _wear_texture(tex, s, l_m, foot_l)
             keep = np.clip(
-                np.float32(1.0 - 1.2 * line.wear) + np.float32(0.45 * line.wear) * (grain + blotch),
+                np.float32(1.0 - 1.2 * line.wear) + np.float32(0.45 * line.wear) * wear_tex,
                 0.0,
                 1.0,
             )
             cov = cov * keep
-        _blend(color, cov * np.float32(0.92), paint_col)
+        _blend(col, cov * np.float32(0.92), paint_col)
         if line.wear < 0.999:
-            labels[lab] = line_label(line)
+            lab[mark] = line_label(line)
+    color.reshape(-1, 3)[idx] = col
+    labels.reshape(-1)[idx] = lab
 
-    # --- stop lines and zebra crosswalks --------------------------------------------------
-    if road.stop_lines_s_m:
-        lo, hi = _stop_line_span(road)
-        across = on_road & (l_m >= lo) & (l_m <= hi)
-        for s_stop in road.stop_lines_s_m:
-            d = np.abs(s - np.float32(s_stop + 0.5 * _STOP_LINE_WIDTH_M))
-            cov, lab = _stroke(d, 0.5 * _STOP_LINE_WIDTH_M, hit.foot_s_m)
-            _blend(color, cov * across, palette.white_paint)
-            labels[lab & across] = STOP_LINE
-    if crosswalk is not None:
-        zm = fmod_pos(l_m, 2 * _ZEBRA_STRIPE_M)
-        dz = np.abs(zm - np.float32(0.5 * _ZEBRA_STRIPE_M))
-        cov, lab = _stroke(dz, 0.5 * _ZEBRA_STRIPE_M, hit.foot_l_m)
-        zone = crosswalk & on_road
-        _blend(color, cov * zone * np.float32(0.9), palette.white_paint)
-        labels[lab & zone] = CROSSWALK
 
-    if wet > 0:
-        color *= np.float32(1.0 - 0.35 * wet)
-        gloss = np.maximum(gloss, np.float32(wet) * on_road)
-    return Ground(color, labels, gloss)
+def _wear_texture(tex: RoadTextures, s: F32, l_m: F32, foot_l: F32) -> F32:
+    """Return grain + blotch noise at scattered road points (patchy paint wear)."""
+    n_lev = tex.fine.shape[0]
+    ratio = foot_l / np.float32(2.0 * FINE_TEXEL_M)
+    lev = np.clip(np.floor(np.log2(np.maximum(ratio, 1.0))), 0, n_lev - 1).astype(np.int32)
+    n, h, w = tex.fine.shape
+    ia = (s * np.float32(1.0 / FINE_TEXEL_M)).astype(np.int32) & (w - 1)
+    ib = (l_m * np.float32(1.0 / FINE_TEXEL_M)).astype(np.int32) & (h - 1)
+    grain = tex.fine.reshape(n * h, w)[lev * h + ib, ia]
+    ic = (s * np.float32(1.0 / COARSE_TEXEL_M)).astype(np.int32) & 255
+    jc = (l_m * np.float32(1.0 / COARSE_TEXEL_M)).astype(np.int32) & 255
+    out: F32 = grain + tex.coarse[jc, ic]
+    return out
 
 
 def _stop_line_span(road: RoadProfile) -> tuple[float, float]:
@@ -308,7 +431,6 @@ def _stop_line_span(road: RoadProfile) -> tuple[float, float]:
 
 
 def _blend(color: F32, alpha: F32, rgb: tuple[float, float, float]) -> None:
-    """Blend ``rgb`` over ``color`` in place with per-pixel ``alpha`` (0..1)."""
-    for ch in range(3):
-        c = color[..., ch]
-        c += alpha * (np.float32(rgb[ch]) - c)
+    """Blend ``rgb`` over ``color`` (``(..., 3)``) in place with per-pixel ``alpha`` (0..1)."""
+    a = alpha[..., None]
+    color += a * (np.array(rgb, np.float32) - color)

@@ -68,10 +68,40 @@ def look_for(cond: Conditions, rng: np.random.Generator) -> Look:
     )
 
 
-@lru_cache(maxsize=1)
-def _noise_bank() -> F32:
-    """Return a fixed bank of standard-normal noise; frames read it at random offsets."""
-    return np.random.default_rng(0x5E75).standard_normal(_BANK + 4096).astype(np.float32)
+_OFFSETS = 1 << 18
+
+
+@lru_cache(maxsize=2)
+def _noise_bank(pixels: int) -> F32:
+    """Return a fixed bank of BGR sensor noise for images of ``pixels`` pixels.
+
+    Rows of ``(pixels + _OFFSETS, 3)`` standard-normal luminance noise shared by the three
+    channels plus half as much chroma noise on red; a frame reads ``pixels`` rows from a
+    random offset (drawn from its seed), so no frame pays for fresh normal samples.
+    """
+    rng = np.random.default_rng(0x5E75)
+    n = pixels + _OFFSETS
+    bank = np.empty((n, 3), np.float32)
+    lum = rng.standard_normal(n, dtype=np.float32)
+    bank[:, 0] = lum
+    bank[:, 1] = lum
+    bank[:, 2] = lum + np.float32(0.5) * rng.standard_normal(n, dtype=np.float32)
+    return bank
+
+
+_VIGNETTE3: dict[int, tuple[F32, F32]] = {}
+
+
+def _vignette3(vignette: F32) -> F32:
+    """Return ``vignette`` repeated over three channels (kept while the ray grid lives)."""
+    hit = _VIGNETTE3.get(id(vignette))
+    if hit is not None and hit[0] is vignette:
+        return hit[1]
+    if len(_VIGNETTE3) >= 4:
+        _VIGNETTE3.clear()
+    out: F32 = np.ascontiguousarray(np.repeat(vignette[..., None], 3, axis=2))
+    _VIGNETTE3[id(vignette)] = (vignette, out)
+    return out
 
 
 def finish(img: F32, vignette: F32, cond: Conditions, look: Look, rng: np.random.Generator) -> U8:
@@ -88,28 +118,39 @@ def finish(img: F32, vignette: F32, cond: Conditions, look: Look, rng: np.random
 
     h, w = img.shape[:2]
     if cond.motion_blur_px >= 1.0:
-        k = round(cond.motion_blur_px)
-        blurred = cv2.blur(img, (max(1, k // 2), k))
-        # Motion blur grows towards the image bottom (closer, faster-moving road).
-        wgt = np.linspace(0.0, 1.0, h, dtype=np.float32)[:, None, None]
-        img += wgt * (blurred - img)
-    gain = np.array(look.gain_bgr, np.float32) * np.float32(cond.exposure)
-    img *= vignette[..., None] * gain
+        _motion_blur(img, cond.motion_blur_px)
+    cv2.multiply(img, _vignette3(vignette), dst=img, scale=float(cond.exposure))
+    if look.gain_bgr != (1.0, 1.0, 1.0):
+        g = look.gain_bgr
+        cv2.multiply(img, (g[0], g[1], g[2], 0.0), dst=img)
     if look.contrast != 1.0 or look.brightness != 0.0:
-        img -= np.float32(128.0)
-        img *= np.float32(look.contrast)
-        img += np.float32(128.0 + look.brightness)
-    if look.noise_sigma > 0:
+        # (img - 128) * contrast + 128 + brightness
+        off = 128.0 * (1.0 - look.contrast) + look.brightness
+        cv2.addWeighted(img, look.contrast, img, 0.0, off, dst=img)
+    sigma = float(look.noise_sigma)
+    if sigma > 0:
         n = h * w
-        bank = _noise_bank()
-        off = int(rng.integers(0, _BANK - n)) if n < _BANK else 0
-        if n <= _BANK:
-            noise = bank[off : off + n].reshape(h, w)
-            # Shot noise: brighter pixels noisier; one luminance field plus small chroma noise.
-            img += (noise * np.float32(look.noise_sigma))[..., None]
-            off2 = int(rng.integers(0, _BANK - n)) if n < _BANK else 0
-            img[..., 2] += bank[off2 : off2 + n].reshape(h, w) * np.float32(0.5 * look.noise_sigma)
-    img += np.float32(0.5)
-    np.clip(img, 0.0, 255.0, out=img)
-    out: U8 = img.astype(np.uint8)
-    return out
+        bank = _noise_bank(n)
+        off = int(rng.integers(0, _OFFSETS))
+        noise = bank[off : off + n].reshape(h, w, 3)
+        out = cv2.addWeighted(img, 1.0, noise, sigma, 0.0, dtype=cv2.CV_8U)
+    else:
+        out = cv2.addWeighted(img, 1.0, img, 0.0, 0.0, dtype=cv2.CV_8U)
+    result: U8 = np.asarray(out, dtype=np.uint8)
+    return result
+
+
+def _motion_blur(img: F32, length_px: float) -> None:
+    """Blur ``img`` vertically/horizontally by up to ``length_px``, growing towards the bottom."""
+    import cv2
+
+    h, w = img.shape[:2]
+    k = round(length_px)
+    small = cv2.resize(img, (w // 2, h // 2), interpolation=cv2.INTER_AREA)
+    small = cv2.blur(small, (max(1, k // 4), max(1, k // 2)))
+    blurred = cv2.resize(small, (w, h), interpolation=cv2.INTER_LINEAR)
+    # Motion blur grows towards the image bottom (closer, faster-moving road).
+    wgt = np.linspace(0.0, 1.0, h, dtype=np.float32)[:, None, None]
+    blurred -= img
+    blurred *= wgt
+    img += blurred

@@ -104,3 +104,36 @@ def sky_layer(
     rng[trees] = 1200.0
     color = np.clip(color, 0.0, 255.0).astype(np.float32)
     return SkyLayer(color, labels, rng, sun_uv)
+
+
+@lru_cache(maxsize=16)
+def hazed_sky(
+    camera: CameraModel,
+    world_seed: int,
+    sun_elevation_deg: float,
+    sun_azimuth_rad: float,
+    night: bool,
+    fog: float,
+    haze_bgr: tuple[float, float, float],
+    vis_m: float,
+) -> SkyLayer:
+    """Return the (cached) sky seen through fog and haze: the frame's background.
+
+    Args:
+        camera: The camera.
+        world_seed: Seed of the world (clouds, skyline).
+        sun_elevation_deg: Sun elevation, degrees.
+        sun_azimuth_rad: Sun azimuth, radians, left positive.
+        night: Night sky.
+        fog: Fog strength 0..1 (hides the skyline behind a flat bright grey).
+        haze_bgr: Haze colour (BGR grey levels).
+        vis_m: Meteorological visibility, metres.
+    """
+    sky = sky_layer(camera, world_seed, sun_elevation_deg, sun_azimuth_rad, night)
+    color = sky.color.copy()
+    if fog > 0:
+        f = np.float32(min(1.0, fog * 1.3))
+        color += f * (np.float32(205.0 if not night else 40.0) - color)
+    keep = np.exp(np.minimum(sky.range_m, np.float32(1e5)) * np.float32(-3.0 / vis_m))[..., None]
+    color = color * keep + (np.float32(1.0) - keep) * np.array(haze_bgr, np.float32)
+    return SkyLayer(color.astype(np.float32), sky.labels, sky.range_m, sky.sun_uv)

@@ -16,13 +16,37 @@ def visibility_m(fog: float, rain: float) -> float:
     return float(2500.0 / (1.0 + 40.0 * fog**1.5 + 4.0 * rain))
 
 
+def haze_keep(range_m: F32, vis_m: float) -> F32:
+    """Return the fraction of scene radiance kept at ``range_m`` (Koschmieder's law)."""
+    keep = np.minimum(range_m, np.float32(1e5))
+    keep *= np.float32(-3.0 / vis_m)
+    np.exp(keep, out=keep)
+    return keep
+
+
 def apply_haze(img: F32, range_m: F32, color: tuple[float, float, float], vis_m: float) -> None:
     """Blend ``img`` towards the haze ``color`` with Koschmieder's law, in place."""
-    keep = np.exp(np.minimum(range_m, np.float32(1e5)) * np.float32(-3.0 / vis_m))
-    for ch in range(3):
-        c = img[..., ch]
-        c *= keep
-        c += np.float32(color[ch]) * (np.float32(1.0) - keep)
+    keep = haze_keep(range_m, vis_m)[..., None]
+    img *= keep
+    img += (np.float32(1.0) - keep) * np.array(color, np.float32)
+
+
+def haze_colors(col: F32, range_m: F32, color: tuple[float, float, float], vis_m: float) -> None:
+    """Haze ``(N, 3)`` colours seen at ``(N,)`` ranges (metres), in place."""
+    apply_haze(col, range_m, color, vis_m)
+
+
+def haze_pixels(
+    img: F32,
+    mask: NDArray[np.bool_],
+    range_m: F32,
+    color: tuple[float, float, float],
+    vis_m: float,
+) -> None:
+    """Haze the pixels of ``img`` under ``mask`` seen at ``range_m`` (one per pixel), in place."""
+    col = img[mask]
+    haze_colors(col, range_m, color, vis_m)
+    img[mask] = col
 
 
 def headlight_gain(rays: CameraRays, row0: int, range_m: F32, hit: NDArray[np.bool_]) -> F32:

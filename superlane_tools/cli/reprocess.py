@@ -1,0 +1,160 @@
+"""`slt reprocess`: a drive in, every table, plot, report and Foxglove annotation out."""
+
+from __future__ import annotations
+
+import inspect
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+from superlane_tools.cli._common import (
+    EXIT_CODES_HELP,
+    cli_errors,
+    command_line,
+    console,
+    exit_with,
+    report_skipped,
+)
+
+
+def _recording_name(path: Path) -> str:
+    return path.name.split(".")[0] if path.suffix else path.name
+
+
+def reprocess_cmd(
+    recording: Annotated[
+        Path | None, typer.Argument(help="Recording: MCAP, ROS 1 .bag or ROS 2 bag folder.")
+    ] = None,
+    out: Annotated[
+        Path | None, typer.Option("--out", "-o", help="Output folder (default runs/<name>/).")
+    ] = None,
+    config: Annotated[
+        Path | None, typer.Option("--config", help="Config file (.toml or .yaml).")
+    ] = None,
+    print_config: Annotated[
+        bool, typer.Option("--print-config", help="Print the default config (YAML) and exit.")
+    ] = False,
+    camera: Annotated[
+        str | None,
+        typer.Option("--camera", help="'auto' (CameraInfo + extrinsics), a profile or a YAML."),
+    ] = None,
+    dbc: Annotated[
+        list[Path] | None,
+        typer.Option("--dbc", help="DBC file (repeatable; replaces the shipped DBCs)."),
+    ] = None,
+    backend: Annotated[
+        str | None,
+        typer.Option("--backend", help="Segmentation: auto, classical, onnx or oracle."),
+    ] = None,
+    model: Annotated[
+        str | None, typer.Option("--model", help="Segmentation ONNX model (path or name).")
+    ] = None,
+    oracle_labels: Annotated[
+        Path | None,
+        typer.Option("--oracle-labels", help="Leaf-id label PNG folder for --backend oracle."),
+    ] = None,
+    category: Annotated[
+        str | None, typer.Option("--category", help="Category label of this drive's sequences.")
+    ] = None,
+    video: Annotated[bool, typer.Option("--video", help="Also write overlay.mp4.")] = False,
+    no_plots: Annotated[bool, typer.Option("--no-plots", help="Skip plots/*.png.")] = False,
+    workers: Annotated[
+        int | None, typer.Option("--workers", help="Threads for the image stages.")
+    ] = None,
+) -> None:
+    """Reprocess a drive: SUPER lane fit, corridor network, Hough baseline, CAN, RTK.
+
+    Writes frames/lanes/corridor/baseline/availability/curvature/mobileye/rtk/can_signals
+    Parquet tables, plots/*.png, report.md, report.html and annotations.mcap under --out.
+    Options override the config file. Missing streams degrade gracefully and are stated in
+    the report; exit code 3 means input data was lost.
+    """
+    from superlane_tools.errors import UsageError
+    from superlane_tools.pipeline.reprocess import (
+        ReprocessConfig,
+        default_config_yaml,
+        load_config,
+    )
+
+    if print_config:
+        typer.echo(default_config_yaml(), nl=False)
+        return
+    with cli_errors():
+        if recording is None:
+            raise UsageError("missing argument RECORDING (or use --print-config)")
+        cfg = load_config(config) if config is not None else ReprocessConfig()
+        overrides: dict[str, Any] = {}
+        if camera is not None:
+            overrides["camera"] = camera
+        if dbc:
+            overrides["can.dbcs"] = [str(p) for p in dbc]
+        if backend is not None:
+            overrides["segmentation.backend"] = backend.lower()
+        if model is not None:
+            overrides["segmentation.model"] = model
+        if oracle_labels is not None:
+            overrides["segmentation.oracle_labels"] = str(oracle_labels)
+        if category is not None:
+            overrides["kpi.category"] = category
+        if video:
+            overrides["output.video"] = True
+        if no_plots:
+            overrides["output.plots"] = False
+        if workers is not None:
+            overrides["workers"] = workers
+        cfg = cfg.with_overrides(overrides)
+        target = out if out is not None else Path("runs") / _recording_name(recording)
+        result = _run(recording, target, cfg)
+    for note in result.notes:
+        console.print(f"note: {note}", markup=False, soft_wrap=True)
+    t = result.timings
+    stages = ", ".join(f"{k} {v:.1f} s" for k, v in t.items() if k != "total")
+    console.print(
+        f"reprocessed {result.frames} frames in {t.get('total', 0):.1f} s "
+        f"({result.frames_per_s:.1f} frames/s) -> {target}",
+        markup=False,
+    )
+    console.print(f"stages: {stages}", markup=False, soft_wrap=True)
+    exit_with(report_skipped(result.skipped))
+
+
+def _run(recording: Path, target: Path, cfg: Any) -> Any:
+    import time
+
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+    )
+
+    from superlane_tools.cli._common import err_console
+    from superlane_tools.pipeline.reprocess import reprocess
+
+    start = time.perf_counter()
+    with Progress(
+        TextColumn("reprocess"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TextColumn("{task.fields[rate]}"),
+        TimeElapsedColumn(),
+        console=err_console,
+        transient=True,
+    ) as bar:
+        task = bar.add_task("reprocess", total=None, rate="")
+
+        def tick(done: int, total: int | None) -> None:
+            rate = done / max(time.perf_counter() - start, 1e-9)
+            bar.update(task, completed=done, total=total, rate=f"{rate:.1f} frames/s")
+
+        return reprocess(recording, target, cfg, progress=tick, command=command_line())
+
+
+def register(app: typer.Typer) -> None:
+    """Add this module's commands to the root app."""
+    app.command(
+        "reprocess",
+        help=inspect.cleandoc(reprocess_cmd.__doc__ or "") + f"\n\n{EXIT_CODES_HELP}",
+    )(reprocess_cmd)

@@ -1,0 +1,65 @@
+"""`slt tables`: paper-style tables (availability, curvature) over many reprocess runs."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from superlane_tools.cli._common import EXIT_CODES_HELP, cli_errors, command_line, console
+
+tables_app = typer.Typer(
+    name="tables",
+    help=f"Aggregate reprocess runs into paper-style tables.\n\n{EXIT_CODES_HELP}",
+    no_args_is_help=True,
+    rich_markup_mode=None,
+)
+
+RunDirs = Annotated[list[Path], typer.Argument(help="Run folders written by slt reprocess.")]
+OutFile = Annotated[
+    Path | None, typer.Option("--out", "-o", help="Output .md, .tex or .parquet (default: print).")
+]
+
+
+def _emit(frame: object, out: Path | None, runs: list[Path]) -> None:
+    from superlane_tools.reporting.report import markdown_table
+    from superlane_tools.reporting.tables import write_summary_table
+
+    if out is None:
+        typer.echo(markdown_table(frame))  # type: ignore[arg-type]
+        return
+    path = write_summary_table(frame, out, runs, command_line())  # type: ignore[arg-type]
+    console.print(f"wrote {path}", markup=False)
+
+
+@tables_app.command("availability")
+def availability_cmd(
+    runs: RunDirs,
+    out: OutFile = None,
+    by: Annotated[
+        str, typer.Option("--by", help="Group rows by 'category' (from --category) or 'run'.")
+    ] = "category",
+) -> None:
+    """Corridor paper Table II: #seq, frame-based n/N and sequence-based k/K per method."""
+    from superlane_tools.errors import UsageError
+    from superlane_tools.reporting.tables import availability_table
+
+    with cli_errors():
+        if by not in ("category", "run"):
+            raise UsageError(f"--by must be 'category' or 'run', not {by!r}")
+        _emit(availability_table(runs, by), out, runs)
+
+
+@tables_app.command("curvature")
+def curvature_cmd(runs: RunDirs, out: OutFile = None) -> None:
+    """Curvature errors against RTK per run: SUPER (2*a2) and Mobileye (2*C2)."""
+    from superlane_tools.reporting.tables import curvature_table
+
+    with cli_errors():
+        _emit(curvature_table(runs), out, runs)
+
+
+def register(app: typer.Typer) -> None:
+    """Add the ``tables`` command group to the root app."""
+    app.add_typer(tables_app, name="tables")

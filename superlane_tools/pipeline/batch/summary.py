@@ -1,0 +1,243 @@
+"""Fleet summary of an output root: status by category, availability, curvature, a report.
+
+Built from ``batch_status.parquet`` and the per-recording Parquet tables that ``slt reprocess``
+writes (``availability_sequences.parquet``, ``curvature.parquet``); runs of other job kinds
+contribute to the status table only. Everything goes to ``ROOT/summary/``.
+"""
+
+from __future__ import annotations
+
+import html
+import math
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from superlane_tools.evaluation.curvature import curvature_errors
+from superlane_tools.pipeline.batch.status import read_status
+from superlane_tools.reporting import Provenance, write_table, write_text_atomic
+
+SUMMARY_DIR = "summary"
+UNCATEGORISED = "uncategorised"
+AVAILABILITY_FILE = "availability_sequences.parquet"
+CURVATURE_FILE = "curvature.parquet"
+TRUTH_COLUMN = "rtk_curvature"
+
+
+def fleet_status(status: pd.DataFrame) -> pd.DataFrame:
+    """Return recordings per category and outcome, with frames and processing time."""
+    frame = status.assign(category=status["category"].replace("", UNCATEGORISED))
+    # a skipped row reports the outcome of the run that produced its outputs
+    frame = frame.assign(outcome=frame["result"].where(frame["result"] != "", frame["status"]))
+    rows = []
+    for category, group in frame.groupby("category", sort=True):
+        rows.append(
+            {
+                "category": category,
+                "recordings": len(group),
+                "ok": int((group["outcome"] == "ok").sum()),
+                "partial": int((group["outcome"] == "partial").sum()),
+                "failed": int((group["outcome"] == "failed").sum()),
+                "frames": int(group["frames"].sum()),
+                "processing_s": float(group["total_s"].sum()),
+            }
+        )
+    columns = ["category", "recordings", "ok", "partial", "failed", "frames", "processing_s"]
+    return pd.DataFrame(rows, columns=columns)
+
+
+def _done(root: Path, status: pd.DataFrame) -> pd.DataFrame:
+    ok = status["result"].isin(["ok", "partial"])
+    return status[ok & status["recording_id"].map(lambda r: (root / r).is_dir())]
+
+
+def availability_by_category(root: Path, status: pd.DataFrame) -> pd.DataFrame:
+    """Availability per category and method over all finished runs (corridor paper Table II).
+
+    Frame-based: available frames ``n`` over frames ``N``; sequence-based: available sequences
+    ``k`` over sequences ``K``. A sequence's own category wins over the recording's.
+    """
+    parts = []
+    for row in _done(root, status).itertuples(index=False):
+        path = root / str(row.recording_id) / AVAILABILITY_FILE
+        if not path.is_file():
+            continue
+        seqs = pd.read_parquet(path)
+        if seqs.empty:
+            continue
+        own = seqs["category"].astype(str) if "category" in seqs else pd.Series("", seqs.index)
+        fallback = str(row.category) or UNCATEGORISED
+        seqs = seqs.assign(category=own.where(own != "", fallback))
+        seqs["recording_id"] = str(row.recording_id)
+        parts.append(seqs)
+    columns = [
+        "category",
+        "method",
+        "recordings",
+        "sequences",
+        "n",
+        "N",
+        "frame_ratio",
+        "k",
+        "K",
+        "sequence_ratio",
+        "method_available",
+    ]
+    if not parts:
+        return pd.DataFrame(columns=columns)
+    seqs = pd.concat(parts, ignore_index=True)
+    rows = []
+    for (category, method), group in seqs.groupby(["category", "method"], sort=True):
+        n, big_n = int(group["n_available"].sum()), int(group["n_frames"].sum())
+        available = group["available"].astype("boolean")
+        k, big_k = int(available.fillna(False).sum()), len(group)
+        method_ok = bool(group["method_available"].all()) if "method_available" in group else True
+        rows.append(
+            {
+                "category": category,
+                "method": method,
+                "recordings": group["recording_id"].nunique(),
+                "sequences": big_k,
+                "n": n,
+                "N": big_n,
+                "frame_ratio": n / big_n if big_n else math.nan,
+                "k": k,
+                "K": big_k,
+                "sequence_ratio": k / big_k if big_k else math.nan,
+                "method_available": method_ok,
+            }
+        )
+    return pd.DataFrame(rows, columns=columns)
+
+
+def curvature_by_recording(root: Path, status: pd.DataFrame) -> pd.DataFrame:
+    """Curvature errors (1/m) against RTK of every estimate column, per finished recording."""
+    rows = []
+    for row in _done(root, status).itertuples(index=False):
+        path = root / str(row.recording_id) / CURVATURE_FILE
+        if not path.is_file():
+            continue
+        curv = pd.read_parquet(path)
+        if TRUTH_COLUMN not in curv:
+            continue
+        truth = curv[TRUTH_COLUMN].to_numpy(dtype=np.float64)
+        sources = [c for c in curv.columns if c.endswith("_curvature") and c != TRUTH_COLUMN]
+        for column in sources:
+            err = curvature_errors(curv[column].to_numpy(dtype=np.float64), truth)
+            rows.append(
+                {
+                    "recording_id": row.recording_id,
+                    "category": str(row.category) or UNCATEGORISED,
+                    "source": column.removesuffix("_curvature"),
+                    **err._asdict(),
+                }
+            )
+    columns = [
+        "recording_id",
+        "category",
+        "source",
+        "n",
+        "coverage",
+        "rmse",
+        "mae",
+        "bias",
+        "correlation",
+    ]
+    return pd.DataFrame(rows, columns=columns)
+
+
+def _cell(value: object) -> str:
+    if isinstance(value, float):
+        if math.isnan(value):
+            return "-"
+        return f"{value:.3g}" if abs(value) < 1e-2 and value != 0 else f"{value:.3f}"
+    return str(value).replace("|", "\\|")
+
+
+def markdown_table(frame: pd.DataFrame) -> str:
+    """Return ``frame`` as a GitHub-flavoured Markdown table (floats to 3 significant places)."""
+    if frame.empty:
+        return "(none)\n"
+    head = "| " + " | ".join(map(str, frame.columns)) + " |"
+    rule = "|" + "|".join("---" for _ in frame.columns) + "|"
+    body = ["| " + " | ".join(_cell(v) for v in row) + " |" for row in frame.itertuples(False)]
+    return "\n".join([head, rule, *body]) + "\n"
+
+
+def _html_table(frame: pd.DataFrame) -> str:
+    if frame.empty:
+        return "<p>(none)</p>"
+    head = "".join(f"<th>{html.escape(str(c))}</th>" for c in frame.columns)
+    body = "".join(
+        "<tr>" + "".join(f"<td>{html.escape(_cell(v))}</td>" for v in row) + "</tr>"
+        for row in frame.itertuples(False)
+    )
+    return f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
+
+
+def _sections(
+    status: pd.DataFrame, fleet: pd.DataFrame, avail: pd.DataFrame, curv: pd.DataFrame
+) -> list[tuple[str, pd.DataFrame, str]]:
+    failed = status[status["result"] == "failed"][["recording_id", "recording", "error"]]
+    return [
+        ("Recordings by category", fleet, ""),
+        (
+            "Availability by category",
+            avail,
+            "n/N: available frames over frames; k/K: available sequences over sequences.",
+        ),
+        ("Curvature errors by recording (1/m, against RTK)", curv, ""),
+        ("Failed recordings", failed, ""),
+    ]
+
+
+def write_report(
+    out: Path, sections: Sequence[tuple[str, pd.DataFrame, str]], title: str
+) -> list[Path]:
+    """Write ``report.md`` and ``report.html`` with one table per section."""
+    md = [f"# {title}\n"]
+    body = [f"<h1>{html.escape(title)}</h1>"]
+    for heading, frame, note in sections:
+        md.append(f"\n## {heading}\n\n" + (f"{note}\n\n" if note else "") + markdown_table(frame))
+        body.append(f"<h2>{html.escape(heading)}</h2>")
+        if note:
+            body.append(f"<p>{html.escape(note)}</p>")
+        body.append(_html_table(frame))
+    style = (
+        "body{font-family:sans-serif;margin:2em}table{border-collapse:collapse}"
+        "td,th{border:1px solid #ccc;padding:2px 8px;text-align:right}"
+    )
+    page = (
+        f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title>"
+        f"<style>{style}</style></head><body>{''.join(body)}</body></html>\n"
+    )
+    return [
+        write_text_atomic(out / "report.md", "".join(md)),
+        write_text_atomic(out / "report.html", page),
+    ]
+
+
+def write_summary(root: str | Path, command: str = "") -> list[Path]:
+    """Write ``ROOT/summary/``: Parquet tables plus ``report.md`` and ``report.html``.
+
+    Returns:
+        The files written.
+    """
+    base = Path(root)
+    out = base / SUMMARY_DIR
+    status = read_status(base)
+    fleet = fleet_status(status)
+    avail = availability_by_category(base, status)
+    curv = curvature_by_recording(base, status)
+    provenance = Provenance(command=command or "slt batch", config={"root": str(base)})
+    written = [
+        write_table(fleet, out / "fleet_status.parquet", provenance),
+        write_table(avail, out / "availability_by_category.parquet", provenance),
+        write_table(curv, out / "curvature_by_recording.parquet", provenance),
+    ]
+    total = len(status)
+    title = f"Fleet summary: {total} recording{'s' if total != 1 else ''} in {base.name}"
+    written += write_report(out, _sections(status, fleet, avail, curv), title)
+    return written

@@ -1,0 +1,173 @@
+"""After the streaming pass: signal tables, RTK truth, KPIs, curvature comparison, plots, report."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from superlane_tools.can import LoadedDbc
+from superlane_tools.corridor import AvailabilityParams, Segment
+from superlane_tools.pipeline.reprocess import outputs as tables
+from superlane_tools.pipeline.reprocess.config import ReprocessConfig
+from superlane_tools.pipeline.reprocess.signals import (
+    CanFrames,
+    at_frames,
+    can_frame_signals,
+    mobileye_at_frames,
+    mobileye_table,
+    rtk_truth,
+)
+from superlane_tools.pipeline.reprocess.stages import FrameStages
+from superlane_tools.records import Skipped
+from superlane_tools.reporting import Provenance, write_table
+from superlane_tools.reporting.plots import ExampleFrame
+from superlane_tools.reporting.report import Section, write_report
+
+
+def finalize(
+    *,
+    out: Path,
+    config: ReprocessConfig,
+    provenance: Provenance,
+    scalars: Mapping[str, np.ndarray],
+    segments: Sequence[Segment],
+    params: AvailabilityParams,
+    can: CanFrames,
+    dbcs: Mapping[str, LoadedDbc],
+    gnss_rows: Sequence[Mapping[str, Any]],
+    examples: Sequence[ExampleFrame],
+    notes: list[str],
+    skipped: Sequence[Skipped],
+    recording: Path,
+    stages: FrameStages,
+) -> list[Path]:
+    """Write every derived output; append missing-stream statements to ``notes``."""
+    t_ns = scalars["t_ns"].astype(np.int64)
+    written: list[Path] = []
+    signals = can.decode(dbcs)
+    written.append(write_table(signals, out / "can_signals.parquet", provenance))
+    speed_s, yaw_s = can_frame_signals(signals, config.can)
+    speed = at_frames(speed_s, t_ns)
+    yaw = at_frames(yaw_s, t_ns)
+    if not len(can):
+        notes.append("no CAN stream: speed unknown, availability by length marked unknown; "
+                     "no Mobileye comparison")
+    elif speed_s is None:
+        notes.append(f"no CAN speed signal {config.can.speed_signal!r}: availability by length "
+                     "marked unknown")
+    me = mobileye_table(signals, config.can.mobileye_right_positive)
+    written.append(write_table(me, out / "mobileye.parquet", provenance))
+    me_curv = mobileye_at_frames(me, t_ns)
+    if len(can) and me.empty:
+        notes.append("no Mobileye lane messages on CAN: no Mobileye comparison")
+    rtk = rtk_truth(gnss_rows, t_ns, config.rtk)
+    written.append(write_table(rtk.fixes, out / "rtk.parquet", provenance))
+    if rtk.fixes.empty:
+        notes.append("no GNSS/RTK stream: no curvature ground truth")
+    elif rtk.n_degraded or rtk.n_dropouts:
+        notes.append(
+            f"RTK: {rtk.n_degraded} degraded fixes flagged and excluded, "
+            f"{rtk.n_dropouts} dropouts > {config.rtk.max_gap_s} s"
+        )
+    curv = pd.DataFrame(
+        {
+            "frame_index": np.arange(len(t_ns), dtype=np.int32),
+            "log_time_ns": t_ns,
+            "t_s": (t_ns - (t_ns[0] if len(t_ns) else 0)) / 1e9,
+            "s_m": rtk.frame_s_m,
+            "speed_mps": speed,
+            "yaw_rate_rps": yaw,
+            "rtk_curvature": rtk.frame_curvature,
+            "rtk_valid": rtk.frame_valid,
+            "super_curvature": scalars["super_curv"].astype(np.float64),
+            "mobileye_curvature": me_curv,
+        }
+    )
+    curv["super_error"] = curv["super_curvature"] - curv["rtk_curvature"]
+    curv["mobileye_error"] = curv["mobileye_curvature"] - curv["rtk_curvature"]
+    written.append(write_table(curv, out / "curvature.parquet", provenance))
+    summary = tables.curvature_summary(curv, segments)
+    written.append(write_table(summary, out / "curvature_summary.parquet", provenance))
+    geometry = {
+        "super": (scalars["super_w"], scalars["super_l"]),
+        "corridor_net": (scalars["net_w"], scalars["net_l"]),
+        "hough": (scalars["hough_w"], scalars["hough_l"]),
+    }
+    unavailable = {"corridor_net": stages.corridor_unavailable} if stages.corridor_unavailable \
+        else {}
+    av_frames, av_seqs, _ = tables.availability_tables(
+        t_ns, geometry, unavailable, speed, params, segments
+    )
+    written.append(write_table(av_frames, out / "availability_frames.parquet", provenance))
+    written.append(write_table(av_seqs, out / "availability_sequences.parquet", provenance))
+    images: list[str] = []
+    if config.output.plots:
+        from superlane_tools.reporting.plots import plot_all
+
+        pngs = plot_all(curv, av_frames, examples, out / "plots")
+        written += pngs
+        images = [p.relative_to(out).as_posix() for p in pngs]
+    written += write_report(
+        out, f"slt reprocess: {recording.name}",
+        _sections(config, stages, notes, skipped, summary, av_seqs, curv, images, len(t_ns)),
+    )
+    return written
+
+
+def _sections(
+    config: ReprocessConfig,
+    stages: FrameStages,
+    notes: Sequence[str],
+    skipped: Sequence[Skipped],
+    summary: pd.DataFrame,
+    av_seqs: pd.DataFrame,
+    curv: pd.DataFrame,
+    images: Sequence[str],
+    n_frames: int,
+) -> list[Section]:
+    lost = [f"- LOST: {s.what} ({s.n_items}): {s.detail}" for s in skipped]
+    overview = Section(
+        "Run",
+        [
+            f"- frames: {n_frames}",
+            f"- segmentation backend: {stages.backend_name}",
+            f"- corridor network: {stages.corridor_unavailable or 'available'}",
+            *[f"- {note}" for note in notes],
+            *lost,
+        ],
+    )
+    overall = summary[summary["scope"] == "overall"].drop(columns=["scope", "category", "start",
+                                                                   "stop"])
+    curvature = Section(
+        "Curvature against RTK (1/m, left positive)",
+        [
+            "SUPER curvature is 2*a2 of the fit; Mobileye curvature is 2*C2 with its sign "
+            "flipped into the left-positive lane model convention. Truth: RTK path curvature "
+            f"(Savitzky-Golay over {config.rtk.window_m} m of arc length, degraded fixes "
+            "excluded).",
+            f"- frames with RTK truth: {int(curv['rtk_curvature'].notna().sum())} of {n_frames}",
+        ],
+        [overall],
+        [i for i in images if "curvature" in i],
+    )
+    av_lines = [
+        f"Available: corridor width in [{config.kpi.min_width_m}, {config.kpi.max_width_m}] m and "
+        f"length >= speed * {config.kpi.time_gap_s} s. Sequences: {config.kpi.window_s} s "
+        f"windows (or manifest segments); a sequence is available with no outage longer than "
+        f"{config.kpi.max_outage_frames} frames."
+    ]
+    shown = pd.DataFrame()
+    if not av_seqs.empty:
+        shown = av_seqs[["method", "sequence", "category", "n_frames", "n_available",
+                         "n_unknown", "ratio", "available", "longest_outage_s",
+                         "method_available"]]
+    availability = Section("Availability", av_lines, [shown] if len(shown) else [],
+                           [i for i in images if "availability" in i])
+    examples = Section("Example frames", ["Segmentation, BEV lane pixels, offset histogram "
+                                          "with peaks, fitted lanes (colour and style)."],
+                       (), [i for i in images if "example" in i])
+    return [overview, curvature, availability, examples]

@@ -1,0 +1,184 @@
+"""End-to-end tests of ``reprocess`` on short simulated drives (real MCAP files, no mocks)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from superlane_tools.pipeline.reprocess import ReprocessConfig, reprocess
+from superlane_tools.recording import open_recording, open_writer
+from superlane_tools.reporting import read_provenance
+from superlane_tools.simulation.drive import simulate_drive
+
+PARQUETS = (
+    "frames",
+    "lanes",
+    "corridor",
+    "baseline",
+    "availability_frames",
+    "availability_sequences",
+    "curvature",
+    "curvature_summary",
+    "mobileye",
+    "rtk",
+    "can_signals",
+)
+FAST = ReprocessConfig().with_overrides({"output.example_frames": 1})
+
+
+@pytest.fixture(scope="session")
+def drive(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A 4 s highway_curves drive at 320x180 with label images."""
+    out = tmp_path_factory.mktemp("drive") / "curves.mcap"
+    simulate_drive("highway_curves", 4.0, 3, "mcap", 320, 180, True, out)
+    return out
+
+
+@pytest.fixture(scope="session")
+def run_dir(drive: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("run") / "curves"
+    result = reprocess(drive, out, FAST.with_overrides({"output.video": True}))
+    assert result.status == "ok"
+    assert result.frames == 60
+    return out
+
+
+def _filtered(src: Path, dst: Path, drop: set[str], keep_messages: int | None = None) -> Path:
+    """Copy a recording without some topics (and optionally only the first messages)."""
+    with open_recording(src) as rec, open_writer(dst, "mcap") as writer:
+        topics = [t for t in rec.topics() if t.topic not in drop]
+        for t in topics:
+            writer.add_topic(t.topic, t.msgtype)
+        for k, msg in enumerate(rec.messages(topics=[t.topic for t in topics])):
+            if keep_messages is not None and k >= keep_messages:
+                break
+            writer.write(msg.topic, msg.log_time_ns, msg.data)
+    return dst
+
+
+def test_every_output_exists_with_provenance(run_dir: Path) -> None:
+    for name in PARQUETS:
+        prov = read_provenance(run_dir / f"{name}.parquet")
+        assert prov["tool"] == "superlane-tools"
+        assert prov["inputs"][0]["name"] == "curves.mcap"
+        assert prov["config"]["resolved"]["segmentation_backend"] in ("classical", "onnx:super_seg_v1")
+    for name in ("report.md", "report.html", "annotations.mcap", "overlay.mp4"):
+        assert (run_dir / name).stat().st_size > 0
+    plots = {p.name for p in (run_dir / "plots").glob("*.png")}
+    assert {"curvature_time.png", "availability_timeline.png"} <= plots
+    assert any(p.startswith("example_") for p in plots)
+    assert pd.read_parquet(run_dir / "lanes.parquet").shape[0] == 60
+    report = (run_dir / "report.md").read_text(encoding="utf-8")
+    assert "corridor network" in report
+    assert "no corridor model" in report or "available" in report
+
+
+def test_annotations_are_foxglove_messages(run_dir: Path) -> None:
+    with open_recording(run_dir / "annotations.mcap") as rec:
+        types = {t.topic: t.msgtype for t in rec.topics()}
+        assert types["/slt/annotations"] == "foxglove.ImageAnnotations"
+        assert types["/slt/lane_parameters"] == "google.protobuf.Struct"
+        n = sum(1 for _ in rec.raw_messages(topics=["/slt/annotations"]))
+    assert n == 60
+
+
+def test_curvature_sign_and_scale_match_ground_truth(run_dir: Path, drive: Path) -> None:
+    curv = pd.read_parquet(run_dir / "curvature.parquet")
+    gt = pd.read_parquet(drive.with_name("curves.gt.parquet"))
+    truth = gt["path_curvature"].to_numpy()
+    rtk = curv["rtk_curvature"].to_numpy()
+    ok = np.isfinite(rtk)
+    assert ok.sum() > 20
+    # RTK ground truth follows the simulated path curvature (same sign, 1/m)
+    assert np.sqrt(np.mean((rtk[ok] - truth[ok]) ** 2)) < 5e-4
+    me = curv["mobileye_curvature"].to_numpy()
+    both = ok & np.isfinite(me)
+    assert np.corrcoef(me[both], rtk[both])[0, 1] > 0.8 or np.ptp(truth) < 1e-3
+    assert np.sign(np.nanmean(me[both])) == np.sign(np.nanmean(rtk[both]))
+    sup = curv["super_curvature"].to_numpy()
+    fine = ok & np.isfinite(sup)
+    assert fine.sum() > 20
+    assert np.sign(np.median(sup[fine])) == np.sign(np.median(rtk[fine]))
+    assert np.median(np.abs(sup[fine] - rtk[fine])) < 3e-3
+
+
+def test_availability_tables(run_dir: Path) -> None:
+    frames = pd.read_parquet(run_dir / "availability_frames.parquet")
+    assert set(frames["method"]) == {"super", "corridor_net", "hough"}
+    net = frames[frames["method"] == "corridor_net"]
+    if (net["reason"].str.startswith("method unavailable")).all():
+        assert (~net["available"]).all()
+    sup = frames[frames["method"] == "super"]
+    assert sup["available"].mean() > 0.5
+    assert (sup.loc[~sup["available"], "reason"] != "").all()
+    seqs = pd.read_parquet(run_dir / "availability_sequences.parquet")
+    assert len(seqs) == 3
+    assert (seqs["n_frames"] == 60).all()
+
+
+def test_oracle_backend_curvature(drive: Path, tmp_path: Path) -> None:
+    labels = drive.parent / "curves_labels" / "labels"
+    cfg = FAST.with_overrides(
+        {"segmentation.backend": "oracle", "segmentation.oracle_labels": str(labels),
+         "output.plots": False, "output.annotations": False}
+    )
+    result = reprocess(drive, tmp_path / "oracle", cfg)
+    assert any("ORACLE" in n for n in result.notes)
+    summ = pd.read_parquet(tmp_path / "oracle" / "curvature_summary.parquet")
+    sup = summ[(summ["scope"] == "overall") & (summ["source"] == "super")].iloc[0]
+    assert sup["n"] > 20
+    assert sup["rmse"] < 1.5e-3
+
+
+def test_without_can_and_rtk_degrades_with_statements(drive: Path, tmp_path: Path) -> None:
+    rec = _filtered(drive, tmp_path / "nocan.mcap", {"/can/rx", "/gnss/fix"})
+    cfg = FAST.with_overrides({"output.plots": False, "output.annotations": False})
+    result = reprocess(rec, tmp_path / "out", cfg)
+    assert result.status == "ok"
+    text = " ".join(result.notes)
+    assert "no CAN stream" in text
+    assert "no GNSS/RTK stream" in text
+    report = (tmp_path / "out" / "report.md").read_text(encoding="utf-8")
+    assert "no CAN stream" in report and "no curvature ground truth" in report
+    frames = pd.read_parquet(tmp_path / "out" / "availability_frames.parquet")
+    sup = frames[frames["method"] == "super"]
+    assert (~sup["available"]).all()
+    assert (sup["reason"].isin(["speed unknown", "no corridor", "too narrow", "too wide"])).all()
+    assert (sup["reason"] == "speed unknown").any()
+    curv = pd.read_parquet(tmp_path / "out" / "curvature.parquet")
+    assert curv["rtk_curvature"].isna().all()
+
+
+def test_truncated_recording_is_partial(drive: Path, tmp_path: Path) -> None:
+    cut = tmp_path / "cut.mcap"
+    data = drive.read_bytes()
+    cut.write_bytes(data[: int(len(data) * 0.6)])
+    cfg = FAST.with_overrides({"output.plots": False})
+    result = reprocess(cut, tmp_path / "out", cfg)
+    assert result.status == "partial"
+    assert result.skipped
+    assert 0 < result.frames < 60
+    assert (tmp_path / "out" / "lanes.parquet").is_file()
+    assert (tmp_path / "out" / "report.md").read_text(encoding="utf-8").count("LOST") >= 1
+
+
+def test_ros1_bag_without_metadata_uses_tf_static(drive: Path, tmp_path: Path) -> None:
+    bag = tmp_path / "short.bag"
+    with open_recording(drive) as rec, open_writer(bag, "ros1") as writer:
+        for t in rec.topics():
+            writer.add_topic(t.topic, t.msgtype)
+        for k, msg in enumerate(rec.messages()):
+            if k > 400:
+                break
+            writer.write(msg.topic, msg.log_time_ns, msg.data)
+    cfg = FAST.with_overrides({"output.plots": False, "output.annotations": False})
+    result = reprocess(bag, tmp_path / "out", cfg)
+    assert result.frames > 5
+    prov = read_provenance(tmp_path / "out" / "frames.parquet")
+    extr = prov["config"]["resolved"]["camera"]["extrinsics"]
+    assert math.isclose(extr["height_m"], 1.5, abs_tol=1e-6)
+    assert math.isclose(extr["pitch_rad"], 0.06, abs_tol=1e-6)
