@@ -2,7 +2,8 @@
 
 Usage: ``python pipelines/reprocess_challenge.py [WORK_DIR]`` (default ``runs/challenge``).
 Writes ``reports/reprocess_challenge/{availability,curvature,curvature_oracle}.md`` and
-``commands.txt`` (every command, in order). Drives: 20 s, 640x360, seed 1; the lane stage is
+``commands.txt`` (every command, in order). Drives: 10 s, 640x360, seed 1,
+sequences of 5 s (``reprocess_challenge.toml``); the lane stage is
 also measured with the simulator's ground-truth label images (``--backend oracle``) on
 ``highway_curves`` and ``hills``.
 """
@@ -26,6 +27,7 @@ SCENARIOS = (
 )
 ORACLE = ("highway_curves", "hills")
 REPORT = Path("reports/reprocess_challenge")
+CONFIG = Path("pipelines/reprocess_challenge.toml")
 
 
 def _argv(cmd: list[str]) -> list[str]:
@@ -59,26 +61,80 @@ def main() -> None:
         rec = work / f"{name}.mcap"
         if not rec.exists():
             commands.append(
-                ["slt", "simulate", "-s", name, "-o", str(rec), "--duration", "20", "--seed", "1",
-                 "--width", "640", "--height", "360", *(["--labels"] if name in ORACLE else [])]
+                [
+                    "slt",
+                    "simulate",
+                    "-s",
+                    name,
+                    "-o",
+                    str(rec),
+                    "--duration",
+                    "10",
+                    "--seed",
+                    "1",
+                    "--width",
+                    "640",
+                    "--height",
+                    "360",
+                    *(["--labels"] if name in ORACLE else []),
+                ]
             )
         commands.append(
-            ["slt", "reprocess", str(rec), "--out", str(work / "runs" / name),
-             "--category", name, "--no-plots"]
+            [
+                "slt",
+                "reprocess",
+                str(rec),
+                "--out",
+                str(work / "runs" / name),
+                "--category",
+                name,
+                "--no-plots",
+                "--config",
+                str(CONFIG),
+            ]
         )
         if name in ORACLE:
             commands.append(
-                ["slt", "reprocess", str(rec), "--out", str(work / "oracle" / name),
-                 "--category", name, "--no-plots", "--backend", "oracle",
-                 "--oracle-labels", str(work / f"{name}_labels" / "labels")]
+                [
+                    "slt",
+                    "reprocess",
+                    str(rec),
+                    "--out",
+                    str(work / "oracle" / name),
+                    "--category",
+                    name,
+                    "--no-plots",
+                    "--config",
+                    str(CONFIG),
+                    "--backend",
+                    "oracle",
+                    "--oracle-labels",
+                    str(work / f"{name}_labels" / "labels"),
+                ]
             )
     runs = [str(work / "runs" / n) for n in SCENARIOS]
     oracle = [str(work / "oracle" / n) for n in ORACLE]
     commands += [
-        ["slt", "tables", "availability", *runs, "--by", "category",
-         "--out", str(REPORT / "availability.md")],
-        ["slt", "tables", "availability", *runs, "--by", "category",
-         "--out", str(REPORT / "availability.tex")],
+        [
+            "slt",
+            "tables",
+            "availability",
+            *runs,
+            "--by",
+            "category",
+            "--out",
+            str(REPORT / "availability.md"),
+        ],
+        [
+            "slt",
+            "tables",
+            "availability",
+            *runs,
+            "--by",
+            "category",
+            "--out",
+            str(REPORT / "availability.tex"),
+        ],
         ["slt", "tables", "curvature", *runs, "--out", str(REPORT / "curvature.md")],
         ["slt", "tables", "curvature", *oracle, "--out", str(REPORT / "curvature_oracle.md")],
     ]

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import inspect
 from pathlib import Path
 from typing import Annotated
 
@@ -142,4 +143,5 @@ def _run(
 
 def register(app: typer.Typer) -> None:
     """Add ``slt corridor`` to the root app."""
-    app.command("corridor", help=f"{corridor.__doc__}\n\n{EXIT_CODES_HELP}")(corridor)
+    doc = inspect.cleandoc(corridor.__doc__ or "")
+    app.command("corridor", help=f"{doc}\n\n{EXIT_CODES_HELP}")(corridor)

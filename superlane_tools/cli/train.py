@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import inspect
 from pathlib import Path
 from typing import Annotated
 
@@ -96,4 +97,5 @@ def train(
 
 def register(app: typer.Typer) -> None:
     """Add ``slt train`` to the root app."""
-    app.command("train", help=f"{train.__doc__}\n\n{EXIT_CODES_HELP}")(train)
+    doc = inspect.cleandoc(train.__doc__ or "")
+    app.command("train", help=f"{doc}\n\n{EXIT_CODES_HELP}")(train)

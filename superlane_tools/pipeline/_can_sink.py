@@ -10,7 +10,8 @@ import pyarrow as pa
 
 from superlane_tools.can import LoadedDbc, decode_frames
 from superlane_tools.records import Message
-from superlane_tools.reporting import ParquetStreamWriter, Provenance
+from superlane_tools.reporting import ParquetStreamWriter
+from superlane_tools.reporting.provenance import ProvenanceSource, resolve_provenance
 
 CAN_RAW_SCHEMA = pa.schema(
     [
@@ -44,22 +45,32 @@ class CanSink:
     Args:
         out_dir: Output folder.
         dbcs: Loaded DBCs by name (file name); empty for raw frames only.
-        provenance: Provenance for the Parquet files.
+        provenance: Provenance for the Parquet files (or a function returning it, called when
+            the first row group is written).
     """
 
-    def __init__(self, out_dir: Path, dbcs: dict[str, LoadedDbc], provenance: Provenance) -> None:
+    def __init__(self, out_dir: Path, dbcs: dict[str, LoadedDbc], provenance: ProvenanceSource):
         self.dbcs = dbcs
         self.frames = 0
         self.signal_rows = 0
-        self._raw = ParquetStreamWriter(out_dir / "can_raw.parquet", CAN_RAW_SCHEMA, provenance)
-        self._raw.__enter__()
+        self._out_dir = out_dir
+        self._provenance = provenance
+        self._raw: ParquetStreamWriter | None = None
         self._signals: ParquetStreamWriter | None = None
-        if dbcs:
-            self._signals = ParquetStreamWriter(
-                out_dir / "can_signals.parquet", CAN_SIGNALS_SCHEMA, provenance
-            )
-            self._signals.__enter__()
         self._reset()
+
+    def _open(self) -> tuple[ParquetStreamWriter, ParquetStreamWriter | None]:
+        """Open the Parquet writers on first use (the provenance may still be computing)."""
+        if self._raw is None:
+            provenance = resolve_provenance(self._provenance)
+            path = self._out_dir / "can_raw.parquet"
+            self._raw = ParquetStreamWriter(path, CAN_RAW_SCHEMA, provenance).__enter__()
+            if self.dbcs:
+                path = self._out_dir / "can_signals.parquet"
+                self._signals = ParquetStreamWriter(
+                    path, CAN_SIGNALS_SCHEMA, provenance
+                ).__enter__()
+        return self._raw, self._signals
 
     def _reset(self) -> None:
         self._cols: dict[str, list[Any]] = {name: [] for name in CAN_RAW_SCHEMA.names}
@@ -85,9 +96,10 @@ class CanSink:
         count = len(cols["data"])
         if not count:
             return
-        self._raw.write(cols)
+        raw, signals = self._open()
+        raw.write(cols)
         self.frames += count
-        if self._signals is not None:
+        if signals is not None:
             times = np.asarray(cols["log_time_ns"], dtype=np.int64)
             ids = np.asarray(cols["can_id"], dtype=np.uint32)
             for name, loaded in self.dbcs.items():
@@ -97,19 +109,22 @@ class CanSink:
                     arrow = arrow.append_column(
                         "dbc", pa.array(np.full(len(table), name, dtype=object), pa.string())
                     )
-                    self._signals.write(arrow.cast(CAN_SIGNALS_SCHEMA))
+                    signals.write(arrow.cast(CAN_SIGNALS_SCHEMA))
                     self.signal_rows += len(table)
         self._reset()
 
     def close(self, ok: bool) -> list[Path]:
         """Finish the outputs (discard them when ``ok`` is False); return the files written."""
-        if ok:
-            self._flush()
-        written = []
-        exc = None if ok else RuntimeError
-        for writer in (self._raw, self._signals):
-            if writer is not None:
-                writer.__exit__(exc, None, None)
-                if ok:
-                    written.append(writer.path)
-        return written
+        try:
+            if ok:
+                self._flush()
+                self._open()  # no frame at all: still write the empty tables
+        except BaseException:
+            ok = False
+            raise
+        finally:
+            exc = None if ok else RuntimeError
+            for writer in (self._raw, self._signals):
+                if writer is not None:
+                    writer.__exit__(exc, None, None)
+        return [w.path for w in (self._raw, self._signals) if ok and w is not None]

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import os
+import shutil
+import tempfile
 from collections import deque
 from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
@@ -13,7 +16,8 @@ import pyarrow as pa
 from superlane_tools.pipeline._images import header_size, raw_pixels, safe_topic, sniff_format
 from superlane_tools.recording.base import SkipLog
 from superlane_tools.records import Message
-from superlane_tools.reporting import ParquetStreamWriter, Provenance, write_bytes_atomic
+from superlane_tools.reporting import OutputError, ParquetStreamWriter
+from superlane_tools.reporting.provenance import ProvenanceSource, resolve_provenance
 
 FRAMES_SCHEMA = pa.schema(
     [
@@ -46,10 +50,11 @@ CAMERA_INFO_SCHEMA = pa.schema(
 RAW_TYPES = {"sensor_msgs/msg/Image", "foxglove.RawImage"}
 _EXT = {"jpg": ("jpeg", ".jpg"), "png": ("png", ".png")}
 FLUSH_ROWS = 4096
-WRITE_THREADS = 4
+WRITE_THREADS = 2
 """Image files are written by a few threads: file creation and I/O release the GIL."""
 MAX_PENDING_WRITES = 32
 """At most this many encoded frames wait in memory for their file write."""
+_OPEN_FLAGS = os.O_WRONLY | os.O_CREAT | os.O_TRUNC | getattr(os, "O_CLOEXEC", 0)
 
 
 def _field(data: Any, *names: str) -> Any:
@@ -63,11 +68,18 @@ def _field(data: Any, *names: str) -> Any:
 class FrameSink:
     """Writes frames of image topics as files and indexes them; memory stays flat.
 
+    Each topic's files are written into a hidden staging folder beside their final folder
+    (``frames/.<topic>.*.tmp``) with plain unbuffered writes from a few threads, and the folder
+    is renamed to ``frames/<topic>`` when the extraction succeeds: the image folder appears
+    whole or not at all, like the Parquet files, without a rename per file. A previous
+    extraction's folder of the same topic is replaced.
+
     Args:
         out_dir: Output folder (files go to ``frames/<topic>/``).
         frame_format: ``jpg``, ``png`` or ``none`` (index only, no image files).
         every: Keep every Nth frame of each topic (N >= 1).
-        provenance: Provenance for ``frames.parquet``.
+        provenance: Provenance for ``frames.parquet`` (or a function returning it, called when
+            the index is first written).
         skips: Where corrupt or unsupported frames are counted.
     """
 
@@ -76,7 +88,7 @@ class FrameSink:
         out_dir: Path,
         frame_format: str,
         every: int,
-        provenance: Provenance,
+        provenance: ProvenanceSource,
         skips: SkipLog,
     ) -> None:
         self.out_dir = out_dir
@@ -87,13 +99,13 @@ class FrameSink:
         self.kept = 0
         self.failed = 0
         self._rows: dict[str, list[Any]] = {name: [] for name in FRAMES_SCHEMA.names}
-        self._writer = ParquetStreamWriter(out_dir / "frames.parquet", FRAMES_SCHEMA, provenance)
-        self._writer.__enter__()
+        self._writer: ParquetStreamWriter | None = None
         self._info_rows: list[dict[str, Any]] = []
         self._last_info: dict[str, tuple[Any, ...]] = {}
         self._provenance = provenance
-        self._pool = ThreadPoolExecutor(WRITE_THREADS, thread_name_prefix="slt-frames")
-        self._pending: deque[Future[Path]] = deque()
+        self._folders: dict[str, tuple[str, str]] = {}  # topic -> (relative folder, staging)
+        self._pool: ThreadPoolExecutor | None = None
+        self._pending: deque[Future[None]] = deque()
 
     def add(self, msg: Message) -> None:
         """Index (and write) one image message, honouring ``every``."""
@@ -128,7 +140,6 @@ class FrameSink:
     def _write(self, msg: Message, index: int) -> tuple[int, int, str, str]:
         """Write one frame's file; return width, height, encoding and relative path."""
         data = msg.data
-        folder = Path("frames") / safe_topic(msg.topic)
         wanted = _EXT.get(self.frame_format)
         if msg.msgtype in RAW_TYPES:
             width, height = int(data.width), int(data.height)
@@ -138,7 +149,7 @@ class FrameSink:
             pixels = raw_pixels(data.data, width, height, encoding, int(data.step))
             payload = _encode(pixels, wanted[1])
         else:
-            payload = bytes(data.data)
+            payload = data.data if isinstance(data.data, bytes) else bytes(data.data)
             fmt = sniff_format(payload)
             encoding = fmt or str(_field(data, "format") or "unknown")
             size = header_size(payload, fmt) if fmt else _decoded_size(payload)
@@ -149,15 +160,33 @@ class FrameSink:
                 return width, height, encoding, ""
             if fmt != wanted[0]:
                 payload = _encode(_decode(payload), wanted[1])
-        rel_path = folder / f"{index:06d}{wanted[1]}"
-        self._submit(self.out_dir / rel_path, payload)
-        return width, height, encoding, rel_path.as_posix()
+        folder, staging = self._folder(msg.topic)
+        name = f"{index:06d}{wanted[1]}"
+        self._submit(f"{staging}/{name}", payload)
+        return width, height, encoding, f"{folder}/{name}"
 
-    def _submit(self, path: Path, payload: bytes) -> None:
+    def _folder(self, topic: str) -> tuple[str, str]:
+        """Return the topic's folder relative to the output folder and its staging folder."""
+        known = self._folders.get(topic)
+        if known is None:
+            name = safe_topic(topic)
+            parent = self.out_dir / "frames"
+            try:
+                parent.mkdir(parents=True, exist_ok=True)
+                staging = tempfile.mkdtemp(prefix=f".{name}.", suffix=".tmp", dir=parent)
+            except OSError as err:
+                raise OutputError(f"cannot write frames under {parent}: {err.strerror}") from err
+            known = (f"frames/{name}", staging)
+            self._folders[topic] = known
+        return known
+
+    def _submit(self, path: str, payload: bytes) -> None:
         """Write a file in the background, keeping the number of pending writes bounded."""
+        if self._pool is None:
+            self._pool = ThreadPoolExecutor(WRITE_THREADS, thread_name_prefix="slt-frames")
         while len(self._pending) >= MAX_PENDING_WRITES:
             self._pending.popleft().result()  # re-raises OutputError from the thread
-        self._pending.append(self._pool.submit(write_bytes_atomic, path, payload))
+        self._pending.append(self._pool.submit(_write_file, path, payload))
 
     def add_camera_info(self, msg: Message) -> None:
         """Keep a camera calibration (one row per topic whenever it changes)."""
@@ -188,34 +217,96 @@ class FrameSink:
         )
 
     def _flush(self) -> None:
-        if self._rows["topic"]:
-            self._writer.write(self._rows)
-            self._rows = {name: [] for name in FRAMES_SCHEMA.names}
+        if not self._rows["topic"]:
+            return
+        if self._writer is None:
+            provenance = resolve_provenance(self._provenance)
+            path = self.out_dir / "frames.parquet"
+            self._writer = ParquetStreamWriter(path, FRAMES_SCHEMA, provenance).__enter__()
+        self._writer.write(self._rows)
+        self._rows = {name: [] for name in FRAMES_SCHEMA.names}
 
     def close(self, ok: bool) -> list[Path]:
-        """Finish the outputs (discard ``frames.parquet`` when ``ok`` is False); return them."""
+        """Finish the outputs (discard them all when ``ok`` is False); return the files."""
         from superlane_tools.reporting import write_table
 
         written = []
         try:
             while self._pending:
                 self._pending.popleft().result()
+            if ok:
+                self._flush()
+                if self._writer is None:  # no frame kept: still write the (empty) index
+                    provenance = resolve_provenance(self._provenance)
+                    self._writer = ParquetStreamWriter(
+                        self.out_dir / "frames.parquet", FRAMES_SCHEMA, provenance
+                    ).__enter__()
         except BaseException:
             ok = False
             raise
         finally:
-            self._pool.shutdown(wait=True, cancel_futures=True)
-            if ok:
-                self._flush()
-            self._writer.__exit__(None if ok else RuntimeError, None, None)
-        if ok:
+            if self._pool is not None:
+                self._pool.shutdown(wait=True, cancel_futures=True)
+            if self._writer is not None:
+                self._writer.__exit__(None if ok else RuntimeError, None, None)
+            self._finish_folders(ok)
+        if not ok:
+            return []
+        if self._writer is not None:
             written.append(self._writer.path)
-            if self._info_rows:
-                table = pa.Table.from_pylist(self._info_rows, schema=CAMERA_INFO_SCHEMA)
-                written.append(
-                    write_table(table, self.out_dir / "camera_info.parquet", self._provenance)
-                )
+        if self._info_rows:
+            table = pa.Table.from_pylist(self._info_rows, schema=CAMERA_INFO_SCHEMA)
+            provenance = resolve_provenance(self._provenance)
+            written.append(write_table(table, self.out_dir / "camera_info.parquet", provenance))
         return written
+
+    def _finish_folders(self, ok: bool) -> None:
+        """Rename each staging folder to its topic folder (``ok``) or remove it."""
+        for rel, staging in self._folders.values():
+            if ok:
+                _publish(Path(staging), self.out_dir / rel)
+            else:
+                shutil.rmtree(staging, ignore_errors=True)
+
+
+def _publish(staging: Path, final: Path) -> None:
+    """Rename a finished staging folder to ``final``, replacing an earlier folder there.
+
+    Raises:
+        OutputError: If the rename fails (an earlier folder is then left in place).
+    """
+    old: Path | None = None
+    try:
+        if final.exists():
+            old = Path(tempfile.mkdtemp(prefix=f".{final.name}.", suffix=".old", dir=final.parent))
+            final.replace(old / final.name)
+        staging.replace(final)
+    except OSError as err:
+        if old is not None and (old / final.name).exists() and not final.exists():
+            (old / final.name).replace(final)
+        shutil.rmtree(staging, ignore_errors=True)
+        raise OutputError(f"cannot write {final}: {err.strerror}") from err
+    finally:
+        if old is not None:
+            shutil.rmtree(old, ignore_errors=True)
+
+
+def _write_file(path: str, payload: bytes) -> None:
+    """Create ``path`` and write ``payload`` with unbuffered system calls (no Python buffer).
+
+    Raises:
+        OutputError: If the file cannot be written.
+    """
+    try:
+        fd = os.open(path, _OPEN_FLAGS, 0o666)
+        try:
+            view = memoryview(payload)
+            while view:
+                view = view[os.write(fd, view) :]
+        finally:
+            os.close(fd)
+    except OSError as err:
+        raise OutputError(f"cannot write {path}: {err.strerror}") from err
 
 
 def _floats(value: Any) -> list[float]:

@@ -12,7 +12,8 @@ import pyarrow as pa
 
 from superlane_tools.geo import GeodeticOrigin, geodetic_to_enu, speed_heading, valid_fixes
 from superlane_tools.records import Message
-from superlane_tools.reporting import Provenance, write_table
+from superlane_tools.reporting import write_table
+from superlane_tools.reporting.provenance import ProvenanceSource, resolve_provenance
 
 RTK_SCHEMA = pa.schema(
     [
@@ -52,10 +53,13 @@ class GnssSink:
     Args:
         out_dir: Output folder.
         origin: ENU origin; None for the first valid fix (by log time over all GNSS topics).
-        provenance: Provenance for the Parquet file.
+        provenance: Provenance for the Parquet file (or a function returning it, called at
+            :meth:`close`).
     """
 
-    def __init__(self, out_dir: Path, origin: GeodeticOrigin | None, provenance: Provenance):
+    def __init__(
+        self, out_dir: Path, origin: GeodeticOrigin | None, provenance: ProvenanceSource
+    ) -> None:
         self.path = out_dir / "rtk.parquet"
         self.origin = origin
         self.provenance = provenance
@@ -114,4 +118,4 @@ class GnssSink:
         frame["east_m"], frame["north_m"], frame["up_m"] = east, north, up
         frame["speed_mps"], frame["heading_rad"] = speed, heading
         table = pa.Table.from_pandas(frame, schema=RTK_SCHEMA, preserve_index=False)
-        return [write_table(table, self.path, self.provenance)]
+        return [write_table(table, self.path, resolve_provenance(self.provenance))]

@@ -18,7 +18,8 @@ from superlane_tools.pipeline.errors import PipelineError
 from superlane_tools.recording.base import Recording, SkipLog
 from superlane_tools.recording.open import open_recording
 from superlane_tools.records import Skipped, TopicInfo
-from superlane_tools.reporting import Provenance, input_identity
+from superlane_tools.reporting import Provenance
+from superlane_tools.reporting.provenance import PendingIdentities
 
 FRAME_TYPES = frozenset(
     {
@@ -224,10 +225,11 @@ def extract(
             if first is not None:
                 start_ns = None if config.start_s is None else first + round(config.start_s * _NS)
                 stop_ns = None if config.end_s is None else first + round(config.end_s * _NS)
-        inputs = (input_identity(src), *(input_identity(p) for p in config.dbc_paths))
         settings = asdict(config)
         settings["streams"] = {k: list(v) for k, v in selected.items()}
-        provenance = Provenance(command=command, inputs=inputs, config=settings)
+        provenance = _HashedProvenance(
+            PendingIdentities((src, *config.dbc_paths)), command=command, config=settings
+        )
         total = _total(rec.topics(), set(kind_of)) if start_ns is None and stop_ns is None else None
         frame_sink = (
             FrameSink(out, config.frame_format, config.every, provenance, skips)
@@ -255,6 +257,8 @@ def extract(
                     progress(done, total)
             ok = True
         finally:
+            if not ok:
+                provenance.cancel()
             outputs: list[Path] = []
             for sink in sinks:
                 outputs.extend(sink.close(ok))
@@ -275,6 +279,40 @@ def extract(
         skipped=(*read_skips, *skips.items()),
         origin=gnss_sink.used_origin if gnss_sink else None,
     )
+
+
+class _HashedProvenance:
+    """The extraction's provenance, finished once the inputs' background hashing is done.
+
+    The recording is hashed (SHA-256) in a background thread while it is extracted; the
+    Parquet writers call this object when they first need the provenance.
+    """
+
+    def __init__(self, pending: PendingIdentities, command: str, config: dict[str, Any]) -> None:
+        self._pending = pending
+        self._command = command
+        self._config = config
+        self._provenance: Provenance | None = None
+
+    def __call__(self) -> Provenance:
+        """Return the provenance, waiting for the hashes if needed.
+
+        Raises:
+            PipelineError: If an input could not be read for hashing.
+        """
+        if self._provenance is None:
+            try:
+                inputs = self._pending.result()
+            except OSError as err:
+                raise PipelineError(f"cannot hash input {err.filename}: {err.strerror}") from err
+            self._provenance = Provenance(
+                command=self._command, inputs=inputs, config=self._config
+            )
+        return self._provenance
+
+    def cancel(self) -> None:
+        """Stop hashing (the extraction failed)."""
+        self._pending.cancel()
 
 
 def _total(topics: Sequence[TopicInfo], selected: set[str]) -> int | None:

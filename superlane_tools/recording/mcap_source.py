@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import heapq
 import io
+from collections import deque
 from collections.abc import Collection, Iterator
+from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 from types import TracebackType
-from typing import TYPE_CHECKING, Any, NamedTuple, Self
+from typing import TYPE_CHECKING, Any, BinaryIO, NamedTuple, Self
 
 from superlane_tools.recording._mcap_decode import (
     DecodeFailureError,
@@ -33,6 +35,8 @@ MCAP_MAGIC = b"\x89MCAP0\r\n"
 """The 8 bytes every MCAP file starts (and, when complete, ends) with."""
 
 _RECORD_PREFIX = 9  # opcode (1 byte) + record length (8 bytes)
+PREFETCH_CHUNKS = 2
+"""Chunks loaded ahead of the consumer by the background reader thread."""
 
 
 class _ChunkRef(NamedTuple):
@@ -307,42 +311,41 @@ class McapRecording:
             ),
             key=lambda c: (c.start_ns, c.offset),
         )
+        if not candidates:
+            return
         heap: list[tuple[int, int, int, McapMessage]] = []
         next_chunk = 0
-        while next_chunk < len(candidates) or heap:
-            # Load every chunk that may hold a message earlier than the earliest one queued.
-            while next_chunk < len(candidates) and (
-                not heap or candidates[next_chunk].start_ns <= heap[0][0]
-            ):
-                ref = candidates[next_chunk]
-                next_chunk += 1
-                for index, msg in enumerate(self._chunk_messages(ref)):
-                    if msg.channel_id in wanted and in_range(msg.log_time, start_ns, stop_ns):
-                        heapq.heappush(heap, (msg.log_time, ref.offset, index, msg))
-            if heap:
-                msg = heapq.heappop(heap)[3]
-                yield self._channels[msg.channel_id], msg
-
-    def _chunk_messages(self, ref: _ChunkRef) -> list[McapMessage]:
-        """Return the messages of one chunk, or none (reported) when the chunk is damaged."""
-        from mcap.data_stream import ReadDataStream
-        from mcap.records import Chunk
-        from mcap.records import Message as McapMessage
-        from mcap.stream_reader import breakup_chunk
-
+        loader = _ChunkPrefetcher(self.path, candidates)
         try:
-            self._file.seek(ref.offset + _RECORD_PREFIX)
-            chunk = Chunk.read(ReadDataStream(self._file))
-            records = breakup_chunk(chunk, validate_crc=True)
-        except Exception as err:  # bad CRC, bad compression, cut record
-            lost = self._indexed_count(ref)
-            self._iter_skips.add(
-                "corrupt chunk",
-                f"{self.path.name}: chunk at byte {ref.offset}: {type(err).__name__}: {err}",
-                lost,
-            )
-            return []
-        return [r for r in records if isinstance(r, McapMessage)]
+            while next_chunk < len(candidates) or heap:
+                # Load every chunk that may hold a message earlier than the earliest one queued.
+                while next_chunk < len(candidates) and (
+                    not heap or candidates[next_chunk].start_ns <= heap[0][0]
+                ):
+                    ref = candidates[next_chunk]
+                    next_chunk += 1
+                    for index, msg in enumerate(self._chunk_result(ref, loader.next())):
+                        if msg.channel_id in wanted and in_range(msg.log_time, start_ns, stop_ns):
+                            heapq.heappush(heap, (msg.log_time, ref.offset, index, msg))
+                if heap:
+                    msg = heapq.heappop(heap)[3]
+                    yield self._channels[msg.channel_id], msg
+        finally:
+            loader.close()
+
+    def _chunk_result(
+        self, ref: _ChunkRef, loaded: list[McapMessage] | Exception
+    ) -> list[McapMessage]:
+        """Return a loaded chunk's messages; report a damaged chunk and return none."""
+        if not isinstance(loaded, Exception):
+            return loaded
+        lost = self._indexed_count(ref)
+        self._iter_skips.add(
+            "corrupt chunk",
+            f"{self.path.name}: chunk at byte {ref.offset}: {type(loaded).__name__}: {loaded}",
+            lost,
+        )
+        return []
 
     def _indexed_count(self, ref: _ChunkRef) -> int:
         """Count a chunk's messages from its message indexes (0 when they cannot be read)."""
@@ -392,3 +395,55 @@ class McapRecording:
                     and in_range(item.log_time, start_ns, stop_ns)
                 ):
                     yield self._channels[item.channel_id], item
+
+
+def _load_chunk(handle: BinaryIO, ref: _ChunkRef) -> list[McapMessage] | Exception:
+    """Read, decompress and CRC-check one chunk; return its messages or the error."""
+    from mcap.data_stream import ReadDataStream
+    from mcap.records import Chunk
+    from mcap.records import Message as McapMessage
+    from mcap.stream_reader import breakup_chunk
+
+    try:
+        handle.seek(ref.offset + _RECORD_PREFIX)
+        chunk = Chunk.read(ReadDataStream(handle))
+        records = breakup_chunk(chunk, validate_crc=True)
+    except Exception as err:  # bad CRC, bad compression, cut record
+        return err
+    return [r for r in records if isinstance(r, McapMessage)]
+
+
+class _ChunkPrefetcher:
+    """Loads chunks in a background thread, a few ahead of the consumer, in a given order.
+
+    Reading, zstd/lz4 decompression and the CRC check release the GIL, so they overlap with
+    decoding and writing in the consuming thread. The thread reads through its own file handle;
+    at most :data:`PREFETCH_CHUNKS` loaded chunks wait in memory.
+    """
+
+    def __init__(self, path: Path, order: list[_ChunkRef]) -> None:
+        try:
+            self._handle = path.open("rb")
+        except OSError as err:
+            raise RecordingError(f"cannot open {path}: {err.strerror}") from err
+        self._pool = ThreadPoolExecutor(1, thread_name_prefix="slt-mcap-chunks")
+        self._order = iter(order)
+        self._queue: deque[Future[list[McapMessage] | Exception]] = deque()
+        for _ in range(PREFETCH_CHUNKS):
+            self._submit()
+
+    def _submit(self) -> None:
+        ref = next(self._order, None)
+        if ref is not None:
+            self._queue.append(self._pool.submit(_load_chunk, self._handle, ref))
+
+    def next(self) -> list[McapMessage] | Exception:
+        """Return the next chunk of the order (its messages or its loading error)."""
+        loaded = self._queue.popleft().result()
+        self._submit()
+        return loaded
+
+    def close(self) -> None:
+        """Stop the thread (finishing at most the chunk in progress) and close the handle."""
+        self._pool.shutdown(wait=True, cancel_futures=True)
+        self._handle.close()

@@ -92,7 +92,7 @@ class AnnotationWriter:
 
     def close(self, ok: bool) -> Path | None:
         """Finish the file; return its path, or None when discarded."""
-        self._writer.finish()
+        self._writer.finish()  # type: ignore[no-untyped-call]
         self._handle.close()
         self._ctx.__exit__(None if ok else RuntimeError, None, None)
         return self.path if ok else None

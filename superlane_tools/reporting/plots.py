@@ -13,8 +13,11 @@ from numpy.typing import NDArray
 from superlane_tools.reporting.atomic import atomic_path
 
 FloatArray = NDArray[np.float64]
-_SOURCES = (("rtk", "RTK (truth)", "k"), ("super", "SUPER 2*a2", "tab:blue"),
-            ("mobileye", "Mobileye 2*C2", "tab:orange"))
+_SOURCES = (
+    ("rtk", "RTK (truth)", "k"),
+    ("super", "SUPER 2*a2", "tab:blue"),
+    ("mobileye", "Mobileye 2*C2", "tab:orange"),
+)
 
 
 class LineDrawing(NamedTuple):
@@ -30,7 +33,7 @@ class ExampleFrame(NamedTuple):
     """What the SUPER Fig. 8 style example plot shows for one frame.
 
     Attributes:
-        index: Frame index.
+        frame_index: Frame index.
         t_ns: Frame time, ns.
         image_bgr: The frame (processing size).
         labels: Leaf-id segmentation.
@@ -41,7 +44,7 @@ class ExampleFrame(NamedTuple):
         info: Curvature, lane count and fit reason for the title.
     """
 
-    index: int
+    frame_index: int
     t_ns: int
     image_bgr: NDArray[np.uint8]
     labels: NDArray[np.uint8]
@@ -86,8 +89,10 @@ def curvature_plots(curv: pd.DataFrame, out_dir: Path) -> list[Path]:
     n = len(curv)
     half = max(15, n // 10)
     lo, hi = _zoom_window(curv["rtk_curvature"].to_numpy(dtype=float), n, half)
-    for axis, label, name in (("t_s", "time (s)", "curvature_time.png"),
-                              ("s_m", "distance along RTK track (m)", "curvature_distance.png")):
+    for axis, label, name in (
+        ("t_s", "time (s)", "curvature_time.png"),
+        ("s_m", "distance along RTK track (m)", "curvature_distance.png"),
+    ):
         x = curv[axis].to_numpy(dtype=float)
         if axis == "s_m" and not np.isfinite(x).any():
             continue
@@ -163,9 +168,9 @@ def example_plot(example: ExampleFrame, out_dir: Path) -> Path:
     )
     for ax in (axes[0, 0], axes[1, 1]):
         ax.axis("off")
-    fig.suptitle(f"frame {example.index}")
+    fig.suptitle(f"frame {example.frame_index}")
     fig.tight_layout()
-    return _save(fig, out_dir / f"example_{example.index:06d}.png")
+    return _save(fig, out_dir / f"example_{example.frame_index:06d}.png")
 
 
 def plot_all(

@@ -5,10 +5,11 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-from collections.abc import Mapping
+import threading
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, TypeAlias
 
 from superlane_tools._version import __version__
 
@@ -30,27 +31,82 @@ class InputIdentity(NamedTuple):
     sha256: str
 
 
-def file_sha256(path: str | os.PathLike[str]) -> str:
-    """Return the hex SHA-256 of a file's content, read in 1 MiB chunks."""
+class _CancelledError(Exception):
+    """A background identity computation was cancelled."""
+
+
+def _sha256(path: str | os.PathLike[str], stop: threading.Event | None) -> str:
     digest = hashlib.sha256()
     with Path(path).open("rb") as handle:
         while chunk := handle.read(_CHUNK):
             digest.update(chunk)
+            if stop is not None and stop.is_set():
+                raise _CancelledError
     return digest.hexdigest()
 
 
-def input_identity(path: str | os.PathLike[str]) -> InputIdentity:
-    """Return the identity of a file, or of a folder (e.g. a ROS 2 bag) from its files."""
+def file_sha256(path: str | os.PathLike[str]) -> str:
+    """Return the hex SHA-256 of a file's content, read in 1 MiB chunks."""
+    return _sha256(path, None)
+
+
+def _identity(path: str | os.PathLike[str], stop: threading.Event | None) -> InputIdentity:
     src = Path(path)
     if src.is_dir():
         digest = hashlib.sha256()
         size = 0
         for item in sorted(p for p in src.rglob("*") if p.is_file()):
             rel = item.relative_to(src).as_posix()
-            digest.update(rel.encode() + b"\0" + file_sha256(item).encode() + b"\n")
+            digest.update(rel.encode() + b"\0" + _sha256(item, stop).encode() + b"\n")
             size += item.stat().st_size
         return InputIdentity(src.name, size, digest.hexdigest())
-    return InputIdentity(src.name, src.stat().st_size, file_sha256(src))
+    return InputIdentity(src.name, src.stat().st_size, _sha256(src, stop))
+
+
+def input_identity(path: str | os.PathLike[str]) -> InputIdentity:
+    """Return the identity of a file, or of a folder (e.g. a ROS 2 bag) from its files."""
+    return _identity(path, None)
+
+
+class PendingIdentities:
+    """Input identities hashed in a background thread while the caller does other work.
+
+    hashlib and file reads release the GIL, so hashing a large recording overlaps with reading
+    and decoding it. The thread is a daemon and stops early on :meth:`cancel`.
+
+    Args:
+        paths: Input files or folders, in the order :meth:`result` returns them.
+    """
+
+    def __init__(self, paths: Sequence[str | os.PathLike[str]]) -> None:
+        self._paths = tuple(paths)
+        self._stop = threading.Event()
+        self._result: tuple[InputIdentity, ...] | None = None
+        self._error: BaseException | None = None
+        self._thread = threading.Thread(target=self._run, name="slt-hash", daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        try:
+            self._result = tuple(_identity(p, self._stop) for p in self._paths)
+        except BaseException as err:  # handed to the caller by result()
+            self._error = err
+
+    def result(self) -> tuple[InputIdentity, ...]:
+        """Wait for the identities and return them.
+
+        Raises:
+            OSError: If an input could not be read.
+        """
+        self._thread.join()
+        if self._error is not None:
+            raise self._error
+        assert self._result is not None
+        return self._result
+
+    def cancel(self) -> None:
+        """Stop hashing soon (within one 1 MiB read); :meth:`result` then raises."""
+        self._stop.set()
 
 
 @dataclass(frozen=True)
@@ -85,3 +141,12 @@ class Provenance:
             sort_keys=True,
             default=str,
         )
+
+
+ProvenanceSource: TypeAlias = Provenance | Callable[[], Provenance]
+"""A provenance, or a function that returns it when it is first needed (e.g. after hashing)."""
+
+
+def resolve_provenance(source: ProvenanceSource) -> Provenance:
+    """Return ``source`` itself, or call it to get the provenance."""
+    return source if isinstance(source, Provenance) else source()

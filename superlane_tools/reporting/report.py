@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import html
+import math
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -30,7 +31,7 @@ class Section(NamedTuple):
 
 def _fmt(value: Any) -> str:
     if isinstance(value, float):
-        if value != value:  # NaN
+        if math.isnan(value):
             return "n/a"
         return f"{value:.3g}" if abs(value) < 1e-2 or abs(value) >= 1e4 else f"{value:.3f}"
     if value is None or value is pd.NA:
@@ -42,8 +43,9 @@ def markdown_table(frame: pd.DataFrame) -> str:
     """Return a GitHub-flavoured Markdown table of a DataFrame (floats to 3 significant digits)."""
     cols = [str(c) for c in frame.columns]
     lines = ["| " + " | ".join(cols) + " |", "|" + "|".join("---" for _ in cols) + "|"]
-    for row in frame.itertuples(index=False):
-        lines.append("| " + " | ".join(_fmt(v) for v in row) + " |")
+    lines += [
+        "| " + " | ".join(_fmt(v) for v in row) + " |" for row in frame.itertuples(index=False)
+    ]
     return "\n".join(lines)
 
 
@@ -84,8 +86,9 @@ def write_report(
             text = [ln for ln in sec.lines if not ln.startswith("- ") and ln]
             parts += [f"<p>{html.escape(t)}</p>" for t in text]
             if bullets:
-                parts.append("<ul>" + "".join(f"<li>{html.escape(b)}</li>" for b in bullets)
-                             + "</ul>")
+                parts.append(
+                    "<ul>" + "".join(f"<li>{html.escape(b)}</li>" for b in bullets) + "</ul>"
+                )
             parts += [html_table(t) for t in sec.tables]
             parts += [f"<img src='{html.escape(i)}' alt='{html.escape(i)}'>" for i in sec.images]
         parts.append("</body></html>")

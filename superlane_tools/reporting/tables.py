@@ -9,6 +9,7 @@ from __future__ import annotations
 import os
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import pandas as pd
 
@@ -59,7 +60,7 @@ def availability_table(run_dirs: Sequence[Path], by: str = "run") -> pd.DataFram
     for group in groups:
         sel = allseq if group == "total" else allseq[allseq["group"] == group]
         row: dict[str, object] = {"category": group}
-        row["#seq"] = int(len(sel[sel["method"] == "super"]))
+        row["#seq"] = len(sel[sel["method"] == "super"])
         for method, label in METHOD_NAMES.items():
             m = sel[sel["method"] == method]
             if m.empty or not m["method_available"].any():
@@ -74,27 +75,28 @@ def availability_table(run_dirs: Sequence[Path], by: str = "run") -> pd.DataFram
     return pd.DataFrame(rows)
 
 
+def _curvature_row(run: str, rec: Any) -> dict[str, object]:
+    return {
+        "run": run,
+        "source": {"super": "SUPER 2*a2", "mobileye": "Mobileye 2*C2"}.get(
+            str(rec.source), str(rec.source)
+        ),
+        "n": int(rec.n),
+        "coverage": float(rec.coverage),
+        "rmse_per_m": float(rec.rmse),
+        "mae_per_m": float(rec.mae),
+        "bias_per_m": float(rec.bias),
+        "correlation": float(rec.correlation),
+    }
+
+
 def curvature_table(run_dirs: Sequence[Path]) -> pd.DataFrame:
     """One row per run and source (SUPER, Mobileye): n, coverage, RMSE, MAE, bias, correlation."""
-    rows = []
+    rows: list[dict[str, object]] = []
     for run in run_dirs:
         summ = _read(Path(run), "curvature_summary.parquet")
         overall = summ[summ["scope"] == "overall"]
-        for rec in overall.itertuples(index=False):
-            rows.append(
-                {
-                    "run": Path(run).name,
-                    "source": {"super": "SUPER 2*a2", "mobileye": "Mobileye 2*C2"}.get(
-                        str(rec.source), str(rec.source)
-                    ),
-                    "n": int(rec.n),
-                    "coverage": float(rec.coverage),
-                    "rmse_per_m": float(rec.rmse),
-                    "mae_per_m": float(rec.mae),
-                    "bias_per_m": float(rec.bias),
-                    "correlation": float(rec.correlation),
-                }
-            )
+        rows.extend(_curvature_row(Path(run).name, rec) for rec in overall.itertuples(index=False))
     if not rows:
         raise OutputError("no run folders given")
     return pd.DataFrame(rows)
@@ -108,8 +110,12 @@ def latex_table(frame: pd.DataFrame) -> str:
         return text.replace("%", r"\%").replace("_", r"\_").replace("#", r"\#")
 
     spec = "l" + "r" * (len(frame.columns) - 1)
-    lines = [rf"\begin{{tabular}}{{{spec}}}", r"\toprule",
-             " & ".join(cell(c) for c in frame.columns) + r" \\", r"\midrule"]
+    lines = [
+        rf"\begin{{tabular}}{{{spec}}}",
+        r"\toprule",
+        " & ".join(cell(c) for c in frame.columns) + r" \\",
+        r"\midrule",
+    ]
     lines += [" & ".join(cell(v) for v in row) + r" \\" for row in frame.itertuples(index=False)]
     lines += [r"\bottomrule", r"\end{tabular}", ""]
     return "\n".join(lines)
@@ -139,6 +145,9 @@ def write_summary_table(
             for n in ("availability_sequences.parquet", "curvature_summary.parquet")
             if (Path(r) / n).is_file()
         )
-        return write_table(frame.astype(str) if frame.dtypes.eq(object).any() else frame, path,
-                           Provenance(command=command, inputs=inputs))
+        return write_table(
+            frame.astype(str) if any(dt == object for dt in frame.dtypes) else frame,
+            path,
+            Provenance(command=command, inputs=inputs),
+        )
     raise OutputError(f"{path}: table format must be one of {', '.join(TABLE_FORMATS)}")

@@ -20,8 +20,14 @@ def _dashed(image: Any, pts: NDArray[np.int32], colour: tuple[int, int, int], wi
     import cv2
 
     for k in range(0, len(pts) - 1, 2):
-        cv2.line(image, tuple(int(v) for v in pts[k]), tuple(int(v) for v in pts[k + 1]),
-                 colour, width, cv2.LINE_AA)
+        cv2.line(
+            image,
+            tuple(int(v) for v in pts[k]),
+            tuple(int(v) for v in pts[k + 1]),
+            colour,
+            width,
+            cv2.LINE_AA,
+        )
 
 
 def draw_overlay(
@@ -45,7 +51,9 @@ def draw_overlay(
     if corridor is not None:
         prob = corridor
         if prob.shape != (height, width):
-            prob = cv2.resize(prob, (width, height), interpolation=cv2.INTER_LINEAR)
+            prob = np.asarray(
+                cv2.resize(prob, (width, height), interpolation=cv2.INTER_LINEAR), np.float32
+            )
         mask = prob > 0.5
         out[mask] = (0.6 * out[mask] + 0.4 * np.array([0, 200, 0])).astype(np.uint8)
     for lane in lanes:
@@ -59,8 +67,9 @@ def draw_overlay(
         else:
             cv2.polylines(out, [pts.reshape(-1, 1, 2)], False, colour, thick, cv2.LINE_AA)
             if lane.style == "double":
-                cv2.polylines(out, [(pts + [4, 0]).reshape(-1, 1, 2)], False, colour, 1,
-                              cv2.LINE_AA)
+                cv2.polylines(
+                    out, [(pts + np.array([4, 0], np.int32)).reshape(-1, 1, 2)], False, colour, 1, cv2.LINE_AA
+                )
     for seg in hough_lines:
         p = np.round(seg).astype(int)
         cv2.line(out, (p[0, 0], p[0, 1]), (p[1, 0], p[1, 1]), HOUGH_BGR, 1, cv2.LINE_AA)
@@ -107,7 +116,7 @@ class OverlayVideo:
             if not self._writer.isOpened():
                 raise OutputError(f"cannot open a video writer for {self.path}")
         elif (width, height) != self._size:
-            frame = cv2.resize(frame, self._size)
+            frame = np.asarray(cv2.resize(frame, self._size), np.uint8)
         self._writer.write(frame)
         self.frames += 1
 

@@ -124,10 +124,8 @@ def resize_labels(labels: NDArray[np.uint8], width: int, height: int) -> NDArray
 
     if labels.shape == (height, width):
         return labels
-    out = np.asarray(
-        cv2.resize(labels, (width, height), interpolation=cv2.INTER_NEAREST), dtype=np.uint8
-    )
-    return out
+    resized = cv2.resize(labels, (width, height), interpolation=cv2.INTER_NEAREST)
+    return np.asarray(resized, dtype=np.uint8)
 
 
 class OnnxSegmentationBackend:

@@ -1,7 +1,8 @@
 """Hierarchical segmentation network: light separable encoder-decoder, one head per parent.
 
-The encoder downsamples to 1/16 with depthwise-separable blocks (dilated at the bottom for
-context), the decoder joins skips at 1/8, 1/4 and 1/2, and a 1x1 convolution produces the logits
+The encoder downsamples to 1/32 with depthwise-separable blocks (context from depth rather than
+dilation: dilated depthwise convolutions train very slowly on CPU), the decoder joins skips at
+1/16, 1/8, 1/4 and 1/2, and a 1x1 convolution produces the logits
 of every head at once, split per head and upsampled bilinearly to the input size. Heads follow
 :data:`superlane_tools.scene.adapters.heads.HEADS` (SUPER Fig. 3): one softmax per parent node.
 """
@@ -23,12 +24,12 @@ class SegNetConfig:
     """Widths of the segmentation network.
 
     Attributes:
-        widths: Channels at 1/2, 1/4, 1/8 and 1/16 of the input size.
-        decoder: Channels of the decoder at 1/8, 1/4 and 1/2.
+        widths: Channels at 1/2, 1/4, 1/8, 1/16 and 1/32 of the input size.
+        decoder: Channels of the decoder at 1/16, 1/8, 1/4 and 1/2.
     """
 
-    widths: tuple[int, int, int, int] = (24, 48, 96, 256)
-    decoder: tuple[int, int, int] = (128, 64, 32)
+    widths: tuple[int, int, int, int, int] = (24, 48, 96, 160, 256)
+    decoder: tuple[int, int, int, int] = (128, 96, 64, 32)
 
 
 class HierarchicalSegNet(nn.Module):
@@ -41,18 +42,15 @@ class HierarchicalSegNet(nn.Module):
     def __init__(self, config: SegNetConfig | None = None) -> None:
         super().__init__()
         cfg = config or SegNetConfig()
-        w1, w2, w3, w4 = cfg.widths
-        d3, d2, d1 = cfg.decoder
+        w1, w2, w3, w4, w5 = cfg.widths
+        d4, d3, d2, d1 = cfg.decoder
         self.stem = ConvBNReLU(3, w1, stride=2)
         self.enc2 = nn.Sequential(DSConv(w1, w2, stride=2), DSConv(w2, w2))
         self.enc3 = nn.Sequential(DSConv(w2, w3, stride=2), DSConv(w3, w3))
-        self.enc4 = nn.Sequential(
-            DSConv(w3, w4, stride=2),
-            DSConv(w4, w4, dilation=2),
-            DSConv(w4, w4, dilation=4),
-            DSConv(w4, w4, dilation=8),
-        )
-        self.up3 = UpJoin(w4, w3, d3)
+        self.enc4 = nn.Sequential(DSConv(w3, w4, stride=2), DSConv(w4, w4))
+        self.enc5 = nn.Sequential(DSConv(w4, w5, stride=2), DSConv(w5, w5), DSConv(w5, w5))
+        self.up4 = UpJoin(w5, w4, d4)
+        self.up3 = UpJoin(d4, w3, d3)
         self.up2 = UpJoin(d3, w2, d2)
         self.up1 = UpJoin(d2, w1, d1)
         self.head_sizes = tuple(len(h.classes) for h in HEADS)
@@ -64,7 +62,8 @@ class HierarchicalSegNet(nn.Module):
         s2 = self.enc2(s1)
         s3 = self.enc3(s2)
         s4 = self.enc4(s3)
-        x = self.up1(self.up2(self.up3(s4, s3), s2), s1)
+        s5 = self.enc5(s4)
+        x = self.up1(self.up2(self.up3(self.up4(s5, s4), s3), s2), s1)
         logits = F.interpolate(
             self.classifier(x), size=image.shape[-2:], mode="bilinear", align_corners=False
         )

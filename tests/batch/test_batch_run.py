@@ -25,6 +25,7 @@ from superlane_tools.pipeline.batch import (
     write_summary,
 )
 from superlane_tools.pipeline.batch.run import root_lock
+from superlane_tools.pipeline.batch.status import StatusRow, StatusTable
 from superlane_tools.reporting import read_provenance
 
 EXTRACT = {"frame_format": "none"}
@@ -90,7 +91,7 @@ def test_batch_ok_failed_and_idempotent(
     rid = next(r for r in stamp if r.startswith("drive_00-"))
     assert len(list((root / rid / "frames").rglob("*.png"))) == 10
     assert sorted(p.name for p in root.iterdir()) == sorted(
-        [*stamp, *reasons, "batch_status.parquet", "summary", ".batch.lock"]
+        [*stamp, "batch_status.parquet", "summary", ".batch.lock"]  # failed: no folder
     )
     forced = run_batch(drive, _params(root, config={"frame_format": "png"}, force=True))
     assert forced.counts["ok"] == 1
@@ -167,21 +168,37 @@ def test_summary_from_reprocess_tables(tmp_path: Path) -> None:
             }
         ).to_parquet(root / rid / "curvature.parquet")
         rows.append({"recording_id": rid, "category": category, "status": "ok", "result": "ok"})
-    from superlane_tools.pipeline.batch.status import COLUMNS, empty_status
-
-    frame = pd.concat([empty_status(), pd.DataFrame(rows)], ignore_index=True)
-    frame = frame.fillna(
-        {
-            "frames": 0,
-            "total_s": 0.0,
-            "size_bytes": 0,
-            "mtime_ns": 0,
-            "attempts": 1,
-            "outputs": 0,
-            "finished_ns": 0,
-        }
-    ).fillna("")
-    frame.astype(COLUMNS).to_parquet(root / "batch_status.parquet")
+    table = StatusTable(root, "test", {})
+    for row in rows:
+        table.update(
+            StatusRow(
+                recording_id=row["recording_id"],
+                recording="/r/x.mcap",
+                category=row["category"],
+                vehicle="",
+                date="",
+                sequence="",
+                start_s=None,
+                end_s=None,
+                sha256="0" * 64,
+                size_bytes=1,
+                mtime_ns=1,
+                status="ok",
+                result="ok",
+                error="",
+                attempts=1,
+                total_s=1.0,
+                timings={},
+                outputs=3,
+                frames=20,
+                job="reprocess",
+                models={},
+                config_sha256="",
+                key="k",
+                engine="local",
+                host="h",
+            )
+        )
     write_summary(root)
     avail = pd.read_parquet(root / "summary" / "availability_by_category.parquet")
     hw = avail.set_index(["category", "method"]).loc[("highway", "super")]

@@ -78,8 +78,14 @@ def test_reprocess_and_tables(drives: list[Path], tmp_path: Path) -> None:
     for drive in drives:
         out = tmp_path / drive.stem
         code, text = run_cli(
-            "reprocess", str(drive), "--out", str(out), "--config", str(cfg),
-            "--category", drive.stem,
+            "reprocess",
+            str(drive),
+            "--out",
+            str(out),
+            "--config",
+            str(cfg),
+            "--category",
+            drive.stem,
         )
         assert code == 0, text
         assert "frames/s" in text
@@ -88,8 +94,11 @@ def test_reprocess_and_tables(drives: list[Path], tmp_path: Path) -> None:
     code, text = run_cli("tables", "availability", *runs, "--by", "category", "--out", str(md))
     assert code == 0, text
     table = md.read_text(encoding="utf-8")
-    assert "heavy_rain" in table and "faded_lines" in table and "total" in table
-    assert "SUPER n/N" in table and "Hough k/K" in table
+    assert "heavy_rain" in table
+    assert "faded_lines" in table
+    assert "total" in table
+    assert "SUPER n/N" in table
+    assert "Hough k/K" in table
     tex = tmp_path / "availability.tex"
     assert run_cli("tables", "availability", *runs, "--out", str(tex))[0] == 0
     assert r"\begin{tabular}" in tex.read_text(encoding="utf-8")
@@ -98,9 +107,11 @@ def test_reprocess_and_tables(drives: list[Path], tmp_path: Path) -> None:
     assert code == 0, text
     assert read_provenance(pq)["inputs"]
     code, text = run_cli("tables", "curvature", *runs)
-    assert code == 0 and "SUPER 2*a2" in text
+    assert code == 0
+    assert "SUPER 2*a2" in text
     code, text = run_cli("tables", "curvature", str(tmp_path))
-    assert code == 1 and "not a reprocess run folder" in text
+    assert code == 1
+    assert "not a reprocess run folder" in text
 
 
 def test_sample_drive_with_no_options(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:

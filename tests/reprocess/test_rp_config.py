@@ -8,25 +8,28 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from superlane_tools.camera.profiles import load_camera
 from superlane_tools.errors import ConfigError
 from superlane_tools.pipeline.reprocess import ReprocessConfig, load_config
 from superlane_tools.pipeline.reprocess.config import RtkConfig
 from superlane_tools.pipeline.reprocess.inputs import extrinsics_from_tf
 from superlane_tools.pipeline.reprocess.signals import mobileye_table, rtk_truth
 from superlane_tools.simulation.sensors import camera_quaternion_xyzw
-from superlane_tools.camera.profiles import load_camera
 
 
 def test_toml_and_yaml_load_the_same(tmp_path: Path) -> None:
     toml = tmp_path / "c.toml"
-    toml.write_text('camera = "sim_default"\n[kpi]\nwindow_s = 10\n[fit]\nkappa = 1.5\n',
-                    encoding="utf-8")
+    toml.write_text(
+        'camera = "sim_default"\n[kpi]\nwindow_s = 10\n[fit]\nkappa = 1.5\n', encoding="utf-8"
+    )
     yml = tmp_path / "c.yaml"
-    yml.write_text("camera: sim_default\nkpi: {window_s: 10}\nfit: {kappa: 1.5}\n",
-                   encoding="utf-8")
+    yml.write_text(
+        "camera: sim_default\nkpi: {window_s: 10}\nfit: {kappa: 1.5}\n", encoding="utf-8"
+    )
     a, b = load_config(toml), load_config(yml)
     assert a == b
-    assert a.kpi.window_s == 10.0 and a.fit["kappa"] == 1.5
+    assert a.kpi.window_s == 10.0
+    assert a.fit["kappa"] == 1.5
 
 
 @pytest.mark.parametrize(
@@ -47,7 +50,8 @@ def test_invalid_configs(tmp_path: Path, text: str, message: str) -> None:
 
 def test_overrides() -> None:
     cfg = ReprocessConfig().with_overrides({"kpi.time_gap_s": 1.0, "fit.kappa": 3.0})
-    assert cfg.kpi.time_gap_s == 1.0 and cfg.fit["kappa"] == 3.0
+    assert cfg.kpi.time_gap_s == 1.0
+    assert cfg.fit["kappa"] == 3.0
     with pytest.raises(ConfigError):
         ReprocessConfig().with_overrides({"kpi.nope": 1})
 
@@ -90,9 +94,15 @@ def test_rtk_flags_degraded_fixes_and_dropouts() -> None:
     status = np.full(t.size, 2)
     status[20:25] = 0
     rows = [
-        {"topic": "/fix", "log_time_ns": int(ti), "latitude_deg": la, "longitude_deg": lo,
-         "altitude_m": 500.0, "fix_status": int(s), "covariance_m2": [1e-4, 0, 0, 0, 1e-4, 0, 0, 0,
-                                                                       1e-4]}
+        {
+            "topic": "/fix",
+            "log_time_ns": int(ti),
+            "latitude_deg": la,
+            "longitude_deg": lo,
+            "altitude_m": 500.0,
+            "fix_status": int(s),
+            "covariance_m2": [1e-4, 0, 0, 0, 1e-4, 0, 0, 0, 1e-4],
+        }
         for ti, la, lo, s in zip(t, lat, lon, status, strict=True)
     ]
     frames = np.arange(0, 20_000_000_000, 66_666_667, dtype=np.int64)

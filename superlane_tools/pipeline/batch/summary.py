@@ -193,6 +193,28 @@ def _sections(
     ]
 
 
+def _paper_tables(root: Path, status: pd.DataFrame) -> list[tuple[str, pd.DataFrame, str]]:
+    """The ``slt tables`` layouts (corridor paper Table II, curvature) over reprocess runs."""
+    from superlane_tools.reporting import OutputError
+    from superlane_tools.reporting.tables import availability_table, curvature_table
+
+    runs = [root / str(r) for r in _done(root, status)["recording_id"]]
+    sections = []
+    with_avail = [r for r in runs if (r / AVAILABILITY_FILE).is_file()]
+    with_curv = [r for r in runs if (r / "curvature_summary.parquet").is_file()]
+    try:
+        if with_avail:
+            table = availability_table(with_avail, by="category")
+            sections.append(("Availability, corridor paper Table II layout", table, ""))
+        if with_curv:
+            sections.append(
+                ("Curvature per run (slt tables curvature)", curvature_table(with_curv), "")
+            )
+    except OutputError as err:  # a run folder of another kind: keep the plain tables
+        sections.append(("Paper tables unavailable", pd.DataFrame({"reason": [str(err)]}), ""))
+    return sections
+
+
 def write_report(
     out: Path, sections: Sequence[tuple[str, pd.DataFrame, str]], title: str
 ) -> list[Path]:
@@ -237,7 +259,9 @@ def write_summary(root: str | Path, command: str = "") -> list[Path]:
         write_table(avail, out / "availability_by_category.parquet", provenance),
         write_table(curv, out / "curvature_by_recording.parquet", provenance),
     ]
+    sections = _sections(status, fleet, avail, curv)
+    sections[2:2] = _paper_tables(base, status)
     total = len(status)
     title = f"Fleet summary: {total} recording{'s' if total != 1 else ''} in {base.name}"
-    written += write_report(out, _sections(status, fleet, avail, curv), title)
+    written += write_report(out, sections, title)
     return written

@@ -28,7 +28,8 @@ def lane_drawings(done: Finished) -> list[LineDrawing]:
 def example_frame(done: Finished) -> ExampleFrame:
     """Collect what the example plot needs from one finished frame."""
     prep, fit = done.prepared, done.fit
-    assert prep.image is not None and prep.labels is not None
+    assert prep.image is not None
+    assert prep.labels is not None
     uv = prep.lane_uv
     if uv.shape[0] > MAX_BEV_POINTS:
         uv = uv[np.random.default_rng(0).choice(uv.shape[0], MAX_BEV_POINTS, replace=False)]
@@ -44,7 +45,7 @@ def example_frame(done: Finished) -> ExampleFrame:
         "reason": fit.reason,
     }
     return ExampleFrame(
-        index=prep.index,
+        frame_index=prep.index,
         t_ns=prep.log_time_ns,
         image_bgr=prep.image,
         labels=prep.labels,

@@ -54,11 +54,15 @@ def finalize(
     speed = at_frames(speed_s, t_ns)
     yaw = at_frames(yaw_s, t_ns)
     if not len(can):
-        notes.append("no CAN stream: speed unknown, availability by length marked unknown; "
-                     "no Mobileye comparison")
+        notes.append(
+            "no CAN stream: speed unknown, availability by length marked unknown; "
+            "no Mobileye comparison"
+        )
     elif speed_s is None:
-        notes.append(f"no CAN speed signal {config.can.speed_signal!r}: availability by length "
-                     "marked unknown")
+        notes.append(
+            f"no CAN speed signal {config.can.speed_signal!r}: availability by length "
+            "marked unknown"
+        )
     me = mobileye_table(signals, config.can.mobileye_right_positive)
     written.append(write_table(me, out / "mobileye.parquet", provenance))
     me_curv = mobileye_at_frames(me, t_ns)
@@ -97,8 +101,9 @@ def finalize(
         "corridor_net": (scalars["net_w"], scalars["net_l"]),
         "hough": (scalars["hough_w"], scalars["hough_l"]),
     }
-    unavailable = {"corridor_net": stages.corridor_unavailable} if stages.corridor_unavailable \
-        else {}
+    unavailable = (
+        {"corridor_net": stages.corridor_unavailable} if stages.corridor_unavailable else {}
+    )
     av_frames, av_seqs, _ = tables.availability_tables(
         t_ns, geometry, unavailable, speed, params, segments
     )
@@ -112,7 +117,8 @@ def finalize(
         written += pngs
         images = [p.relative_to(out).as_posix() for p in pngs]
     written += write_report(
-        out, f"slt reprocess: {recording.name}",
+        out,
+        f"slt reprocess: {recording.name}",
         _sections(config, stages, notes, skipped, summary, av_seqs, curv, images, len(t_ns)),
     )
     return written
@@ -140,8 +146,9 @@ def _sections(
             *lost,
         ],
     )
-    overall = summary[summary["scope"] == "overall"].drop(columns=["scope", "category", "start",
-                                                                   "stop"])
+    overall = summary[summary["scope"] == "overall"].drop(
+        columns=["scope", "category", "start", "stop"]
+    )
     curvature = Section(
         "Curvature against RTK (1/m, left positive)",
         [
@@ -162,12 +169,33 @@ def _sections(
     ]
     shown = pd.DataFrame()
     if not av_seqs.empty:
-        shown = av_seqs[["method", "sequence", "category", "n_frames", "n_available",
-                         "n_unknown", "ratio", "available", "longest_outage_s",
-                         "method_available"]]
-    availability = Section("Availability", av_lines, [shown] if len(shown) else [],
-                           [i for i in images if "availability" in i])
-    examples = Section("Example frames", ["Segmentation, BEV lane pixels, offset histogram "
-                                          "with peaks, fitted lanes (colour and style)."],
-                       (), [i for i in images if "example" in i])
+        shown = av_seqs[
+            [
+                "method",
+                "sequence",
+                "category",
+                "n_frames",
+                "n_available",
+                "n_unknown",
+                "ratio",
+                "available",
+                "longest_outage_s",
+                "method_available",
+            ]
+        ]
+    availability = Section(
+        "Availability",
+        av_lines,
+        [shown] if len(shown) else [],
+        [i for i in images if "availability" in i],
+    )
+    examples = Section(
+        "Example frames",
+        [
+            "Segmentation, BEV lane pixels, offset histogram "
+            "with peaks, fitted lanes (colour and style)."
+        ],
+        (),
+        [i for i in images if "example" in i],
+    )
     return [overview, curvature, availability, examples]

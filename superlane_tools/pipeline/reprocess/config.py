@@ -184,8 +184,7 @@ class ReprocessConfig:
     def __post_init__(self) -> None:
         if self.segmentation.backend not in BACKENDS:
             raise ConfigError(
-                f"segmentation backend must be one of {BACKENDS}, "
-                f"not {self.segmentation.backend!r}"
+                f"segmentation backend must be one of {BACKENDS}, not {self.segmentation.backend!r}"
             )
         if self.segmentation.backend == "oracle" and not self.segmentation.oracle_labels:
             raise ConfigError("the oracle backend needs segmentation.oracle_labels (a folder)")

@@ -59,8 +59,9 @@ def select(topics: Sequence[TopicInfo], config: ReprocessConfig) -> Streams:
         if len(found) > 1:
             notes.append(f"several {kind} topics ({', '.join(found)}): using {found[0]}")
     tf = next((t.topic for t in topics if t.msgtype in TF_TYPES), "")
-    return Streams(picked["frames"], picked["camera_info"], picked["can"], picked["gnss"], tf,
-                   tuple(notes))
+    return Streams(
+        picked["frames"], picked["camera_info"], picked["can"], picked["gnss"], tf, tuple(notes)
+    )
 
 
 def _field(data: Any, *names: str) -> Any:
@@ -97,7 +98,9 @@ def _mcap_extrinsics(path: Path) -> Extrinsics | None:
 _BASE = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
 
 
-def extrinsics_from_tf(translation: Sequence[float], quaternion_xyzw: Sequence[float]) -> Extrinsics:
+def extrinsics_from_tf(
+    translation: Sequence[float], quaternion_xyzw: Sequence[float]
+) -> Extrinsics:
     """Convert a vehicle -> camera-optical transform into :class:`Extrinsics` angles.
 
     The transform's rotation maps optical-frame vectors into the vehicle frame; removing the
@@ -108,8 +111,9 @@ def extrinsics_from_tf(translation: Sequence[float], quaternion_xyzw: Sequence[f
     full = Rotation.from_quat(list(quaternion_xyzw)).as_matrix()
     yaw, pitch, roll = Rotation.from_matrix(full @ _BASE.T).as_euler("ZYX")
     x, y, z = (float(v) for v in translation)
-    return Extrinsics(height_m=z, pitch_rad=float(pitch), roll_rad=float(roll),
-                      yaw_rad=float(yaw), x_m=x, y_m=y)
+    return Extrinsics(
+        height_m=z, pitch_rad=float(pitch), roll_rad=float(roll), yaw_rad=float(yaw), x_m=x, y_m=y
+    )
 
 
 def _tf_extrinsics(rec: Recording, topic: str, frame_id: str) -> Extrinsics | None:
@@ -186,19 +190,24 @@ def decode_frame(msg: Message) -> NDArray[np.uint8]:
 
     data = msg.data
     if msg.msgtype in RAW_TYPES:
-        pixels = raw_pixels(data.data, int(data.width), int(data.height), str(data.encoding),
-                            int(getattr(data, "step", 0) or 0))
+        pixels = raw_pixels(
+            data.data,
+            int(data.width),
+            int(data.height),
+            str(data.encoding),
+            int(getattr(data, "step", 0) or 0),
+        )
     else:
         payload = bytes(data.data)
-        if not payload or sniff_format(payload) is None and not payload:
+        if not payload or (sniff_format(payload) is None and not payload):
             raise ValueError("empty image payload")
         decoded = cv2.imdecode(np.frombuffer(payload, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
         if decoded is None:
             raise ValueError("image payload cannot be decoded")
         pixels = decoded
     if pixels.dtype != np.uint8:
-        pixels = (pixels >> 8).astype(np.uint8) if pixels.dtype == np.uint16 else pixels.astype(
-            np.uint8
+        pixels = (
+            (pixels >> 8).astype(np.uint8) if pixels.dtype == np.uint16 else pixels.astype(np.uint8)
         )
     if pixels.ndim == 2:
         pixels = cv2.cvtColor(pixels, cv2.COLOR_GRAY2BGR)

@@ -26,8 +26,15 @@ from superlane_tools.pipeline.reprocess.stages import Finished
 FloatArray = NDArray[np.float64]
 METHODS = ("super", "corridor_net", "hough")
 """Availability methods: SUPER lane fit, ego-corridor network, Hough baseline."""
-STAGES = ("decode", "segmentation", "points", "corridor_net", "hough", "lane_fit",
-          "corridor_geometry")
+STAGES = (
+    "decode",
+    "segmentation",
+    "points",
+    "corridor_net",
+    "hough",
+    "lane_fit",
+    "corridor_geometry",
+)
 
 FRAMES_SCHEMA = pa.schema(
     [
@@ -183,9 +190,7 @@ def availability_tables(
     return frames, seqs, results
 
 
-def curvature_summary(
-    curv: pd.DataFrame, segments: Sequence[Segment]
-) -> pd.DataFrame:
+def curvature_summary(curv: pd.DataFrame, segments: Sequence[Segment]) -> pd.DataFrame:
     """Errors of SUPER and Mobileye curvature against RTK, overall and per sequence."""
     rows = []
     spans = [("overall", 0, len(curv), "")] + [
@@ -197,7 +202,13 @@ def curvature_summary(
             est = curv[f"{source}_curvature"].to_numpy(dtype=np.float64)
             err = curvature_errors(est[start:stop], truth[start:stop])
             rows.append(
-                {"scope": scope, "category": category, "start": start, "stop": stop,
-                 "source": source, **err._asdict()}
+                {
+                    "scope": scope,
+                    "category": category,
+                    "start": start,
+                    "stop": stop,
+                    "source": source,
+                    **err._asdict(),
+                }
             )
     return pd.DataFrame(rows)

@@ -29,7 +29,7 @@ from superlane_tools.corridor import AvailabilityParams, Segment, windows
 from superlane_tools.pipeline._gnss_sink import GnssSink
 from superlane_tools.pipeline.errors import PipelineError
 from superlane_tools.pipeline.reprocess import outputs as tables
-from superlane_tools.pipeline.reprocess._examples import ExampleFrame, example_frame
+from superlane_tools.pipeline.reprocess._examples import example_frame
 from superlane_tools.pipeline.reprocess._finalize import finalize
 from superlane_tools.pipeline.reprocess.config import ReprocessConfig
 from superlane_tools.pipeline.reprocess.inputs import resolve_camera, select
@@ -38,6 +38,7 @@ from superlane_tools.pipeline.reprocess.stages import Finished, FrameStages, Pre
 from superlane_tools.recording.open import open_recording
 from superlane_tools.records import Skipped
 from superlane_tools.reporting import ParquetStreamWriter, Provenance, input_identity
+from superlane_tools.reporting.plots import ExampleFrame
 
 Progress = Callable[[int, int | None], None]
 """Progress callback ``(frames done, frames total or None)``."""
@@ -100,8 +101,17 @@ class _Streamer:
         self.rows: dict[str, list[dict[str, Any]]] = {name: [] for name in specs}
         self.scalars: dict[str, list[float]] = {
             k: []
-            for k in ("t_ns", "super_w", "super_l", "net_w", "net_l", "hough_w", "hough_l",
-                      "super_curv", "ok")
+            for k in (
+                "t_ns",
+                "super_w",
+                "super_l",
+                "net_w",
+                "net_l",
+                "hough_w",
+                "hough_l",
+                "super_curv",
+                "ok",
+            )
         }
 
     def add(self, done: Finished, corridor_status: str, mean_frames: int) -> None:
@@ -199,8 +209,9 @@ def reprocess(
         stages = FrameStages(cfg, camera)
         notes = [*streams.notes, f"camera: {camera_source}", *stages.notes]
         total = next((t.message_count for t in rec.topics() if t.topic == streams.frames), None)
-        wanted_examples = _example_indices(total, cfg.output.example_frames if cfg.output.plots
-                                           else 0)
+        wanted_examples = _example_indices(
+            total, cfg.output.example_frames if cfg.output.plots else 0
+        )
         config_data = cfg.to_dict()
         config_data["resolved"] = {
             "streams": streams._asdict(),

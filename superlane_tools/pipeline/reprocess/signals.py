@@ -18,8 +18,8 @@ from superlane_tools.can import LoadedDbc, decode_frames, empty_signal_table
 from superlane_tools.geo import geodetic_to_enu, valid_fixes
 from superlane_tools.geo.curvature import CurvatureParams, trajectory_curvature
 from superlane_tools.pipeline.reprocess.config import CanConfig, RtkConfig
-from superlane_tools.records import Message
 from superlane_tools.recording.align import align
+from superlane_tools.records import Message
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]

@@ -55,9 +55,7 @@ def _lookup_tables() -> tuple[NDArray[np.int16], NDArray[np.bool_]]:
 _CODE_LUT, _ROAD_LUT = _lookup_tables()
 
 
-def lane_points(
-    labels: NDArray[np.uint8], seed: int = 0
-) -> tuple[FloatArray, NDArray[np.intp]]:
+def lane_points(labels: NDArray[np.uint8], seed: int = 0) -> tuple[FloatArray, NDArray[np.intp]]:
     """Return lane-marking pixels ``(N, 2)`` ``(u, v)`` and their attribute codes."""
     code = _CODE_LUT[labels]
     rows, cols = np.nonzero(code)
@@ -191,7 +189,7 @@ class FrameStages:
         if name == "onnx":
             from superlane_tools.scene.onnx_backend import OnnxSegmentationBackend
 
-            backend = OnnxSegmentationBackend(seg.model or None, threads=1)
+            backend: Any = OnnxSegmentationBackend(seg.model or None, threads=1)
             self.models[backend.name] = backend.sha256
             return backend.name, backend
         backend = backend_from_name(name, camera=self.camera)
@@ -297,20 +295,21 @@ class FrameStages:
             if self._smoother is not None:
                 self._smoother.reset()
             nan = CorridorGeometry(math.nan, math.nan, 0)
-            return Finished(prep, LaneFit(reason="frame not decoded"), nan, nan, None,
-                            self.camera)
+            return Finished(prep, LaneFit(reason="frame not decoded"), nan, nan, None, self.camera)
         height, width = prep.image.shape[:2]
         cam = self.camera_for(width, height)
         t0 = time.perf_counter()
         prev = self._previous
         init = prev if prev is not None and prev.ok else None
-        fit = fit_frame(prep.lane_uv, prep.road_uv, cam, self.fit_params, init=init,
-                        attributes=prep.codes)
+        fit = fit_frame(
+            prep.lane_uv, prep.road_uv, cam, self.fit_params, init=init, attributes=prep.codes
+        )
         self._previous = fit
         left = fit.lanes[fit.ego_left] if fit.ego_left >= 0 else None
         right = fit.lanes[fit.ego_right] if fit.ego_right >= 0 else None
         reach = (
-            min(left.range_max_m, right.range_max_m) if left is not None and right is not None
+            min(left.range_max_m, right.range_max_m)
+            if left is not None and right is not None
             else None
         )
         super_corr = corridor_from_lanes(

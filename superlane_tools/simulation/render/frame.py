@@ -10,7 +10,12 @@ from superlane_tools.simulation.render import weather
 from superlane_tools.simulation.render._rays import camera_rays
 from superlane_tools.simulation.render.objects import draw_objects, shadow_factor
 from superlane_tools.simulation.render.raycast import cast_road, road_coordinates, road_tables
-from superlane_tools.simulation.render.road_shading import DRIVABLE_IDS, line_offset, shade_ground
+from superlane_tools.simulation.render.road_shading import (
+    DRIVABLE_IDS,
+    GroundLight,
+    line_offset,
+    shade_ground,
+)
 from superlane_tools.simulation.render.sensor import finish, look_for
 from superlane_tools.simulation.render.sky import hazed_sky
 from superlane_tools.simulation.render.textures import road_textures
@@ -47,7 +52,6 @@ def render(scene: FrameScene) -> RenderedFrame:
     tables = road_tables(road)
     hit = cast_road(rays, tables)
     tex = road_textures(scene.world_seed)
-    ground = shade_ground(hit, road, tex, look.palette, cond.cracks, cond.tar_seams, cond.wet)
     row0 = hit.row0
     h, w = cam.height, cam.width
 
@@ -62,23 +66,32 @@ def render(scene: FrameScene) -> RenderedFrame:
     img = sky.color.copy()
     labels = sky.labels.copy()
     range_m = sky.range_m.copy()
-    gh = ground.labels > 0
     layers = draw_objects(cam, scene.objects, cond.daylight, scene.world_seed)
 
-    # Ground: daylight ambient, headlights at night, object contact shadows, then haze.
+    # Ground light on the half grid: daylight ambient, headlights at night, object contact
+    # shadows, then haze; the ground is shaded straight into the frame's rows below row0.
+    range_h, hit_h = hit.range_m[::2, ::2], hit.hit[::2, ::2]
     amb = np.float32(0.4 + 0.6 * min(1.0, cond.daylight)) if not cond.tunnel else np.float32(0.45)
-    keep = weather.haze_keep(hit.range_m, vis)
-    add = np.float32(1.0) - keep
+    keep = weather.haze_keep(range_h, vis)
+    airlight = np.float32(1.0) - keep
     if night:
-        keep *= amb + weather.headlight_gain(rays, row0, hit.range_m, gh) * np.float32(0.9)
+        head = weather.headlight_gain(
+            rays.dirs[row0::2, ::2, 2], rays.azimuth[row0::2, ::2], range_h, hit_h
+        )
+        keep *= amb + head * np.float32(0.9)
     else:
         keep *= amb
     if scene.objects:
-        keep *= shadow_factor(layers.shadow, row0, (w, h), 0.45 + 0.3 * cond.daylight)
-    gcol = ground.color
-    gcol *= keep[..., None]
-    gcol += add[..., None] * np.array(hz, np.float32)
-    np.copyto(img[row0:], gcol, where=gh[..., None])
+        keep *= shadow_factor(layers.shadow, row0, keep.shape, 0.45 + 0.3 * cond.daylight)
+    light = GroundLight(keep, airlight, hz)
+    ground = shade_ground(
+        hit, road, tex, look.palette, cond.cracks, cond.tar_seams, cond.wet, light, img[row0:]
+    )
+    gh = hit.hit
+    misses = np.flatnonzero(~gh.all(axis=1))
+    if misses.size:  # rows where some rays miss the ground keep the sky there
+        a, b = int(misses[0]), int(misses[-1]) + 1
+        np.copyto(img[row0 + a : row0 + b], sky.color[row0 + a : row0 + b], where=~gh[a:b, :, None])
     np.copyto(labels[row0:], ground.labels, where=gh)
     np.copyto(range_m[row0:], hit.range_m, where=gh)
 
@@ -91,7 +104,8 @@ def render(scene: FrameScene) -> RenderedFrame:
         weather.haze_pixels(img, walls, range_m[walls], hz, vis)
 
     # Objects composite by depth (the road occludes objects beyond a crest), hazed per pixel.
-    occl = layers.depth < range_m
+    occl = layers.labels > 0
+    occl &= layers.depth < range_m
     if scene.objects:
         idx = np.flatnonzero(occl)
         depth = layers.depth.reshape(-1)[idx]

@@ -10,6 +10,7 @@ behind a crest.
 from __future__ import annotations
 
 import zlib
+from functools import lru_cache
 from typing import NamedTuple
 
 import numpy as np
@@ -54,7 +55,7 @@ class Light(NamedTuple):
 
 
 class Layers(NamedTuple):
-    """Full-frame object layers (``depth`` is +inf where no object is drawn).
+    """Full-frame object layers (``labels`` is 0 and ``depth`` meaningless where no object is).
 
     ``shadow`` (contact shadow darkness 0..1 on the ground) has half the resolution.
     """
@@ -159,7 +160,12 @@ class _Painter:
             lit *= shade
             q = uv[list(quad)]
             self.fill(q, (color[0] * lit, color[1] * lit, color[2] * lit), label, depth)
-            for a0, a1, b0, b1, dcol in (details or {}).get(idx, []):
+            if not details or idx not in details:
+                continue
+            extent = q.max(axis=0) - q.min(axis=0)
+            if extent[0] < 3.0 or extent[1] < 3.0:
+                continue  # details would be sub-pixel
+            for a0, a1, b0, b1, dcol in details[idx]:
                 self.fill(
                     _subquad(q, a0, a1, b0, b1),
                     (dcol[0] * lit, dcol[1] * lit, dcol[2] * lit),
@@ -184,15 +190,17 @@ def _subquad(q: F64, a0: float, a1: float, b0: float, b1: float) -> F64:
     """Return the sub-rectangle ``[a0, a1] x [b0, b1]`` of a quad (a along edge 0-1, b up).
 
     Works on projected quads (pixels): bilinear in the image, close enough for small faces.
+    Also works on 3D quads (rows of any length).
     """
+    p0, p1, p2, p3 = q.tolist()
 
-    def at(a: float, b: float) -> F64:
-        bottom = q[0] + (q[1] - q[0]) * a
-        top = q[3] + (q[2] - q[3]) * a
-        out: F64 = bottom + (top - bottom) * b
-        return out
+    def at(a: float, b: float) -> list[float]:
+        return [
+            (x0 + (x1 - x0) * a) + ((x3 + (x2 - x3) * a) - (x0 + (x1 - x0) * a)) * b
+            for x0, x1, x2, x3 in zip(p0, p1, p2, p3, strict=True)
+        ]
 
-    return np.stack([at(a0, b0), at(a1, b0), at(a1, b1), at(a0, b1)])
+    return np.array([at(a0, b0), at(a1, b0), at(a1, b1), at(a0, b1)])
 
 
 def _pieces(obj: SceneObject) -> list[_Box]:
@@ -270,9 +278,101 @@ def _vehicle(p: _Painter, obj: SceneObject, label: int) -> None:
                 p.layers.lights.append(Light(luv[0, 0], luv[0, 1], r, (60.0, 60.0, 255.0), 1.0))
 
 
-def _tree(p: _Painter, obj: SceneObject, label: int, rng: np.random.Generator) -> None:
+_SPRITE_PX = 128
+_SPRITE_SPAN = 1.4  # the sprite covers +-1.4 crown radii around the crown centre
+_N_SPRITES = 6
+
+
+@lru_cache(maxsize=4)
+def _crown_sprites(world_seed: int) -> tuple[tuple[F32, F32], ...]:
+    """Return a few (shade, alpha) ``(128, 128)`` tree-crown sprites of a world.
+
+    A crown is an irregular union of ellipses filled with a dark interior and covered with a
+    few hundred small leaf clusters, lit from above (brighter at the top, random depth
+    darkening), so trees read as foliage instead of a handful of discs.
+    """
     import cv2
 
+    rng = np.random.default_rng([world_seed, 0x7EE5])
+    n = _SPRITE_PX
+    scale = n / (2.0 * _SPRITE_SPAN)
+    out = []
+    for _ in range(_N_SPRITES):
+        body = np.zeros((n, n), np.uint8)
+        for _ in range(int(rng.integers(3, 7))):
+            c = rng.normal(0.0, 0.28, 2)
+            ax = rng.uniform(0.45, 0.75, 2)
+            cv2.ellipse(
+                body,
+                (int(n / 2 + c[0] * scale), int(n / 2 + c[1] * scale)),
+                (int(ax[0] * scale), int(ax[1] * scale)),
+                float(rng.uniform(0, 180)),
+                0,
+                360,
+                1,
+                -1,
+            )
+        shade = np.zeros((n, n), np.float32)
+        alpha = np.zeros((n, n), np.float32)
+        shade[body > 0] = 0.42
+        alpha[body > 0] = 1.0
+        ys, xs = np.nonzero(body)
+        pick = rng.integers(0, ys.size, 420)
+        # Back clusters first (darker), front ones last (lighter): a crude depth order.
+        order = np.sort(rng.uniform(0.0, 1.0, pick.size))
+        for k, depth in zip(pick, order, strict=True):
+            y, x = int(ys[k]), int(xs[k])
+            top = 1.0 - y / n
+            val = (0.5 + 0.35 * top + 0.35 * depth) * rng.uniform(0.8, 1.1)
+            rad = int(rng.uniform(2.0, 6.5))
+            jx, jy = rng.normal(0.0, 3.0, 2)
+            ctr = (int(x + jx), int(y + jy))
+            cv2.circle(shade, ctr, rad, float(val), -1, cv2.LINE_AA)
+            cv2.circle(alpha, ctr, rad, 1.0, -1, cv2.LINE_AA)
+        leaf = rng.uniform(0.82, 1.12, (n, n)).astype(np.float32)
+        shade = cv2.GaussianBlur(shade * leaf, (0, 0), 0.6)
+        out.append((np.asarray(shade, np.float32), np.asarray(alpha, np.float32)))
+    return tuple(out)
+
+
+def _sprite(
+    p: _Painter,
+    sprite: tuple[F32, F32],
+    box_px: tuple[float, float, float, float],
+    color: F64,
+    label: int,
+    depth: float,
+) -> None:
+    """Blend a (shade, alpha) sprite into the layers over the pixel box ``(u0, v0, u1, v1)``."""
+    import cv2
+
+    w, h = p.size
+    u0, v0, u1, v1 = box_px
+    x0, y0 = round(u0), round(v0)
+    sw, sh = max(1, round(u1 - u0)), max(1, round(v1 - v0))
+    cx0, cy0, cx1, cy1 = max(0, x0), max(0, y0), min(w, x0 + sw), min(h, y0 + sh)
+    if cx1 <= cx0 or cy1 <= cy0:
+        return
+    shade, alpha = sprite
+    interp = cv2.INTER_AREA if sw < shade.shape[1] else cv2.INTER_LINEAR
+    al_r = cv2.resize(alpha, (sw, sh), interpolation=interp)
+    tint = (float(color[0]), float(color[1]), float(color[2]), 0.0)
+    if sw * sh < shade.size:  # colour at the smaller of the two sizes
+        sh_r = cv2.resize(shade, (sw, sh), interpolation=interp)
+        col_r = cv2.multiply(cv2.merge([sh_r, sh_r, sh_r]), tint, dtype=cv2.CV_8U)
+    else:
+        col = cv2.multiply(cv2.merge([shade, shade, shade]), tint, dtype=cv2.CV_8U)
+        col_r = cv2.resize(col, (sw, sh), interpolation=interp)
+    sl = np.s_[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0]
+    c, a = np.ascontiguousarray(col_r[sl]), np.ascontiguousarray(al_r[sl])
+    roi = p.layers.color[cy0:cy1, cx0:cx1]
+    roi[:] = cv2.blendLinear(c, np.ascontiguousarray(roi), a, np.float32(1.0) - a)
+    solid = a > 0.5
+    np.copyto(p.layers.labels[cy0:cy1, cx0:cx1], np.uint8(label), where=solid)
+    np.copyto(p.layers.depth[cy0:cy1, cx0:cx1], np.float32(depth), where=solid)
+
+
+def _tree(p: _Painter, obj: SceneObject, label: int, rng: np.random.Generator, seed: int) -> None:
     box = _Box(
         np.array([obj.x_m, obj.y_m, obj.z_m]),
         np.array([obj.length_m, obj.width_m, obj.height_m]),
@@ -290,18 +390,18 @@ def _tree(p: _Painter, obj: SceneObject, label: int, rng: np.random.Generator) -
     if uv is None or depth < 1.0:
         return
     f = p.camera.intrinsics.fx
-    base = np.array(obj.color_bgr, float) * (0.35 + 0.65 * p.daylight)
-    for _ in range(14):
-        du, dv = rng.normal(0, 0.45, 2)
-        rr = rng.uniform(0.35, 0.7)
-        u = uv[0, 0] + du * r_m * f / depth
-        v = uv[0, 1] + dv * h_m * f / depth
-        rad = max(1, int(rr * min(r_m, h_m) * f / depth))
-        col = tuple(float(c) for c in base * rng.uniform(0.6, 1.15))
-        ctr = (int(u * 16), int(v * 16))
-        cv2.circle(p.layers.color, ctr, rad * 16, col, -1, cv2.LINE_AA, _SHIFT)
-        cv2.circle(p.layers.labels, ctr, rad * 16, label, -1, cv2.LINE_8, _SHIFT)
-        cv2.circle(p.layers.depth, ctr, rad * 16, depth, -1, cv2.LINE_8, _SHIFT)
+    half_u = _SPRITE_SPAN * r_m * f / depth
+    half_v = _SPRITE_SPAN * h_m * f / depth
+    u, v = float(uv[0, 0]), float(uv[0, 1])
+    if u + half_u < 0 or u - half_u > p.size[0] or v + half_v < 0 or v - half_v > p.size[1]:
+        return
+    sprites = _crown_sprites(seed)
+    sprite = sprites[int(rng.integers(0, len(sprites)))]
+    if rng.random() < 0.5:
+        sprite = (sprite[0][:, ::-1], sprite[1][:, ::-1])
+    tint = rng.normal(0.0, 6.0, 3) + np.array([0.0, 4.0, 0.0])
+    base = (np.array(obj.color_bgr, float) + tint) * (0.35 + 0.65 * p.daylight) * 1.25
+    _sprite(p, sprite, (u - half_u, v - half_v, u + half_u, v + half_v), base, label, depth)
 
 
 def _rail(p: _Painter, obj: SceneObject, label: int) -> None:
@@ -379,7 +479,7 @@ def draw_objects(
     layers = Layers(
         np.zeros((h, w, 3), np.uint8),
         np.zeros((h, w), np.uint8),
-        np.full((h, w), np.inf, np.float32),
+        np.zeros((h, w), np.float32),
         np.zeros(((h + 1) // 2, (w + 1) // 2), np.float32),
         [],
     )
@@ -394,7 +494,7 @@ def draw_objects(
         if obj.kind == "vehicle":
             _vehicle(painter, obj, label)
         elif obj.kind == "vegetation":
-            _tree(painter, obj, label, rng)
+            _tree(painter, obj, label, rng, world_seed)
         elif obj.style in {"guard_rail", "rail", "barrier"}:
             _rail(painter, obj, label)
         elif obj.kind == "pole_sign_utility":
@@ -408,19 +508,19 @@ def draw_objects(
     return layers
 
 
-def shadow_factor(shadow: F32, row0: int, size: tuple[int, int], strength: float) -> F32:
-    """Return the ground light factor of rows ``row0:`` under the half-resolution shadow layer.
+def shadow_factor(shadow: F32, row0: int, shape: tuple[int, int], strength: float) -> F32:
+    """Return the ground light factor on the half grid of rows ``row0:`` (every second pixel).
 
     Args:
         shadow: Half-resolution shadow layer (darkness 0..1).
         row0: First image row of the ground.
-        size: Image ``(width, height)``, pixels.
+        shape: Shape of the half grid of the ground rows.
         strength: Darkness of a full shadow 0..1.
     """
     import cv2
 
     blurred = cv2.GaussianBlur(shadow, (0, 0), 1.0)
-    full = cv2.resize(blurred[row0 // 2 :], (size[0], size[1] - (row0 // 2) * 2))
-    out = full[row0 % 2 :]
-    factor: F32 = np.float32(1.0) - np.float32(strength) * out
+    part = blurred[row0 // 2 : row0 // 2 + shape[0], : shape[1]]
+    factor = np.ones(shape, np.float32)
+    factor[: part.shape[0], : part.shape[1]] -= np.float32(strength) * part
     return factor

@@ -68,7 +68,7 @@ class Ground(NamedTuple):
     """Shaded ground of rows ``hit.row0:``.
 
     Attributes:
-        color: ``(R, W, 3)`` float32 BGR before lighting, haze and sensor effects.
+        color: ``(R, W, 3)`` float32 BGR, lit and hazed (meaningless where labels are 0).
         labels: ``(R, W)`` leaf ids (0 where the ray misses the ground).
         gloss: ``(R, W)`` specular weight 0..1 (wet asphalt, tar seams) for reflections.
     """
@@ -76,6 +76,23 @@ class Ground(NamedTuple):
     color: F32
     labels: U8
     gloss: F32
+
+
+class GroundLight(NamedTuple):
+    """Light and haze on the half grid (every second row and column of the ground rows).
+
+    The shaded colour ``c`` becomes ``c * gain + haze * haze_bgr`` (illumination times the
+    transmitted fraction, plus the airlight), both smooth at the pixel scale.
+
+    Attributes:
+        gain: ``(ceil(R / 2), ceil(W / 2))`` illumination times transmission.
+        haze: Same shape, airlight fraction ``1 - transmission``.
+        haze_bgr: Airlight colour, BGR grey levels.
+    """
+
+    gain: F32
+    haze: F32
+    haze_bgr: tuple[float, float, float]
 
 
 def line_label(line: LaneLine) -> int:
@@ -164,8 +181,10 @@ def shade_ground(
     cracks: float,
     tar_seams: float,
     wet: float,
+    light: GroundLight,
+    out: F32 | None = None,
 ) -> Ground:
-    """Label and colour the ground pixels of ``hit`` (see the module docstring).
+    """Label, colour, light and haze the ground pixels of ``hit`` (see the module docstring).
 
     The surface colour (textures, tyre tracks, cracks, seams, terrain) is smooth at the pixel
     scale, so it is evaluated on every second row and column and resized up; painted lines are
@@ -179,6 +198,8 @@ def shade_ground(
         cracks: Crack and patch density 0..1.
         tar_seams: Tar-seam (sealant line) density 0..1.
         wet: Wetness 0..1 (darkens the surface, raises gloss).
+        light: Illumination and haze on the half grid.
+        out: ``(R, W, 3)`` float32 array to write the colour into (a new one if None).
     """
     import cv2
 
@@ -192,13 +213,16 @@ def shade_ground(
     if wet > 0:
         color_h *= np.float32(1.0 - 0.35 * wet)
         gloss_h = np.maximum(gloss_h, np.float32(wet) * half.on_road)
-    color = np.asarray(
-        cv2.resize(color_h, (cols, rows), interpolation=cv2.INTER_LINEAR), dtype=np.float32
-    )
-    gloss = np.asarray(
-        cv2.resize(gloss_h, (cols, rows), interpolation=cv2.INTER_LINEAR), dtype=np.float32
-    )
-    _paint_lines(hit, road, tex, palette, half, color, labels)
+    _light(color_h, light.gain, light.haze, light.haze_bgr)
+    color = np.empty((rows, cols, 3), np.float32) if out is None else out
+    cv2.resize(color_h, (cols, rows), dst=color, interpolation=cv2.INTER_LINEAR)
+    if tar_seams > 0 or wet > 0:
+        gloss = np.asarray(
+            cv2.resize(gloss_h, (cols, rows), interpolation=cv2.INTER_LINEAR), dtype=np.float32
+        )
+    else:
+        gloss = np.zeros((rows, cols), np.float32)
+    _paint_lines(hit, road, tex, palette, half, light, color, labels)
 
     # --- stop lines and zebra crosswalks (urban scenes only) -----------------------------
     crosswalk = _in_ranges(s, road.crosswalks_s_m) if road.crosswalks_s_m else None
@@ -209,14 +233,14 @@ def shade_ground(
         for s_stop in road.stop_lines_s_m:
             d = np.abs(s - np.float32(s_stop + 0.5 * _STOP_LINE_WIDTH_M))
             cov, lab = _stroke(d, 0.5 * _STOP_LINE_WIDTH_M, foot_s)
-            _blend(color, cov * across, palette.white_paint)
+            _blend_lit(color, cov * across, palette.white_paint, light)
             labels[lab & across] = STOP_LINE
     if crosswalk is not None:
         zm = fmod_pos(l_m, 2 * _ZEBRA_STRIPE_M)
         dz = np.abs(zm - np.float32(0.5 * _ZEBRA_STRIPE_M))
         cov, lab = _stroke(dz, 0.5 * _ZEBRA_STRIPE_M, footprint(l_m, valid))
         zone = crosswalk & on_road
-        _blend(color, cov * zone * np.float32(0.9), palette.white_paint)
+        _blend_lit(color, cov * zone * np.float32(0.9), palette.white_paint, light)
         labels[lab & zone] = CROSSWALK
     return Ground(color, labels, gloss)
 
@@ -328,6 +352,7 @@ def _paint_lines(
     tex: RoadTextures,
     palette: Palette,
     half: _Half,
+    light: GroundLight,
     color: F32,
     labels: U8,
 ) -> None:
@@ -360,6 +385,10 @@ def _paint_lines(
     valid = hit.hit.reshape(-1)[idx]
     col = color.reshape(-1, 3)[idx]
     lab = labels.reshape(-1)[idx]
+    r, c = np.divmod(idx, cols)
+    hidx = (r // 2) * half.s.shape[1] + c // 2
+    gain = light.gain.reshape(-1)[hidx]
+    airlight = light.haze.reshape(-1)[hidx]
     in_view = valid & (s >= road.s_m[0]) & (s <= road.s_m[-1])
     crosswalk = _in_ranges(s, road.crosswalks_s_m) if road.crosswalks_s_m else None
     wear_tex: F32 | None = None
@@ -394,7 +423,9 @@ def _paint_lines(
                 1.0,
             )
             cov = cov * keep
-        _blend(col, cov * np.float32(0.92), paint_col)
+        lit = np.array(paint_col, np.float32) * gain[:, None]
+        lit += airlight[:, None] * np.array(light.haze_bgr, np.float32)
+        col += (cov * np.float32(0.92))[:, None] * (lit - col)
         if line.wear < 0.999:
             lab[mark] = line_label(line)
     color.reshape(-1, 3)[idx] = col
@@ -428,6 +459,26 @@ def _stop_line_span(road: RoadProfile) -> tuple[float, float]:
             hi = ln.offset_m
             break
     return lo, hi
+
+
+def _light(color: F32, gain: F32, haze: F32, haze_bgr: tuple[float, float, float]) -> None:
+    """Apply ``color * gain + haze * haze_bgr`` in place (``color`` is ``(..., 3)``)."""
+    color *= gain[..., None]
+    color += haze[..., None] * np.array(haze_bgr, np.float32)
+
+
+def _blend_lit(
+    color: F32, alpha: F32, rgb: tuple[float, float, float], light: GroundLight
+) -> None:
+    """Blend paint ``rgb``, lit and hazed like the ground, over full-resolution ``color``."""
+    import cv2
+
+    rows, cols = color.shape[:2]
+    gain = cv2.resize(light.gain, (cols, rows), interpolation=cv2.INTER_NEAREST)
+    haze = cv2.resize(light.haze, (cols, rows), interpolation=cv2.INTER_NEAREST)
+    paint = np.broadcast_to(np.array(rgb, np.float32), color.shape).copy()
+    _light(paint, gain, haze, light.haze_bgr)
+    color += alpha[..., None] * (paint - color)
 
 
 def _blend(color: F32, alpha: F32, rgb: tuple[float, float, float]) -> None:

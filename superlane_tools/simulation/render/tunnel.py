@@ -64,6 +64,7 @@ def draw_tunnel(
     y = np.float32(oy) + (x - np.float32(ox)) * py[mask]
     z = np.float32(oz) + (x - np.float32(ox)) * q_fin[mask]
     s, l_m, zs = road_coordinates(tables, x, y)
+    assert zs is not None
     is_ceiling = x_ceil[mask] <= np.minimum(x_left, x_right)[mask]
     h_wall = z - zs
     tile = (fmod_pos(s, 2.5) < 0.05) | (fmod_pos(h_wall, 1.0) < 0.04)

@@ -49,16 +49,21 @@ def haze_pixels(
     img[mask] = col
 
 
-def headlight_gain(rays: CameraRays, row0: int, range_m: F32, hit: NDArray[np.bool_]) -> F32:
-    """Return the ego headlight illumination (0..~1.5) of ground pixels of rows ``row0:``."""
-    d = rays.dirs[row0:]
-    az = rays.azimuth[row0:]
-    lateral = np.abs(az) / np.float32(0.35)
+def headlight_gain(dir_z: F32, azimuth: F32, range_m: F32, hit: NDArray[np.bool_]) -> F32:
+    """Return the ego headlight illumination (0..~1.5) of ground pixels.
+
+    Args:
+        dir_z: Vertical component of the pixel rays.
+        azimuth: Ray azimuth, radians, left positive.
+        range_m: Distance to the ground, metres.
+        hit: Pixels whose ray meets the ground.
+    """
+    lateral = np.abs(azimuth) / np.float32(0.35)
     cone = np.exp(-(lateral * lateral))
     # Low-beam cut-off: light falls off beyond ~60 m; 1/r^2 near, clamped.
     r = np.maximum(range_m, np.float32(4.0))
     fall = np.float32(150.0) / (r * r + np.float32(100.0))
-    gain = cone * np.minimum(fall, np.float32(1.5)) * (d[..., 2] < 0)
+    gain = cone * np.minimum(fall, np.float32(1.5)) * (dir_z < 0)
     out: F32 = np.where(hit, gain, np.float32(0.0)).astype(np.float32)
     return out
 

@@ -1,0 +1,157 @@
+"""Nightly fleet reprocessing: new recordings (or a manifest) -> `slt batch` -> fleet summary.
+
+Finds the recordings under ``--source`` modified since the last successful run (a watermark in
+the state file) and older than ``--settle-min`` minutes (so files still being copied are left
+for the next night), or reads ``--manifest``; runs the batch into ``--out``; writes
+``OUT/summary/``. Recordings already done are skipped by the batch itself, so overlapping or
+repeated runs are harmless.
+
+Exit codes: 0 when the night's work was done, even if some recordings were corrupt (they are
+listed in ``OUT/batch_status.parquet`` and the report); 1 on a systemic failure: more than
+``--max-failed`` of the attempted recordings failed, or the output root is unwritable or locked
+by another run; 2 on a bad command line. The watermark only advances after a run without
+systemic failure.
+
+Usage:
+    python pipelines/nightly.py --source /data/drives --out /data/runs
+        [--manifest FILE] [--state FILE] [--engine local|ray] [--workers N]
+        [--ray-address auto] [--job reprocess|extract] [--config FILE] [--retries 1]
+        [--settle-min 10] [--max-failed 0.5]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+from superlane_tools.errors import SltError, UsageError
+from superlane_tools.pipeline.batch import (
+    BatchEntry,
+    BatchError,
+    BatchParams,
+    default_kind,
+    find_recordings,
+    load_config_file,
+    read_manifest,
+    run_batch,
+)
+from superlane_tools.pipeline.batch.manifest import fingerprint
+from superlane_tools.reporting import write_text_atomic
+
+STATE_FILE = "nightly_state.json"
+
+
+def parse_args(argv: list[str] | None) -> argparse.Namespace:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0] if __doc__ else None)
+    src = ap.add_mutually_exclusive_group(required=True)
+    src.add_argument("--source", type=Path, help="folder searched recursively for recordings")
+    src.add_argument("--manifest", type=Path, help="CSV/Parquet/YAML manifest of recordings")
+    ap.add_argument("--out", type=Path, required=True, help="output root (shared storage)")
+    ap.add_argument("--state", type=Path, help=f"state file (default OUT/{STATE_FILE})")
+    ap.add_argument("--engine", default="local", choices=("local", "ray"))
+    ap.add_argument("--workers", type=int)
+    ap.add_argument("--ray-address")
+    ap.add_argument("--job", choices=("reprocess", "extract"))
+    ap.add_argument("--config", type=Path, help="job configuration (TOML/YAML/JSON)")
+    ap.add_argument("--retries", type=int, default=1)
+    ap.add_argument(
+        "--settle-min",
+        type=float,
+        default=10.0,
+        help="skip files modified in the last N minutes (still being copied)",
+    )
+    ap.add_argument(
+        "--max-failed",
+        type=float,
+        default=0.5,
+        help="failed fraction above which the night counts as a systemic failure",
+    )
+    return ap.parse_args(argv)
+
+
+def read_state(path: Path) -> dict[str, object]:
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        return {}
+    except (OSError, ValueError) as err:
+        raise BatchError(f"cannot read state file {path}: {err}") from err
+    return data if isinstance(data, dict) else {}
+
+
+def new_recordings(source: Path, after_ns: int, before_ns: int) -> list[BatchEntry]:
+    """Recordings under ``source`` whose newest file time is in ``(after_ns, before_ns]``."""
+    if not source.is_dir():
+        raise UsageError(f"source folder {source} does not exist")
+    found = []
+    for path in find_recordings(source):
+        _, mtime_ns = fingerprint(path)
+        if after_ns < mtime_ns <= before_ns:
+            found.append(BatchEntry(path))
+    return found
+
+
+def run(args: argparse.Namespace) -> int:
+    state_path = args.state or args.out / STATE_FILE
+    state = read_state(state_path)
+    cutoff_ns = time.time_ns() - int(args.settle_min * 60e9)
+    if args.manifest is not None:
+        entries = read_manifest(args.manifest)
+    else:
+        watermark = int(state.get("watermark_ns", 0))  # type: ignore[call-overload]
+        entries = new_recordings(args.source, watermark, cutoff_ns)
+    if not entries:
+        print("nightly: nothing new to process")
+        state.update(last_run_ns=time.time_ns(), last_counts={})
+        args.out.mkdir(parents=True, exist_ok=True)
+        write_text_atomic(state_path, json.dumps(state, indent=1))
+        return 0
+    params = BatchParams(
+        root=args.out,
+        kind=args.job or default_kind(),
+        engine=args.engine,
+        workers=args.workers,
+        retries=args.retries,
+        config=load_config_file(args.config) if args.config else {},
+        ray_address=args.ray_address,
+        command=" ".join(["nightly.py", *sys.argv[1:]]),
+    )
+    report = run_batch(entries, params)
+    counts = ", ".join(f"{k} {v}" for k, v in report.counts.items())
+    print(f"nightly: {counts} in {report.wall_s:.1f} s -> {report.root}")
+    for rid, reason in report.failures:
+        print(f"nightly: failed: {rid}: {reason}", file=sys.stderr)
+    if report.failed_fraction > args.max_failed:
+        print(
+            f"nightly: systemic failure: {report.failed_fraction:.0%} of the recordings failed "
+            f"(limit {args.max_failed:.0%}); the watermark stays for the next run",
+            file=sys.stderr,
+        )
+        return 1
+    state.update(last_run_ns=time.time_ns(), last_counts=dict(report.counts))
+    if args.manifest is None:
+        state["watermark_ns"] = cutoff_ns
+    write_text_atomic(state_path, json.dumps(state, indent=1))
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
+    try:
+        return run(args)
+    except BatchError as err:  # unwritable or locked root, engine unavailable: systemic
+        print(f"nightly: systemic failure: {err}", file=sys.stderr)
+        return 1
+    except UsageError as err:
+        print(f"nightly: error: {err}", file=sys.stderr)
+        return 2
+    except SltError as err:
+        print(f"nightly: systemic failure: {err}", file=sys.stderr)
+        return 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,83 @@
+"""Correctness under SIGKILL: a batch killed halfway and started again finishes cleanly."""
+
+from __future__ import annotations
+
+import json
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import pandas as pd
+
+from superlane_tools.pipeline.batch import MARKER, read_status
+
+SLT = (
+    "from superlane_tools.cli.app import app\n"
+    "from superlane_tools.cli import batch\n"
+    "batch.register(app)\n"
+    "app()\n"
+)
+
+
+def _batch(*args: str) -> list[str]:
+    return [sys.executable, "-c", SLT, "batch", *args]
+
+
+def test_sigkill_halfway_then_resume(
+    tmp_path: Path, make_drives: Callable[..., list[Path]]
+) -> None:
+    make_drives(18, 2)
+    root = tmp_path / "out"
+    args = _batch(
+        str(tmp_path / "recs"),
+        "--out",
+        str(root),
+        "--job",
+        "extract",
+        "--workers",
+        "1",
+        "--retries",
+        "0",
+    )
+    proc = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 60
+    done: list[Path] = []
+    while time.monotonic() < deadline and proc.poll() is None:
+        done = list(root.glob("*/" + MARKER))
+        if len(done) >= 6:
+            break
+        time.sleep(0.01)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    assert 6 <= len(done) < 18, "the kill did not land halfway"
+    time.sleep(0.5)  # let an orphaned worker finish or notice its parent is gone
+
+    result = subprocess.run(args, capture_output=True, text=True, timeout=120, check=False)
+    assert result.returncode == 3, result.stderr  # 2 corrupt recordings: partial success
+    assert "skipped" in result.stdout
+
+    status = read_status(root)
+    assert len(status) == 20
+    assert status["recording_id"].is_unique
+    assert status["recording"].is_unique
+    assert sorted(status["result"].value_counts().items()) == [("failed", 2), ("ok", 18)]
+    assert status["status"].eq("skipped").sum() >= len(done)
+    failed = status[status["result"] == "failed"]
+    assert failed["recording"].str.contains("corrupt_").all()
+    assert failed["error"].str.contains("recording|MCAP|mcap|magic|record", regex=True).all()
+    # every finished folder is complete (marker + all outputs), exactly once, nothing else
+    folders = sorted(p.name for p in root.iterdir() if p.is_dir() and p.name != "summary")
+    assert folders == sorted(status.loc[status["result"] == "ok", "recording_id"])
+    for name in folders:
+        marker = json.loads((root / name / MARKER).read_text())
+        assert marker["status"] == "ok"
+        frames = pd.read_parquet(root / name / "frames.parquet")
+        assert len(frames) == 10
+        assert frames["log_time_ns"].is_unique
+        assert len(list((root / name / "frames").rglob("*.jpg"))) == 10
+    assert not (root / ".tmp").exists()
+    assert not list(root.rglob("*.tmp"))
+    assert (root / "summary" / "report.md").is_file()
