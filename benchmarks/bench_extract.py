@@ -1,9 +1,11 @@
 """Benchmark `slt extract` against plain MCAP iteration+decoding, and its memory growth.
 
 Run: ``python benchmarks/bench_extract.py``. Generates a 60 s recording (15 Hz 1280x720 JPEG
-frames, 100 Hz CAN, 20 Hz GNSS) with the project's writers, times (median of 3) decoding all
-messages with the mcap library alone versus the full extract, then measures peak RSS of the
-extract on the 60 s recording and on a 10x longer one, each in a fresh subprocess. Writes
+frames from real TuSimple images, 100 Hz CAN, 20 Hz GNSS) with the project's writers, then
+times, interleaved in each of 5 rounds, decoding all messages with the mcap library alone, the
+full extract, the extract with ``--frames none``, and writing the same 900 JPEG files with plain
+Python; reports medians and per-round ratios. Then measures peak RSS of the extract on the 60 s
+recording and on a 10x longer one, each in a fresh subprocess. Writes
 ``benchmarks/results/extract.json``.
 """
 
@@ -17,9 +19,8 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
-
-import numpy as np
 
 RESULTS = Path(__file__).resolve().parent / "results" / "extract.json"
 REALDATA = Path(
@@ -27,6 +28,8 @@ REALDATA = Path(
 )
 FRAMES = REALDATA / "tusimple" / "frames"
 T0 = 1_700_000_000_000_000_000
+REPEATS = 5
+"""Timed rounds (after one warm-up round); results are medians over them."""
 DBC = """VERSION ""
 
 NS_ :
@@ -104,29 +107,40 @@ def run_extract(path: Path, dbc: Path, out: Path, frames: str = "jpg") -> dict[s
     return dict(result.counts)
 
 
-def run_extract_index_only(path: Path, dbc: Path, out: Path) -> dict[str, int]:
-    """The extract without writing image files (``--frames none``)."""
-    return run_extract(path, dbc, out, frames="none")
-
-
 def write_only(pool: list[bytes], count: int, out: Path) -> int:
     """Just write ``count`` JPEG files of the pool: the disk's share of the full extract."""
     out.mkdir(parents=True)
     for i in range(count):
-        (out / f"{i:06d}.jpg").write_bytes(pool[i % len(pool)])
+        with (out / f"{i:06d}.jpg").open("wb") as handle:
+            handle.write(pool[i % len(pool)])
     return count
 
 
-def median_time(func, *args, out: Path | None = None) -> tuple[float, object]:  # type: ignore[no-untyped-def]
-    """Median wall time of 3 runs; ``out`` (an output folder) is removed between runs."""
-    times, value = [], None
-    for _ in range(3):
-        start = time.perf_counter()
-        value = func(*args) if out is None else func(*args, out)
-        times.append(time.perf_counter() - start)
-        if out is not None:
-            shutil.rmtree(out)
-    return statistics.median(times), value
+def interleaved_times(
+    jobs: dict[str, Callable[[Path], object]], out: Path, repeats: int = REPEATS
+) -> tuple[dict[str, list[float]], dict[str, object]]:
+    """Wall times of each job over ``repeats`` rounds, the jobs interleaved within a round.
+
+    The machine is shared and its load drifts: interleaving puts every job of a round under
+    the same load, so per-round ratios are fairer than ratios of separately taken medians. One
+    warm-up round (imports, page cache) is not counted. ``out`` is removed after each job.
+    """
+    times: dict[str, list[float]] = {name: [] for name in jobs}
+    values: dict[str, object] = {}
+    for round_index in range(repeats + 1):
+        for name, job in jobs.items():
+            start = time.perf_counter()
+            values[name] = job(out)
+            elapsed = time.perf_counter() - start
+            if round_index:
+                times[name].append(elapsed)
+            shutil.rmtree(out, ignore_errors=True)
+    return times, values
+
+
+def median_ratio(num: list[float], den: list[float]) -> float:
+    """Median over rounds of ``num / den`` (both measured in the same round)."""
+    return statistics.median(n / d for n, d in zip(num, den, strict=True))
 
 
 def peak_rss_mib(path: Path, out: Path, dbc: Path) -> float:
@@ -151,27 +165,54 @@ def main() -> None:
         pool = jpeg_pool()
         short, long = work / "60s.mcap", work / "600s.mcap"
         make_recording(short, 60, pool)
-        t_base, n_msgs = median_time(baseline, short)
-        t_extract, counts = median_time(run_extract, short, dbc, out=work / "out")
-        t_index, _ = median_time(run_extract_index_only, short, dbc, out=work / "out")
-        t_write, _ = median_time(write_only, pool, 900, out=work / "out")
+        load_before = os.getloadavg()[0]
+        times, values = interleaved_times(
+            {
+                "baseline": lambda _out: baseline(short),
+                "extract": lambda out: run_extract(short, dbc, out),
+                "frames_none": lambda out: run_extract(short, dbc, out, frames="none"),
+                "write_only": lambda out: write_only(pool, 900, out),
+            },
+            work / "out",
+        )
+        load_after = os.getloadavg()[0]
+        med = {name: statistics.median(ts) for name, ts in times.items()}
+        extract_minus_writes = [
+            e - w for e, w in zip(times["extract"], times["write_only"], strict=True)
+        ]
         rss_short = peak_rss_mib(short, work / "out-s", dbc)
         shutil.rmtree(work / "out-s")
         make_recording(long, 600, pool)
         rss_long = peak_rss_mib(long, work / "out-l", dbc)
         results = {
             "recording_s": 60,
-            "messages": n_msgs,
+            "messages": values["baseline"],
             "recording_mib": round(short.stat().st_size / 2**20, 1),
-            "baseline_mcap_decode_s": round(t_base, 3),
-            "extract_s": round(t_extract, 3),
-            "extract_over_baseline": round(t_extract / t_base, 2),
-            "write_900_jpeg_files_only_s": round(t_write, 3),
-            "extract_over_baseline_plus_writes": round(t_extract / (t_base + t_write), 2),
-            "extract_frames_none_s": round(t_index, 3),
-            "extract_frames_none_over_baseline": round(t_index / t_base, 2),
+            "jpeg_payload_kib_mean": round(statistics.mean(map(len, pool)) / 1024, 1),
+            "jpeg_source": "TuSimple frames, 1280x720, re-encoded at JPEG quality 90",
+            "rounds": REPEATS,
+            "load_average_1min": [round(load_before, 1), round(load_after, 1)],
+            "baseline_mcap_decode_s": round(med["baseline"], 3),
+            "extract_s": round(med["extract"], 3),
+            "extract_over_baseline": round(median_ratio(times["extract"], times["baseline"]), 2),
+            "write_900_jpeg_files_only_s": round(med["write_only"], 3),
+            "extract_minus_writes_over_baseline": round(
+                median_ratio(extract_minus_writes, times["baseline"]), 2
+            ),
+            "extract_over_baseline_plus_writes": round(
+                median_ratio(
+                    times["extract"],
+                    [b + w for b, w in zip(times["baseline"], times["write_only"], strict=True)],
+                ),
+                2,
+            ),
+            "extract_frames_none_s": round(med["frames_none"], 3),
+            "extract_frames_none_over_baseline": round(
+                median_ratio(times["frames_none"], times["baseline"]), 2
+            ),
             "target_ratio": 1.5,
-            "counts": counts,
+            "counts": values["extract"],
+            "times_s": {name: [round(t, 3) for t in ts] for name, ts in times.items()},
             "peak_rss_60s_mib": round(rss_short, 1),
             "peak_rss_600s_mib": round(rss_long, 1),
             "rss_ratio_600s_over_60s": round(rss_long / rss_short, 3),

@@ -104,8 +104,18 @@ HEAVY = ("onnxruntime", "cv2", "torch", "matplotlib", "ray")
 
 @pytest.mark.parametrize(
     "argv",
-    [["--help"], ["info", "--help"], ["extract", "--help"], ["simulate", "--help"],
-     ["lanes", "--help"], ["camera", "--help"], ["eval", "--help"], ["segment", "--help"]],
+    [
+        ["--help"],
+        ["info", "--help"],
+        ["extract", "--help"],
+        ["simulate", "--help"],
+        ["lanes", "--help"],
+        ["camera", "--help"],
+        ["eval", "--help"],
+        ["segment", "--help"],
+        ["reprocess", "--help"],
+        ["tables", "--help"],
+    ],
 )
 def test_help_does_not_import_heavy_modules(argv: list[str]) -> None:
     code = (

@@ -7,7 +7,16 @@ import sys
 import typer
 
 from superlane_tools._version import __version__
-from superlane_tools.cli import camera, extract, info, lanes, segment, simulate
+from superlane_tools.cli import (
+    camera,
+    extract,
+    info,
+    lanes,
+    reprocess,
+    segment,
+    simulate,
+    tables,
+)
 from superlane_tools.cli import eval as eval_cmd
 from superlane_tools.cli._common import EXIT_CODES_HELP, debug_enabled, err_console
 from superlane_tools.errors import ExitCode
@@ -40,6 +49,7 @@ def _root(
     """Inspect, extract and reprocess driving recordings."""
 
 
+reprocess.register(app)
 info.register(app)
 extract.register(app)
 simulate.register(app)
@@ -47,6 +57,7 @@ camera.register(app)
 lanes.register(app)
 segment.register(app)
 eval_cmd.register(app)
+tables.register(app)
 
 
 def main() -> None:

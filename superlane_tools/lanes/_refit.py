@@ -52,6 +52,7 @@ def refit_shared(
     slope_bound: float,
     max_range_m: float,
     iterations: int = 6,
+    compiled: bool = False,
 ) -> SharedModel:
     """Refit shared heading, curvature, slope and per-line offsets to assigned points.
 
@@ -67,7 +68,23 @@ def refit_shared(
         slope_bound: Bound on ``|b|``.
         max_range_m: Points whose road intersection is farther are ignored, metres.
         iterations: Gauss-Newton iterations at most.
+        compiled: Accumulate the normal equations with a numba kernel (one pass, no design
+            matrix) instead of numpy; same result to rounding.
     """
+    if compiled:
+        return _refit_compiled(
+            iq,
+            r,
+            labels,
+            n_lines,
+            start,
+            height_m,
+            order,
+            fit_slope,
+            slope_bound,
+            max_range_m,
+            iterations,
+        )
     keep = labels >= 0
     iq, r, lab = iq[keep], r[keep], labels[keep]
     if iq.size < n_lines + order + 1:
@@ -105,6 +122,57 @@ def refit_shared(
     return SharedModel(a1, a2, b, np.asarray(offsets, dtype=np.float64))
 
 
+def _refit_compiled(
+    iq: FloatArray,
+    r: FloatArray,
+    labels: IntArray,
+    n_lines: int,
+    start: SharedModel,
+    height_m: float,
+    order: int,
+    fit_slope: bool,
+    slope_bound: float,
+    max_range_m: float,
+    iterations: int,
+) -> SharedModel:
+    """:func:`refit_shared` on normal equations accumulated by ``_kernels.refit_normal``."""
+    from superlane_tools.lanes._kernels import refit_normal
+
+    if int((labels >= 0).sum()) < n_lines + order + 1:
+        return start
+    a1, a2, b = start.a1, start.a2, start.b
+    offsets = start.offsets
+    fit_slope = fit_slope and n_lines >= 2
+    for _ in range(iterations if fit_slope else 1):
+        normal, rhs = refit_normal(
+            iq,
+            r,
+            labels,
+            n_lines,
+            a1,
+            a2,
+            b,
+            1.0 / height_m,
+            1.0 / max_range_m,
+            order,
+            fit_slope,
+            NEAR_WEIGHT_M,
+        )
+        normal[np.diag_indices_from(normal)] += 1e-9 * (np.trace(normal) / normal.shape[0] + 1.0)
+        p = np.linalg.solve(normal, rhs)
+        offsets = p[:n_lines]
+        a1 = float(p[n_lines])
+        a2 = float(p[n_lines + 1]) if order == 2 else 0.0
+        if not fit_slope:
+            break
+        b_new = float(np.clip(b + float(p[-1]), -slope_bound, slope_bound))
+        done = abs(b_new - b) < 1e-7
+        b = b_new
+        if done:
+            break
+    return SharedModel(a1, a2, b, np.asarray(offsets, dtype=np.float64))
+
+
 class LocalCorrection(NamedTuple):
     """A line's own quadratic correction ``c0 + c1 x + c2 x^2`` (metres, rad, 1/m)."""
 
@@ -134,13 +202,46 @@ def local_correction(
     if x.size < 8 or bound_m <= 0:
         return LocalCorrection(0.0, 0.0, 0.0)
     span = float(x.max() - x.min())
-    k = 0 if span < 5.0 else (1 if span < 15.0 or order == 1 else 2)
+    k = _correction_order(span, order)
     design = np.stack([x**j for j in range(k + 1)], axis=1)
     sqrt_w = 1.0 / np.maximum(x, NEAR_WEIGHT_M)
     coef = np.zeros(3)
     coef[: k + 1] = _solve(design, residual, sqrt_w)
-    grid = np.linspace(float(x.min()), float(x.max()), 16)
+    return _bounded(coef, float(x.min()), float(x.max()), bound_m)
+
+
+def _correction_order(span_m: float, order: int) -> int:
+    return 0 if span_m < 5.0 else (1 if span_m < 15.0 or order == 1 else 2)
+
+
+def _bounded(coef: FloatArray, x_min: float, x_max: float, bound_m: float) -> LocalCorrection:
+    """Scale ``coef`` down so that the correction stays within ``bound_m`` over the support."""
+    grid = np.linspace(x_min, x_max, 16)
     worst = float(np.max(np.abs(coef[0] + grid * (coef[1] + grid * coef[2]))))
     if worst > bound_m:
-        coef *= bound_m / worst
+        coef = coef * (bound_m / worst)
     return LocalCorrection(float(coef[0]), float(coef[1]), float(coef[2]))
+
+
+def local_correction_from_sums(
+    sums_x: FloatArray, sums_r: FloatArray, order: int, bound_m: float
+) -> LocalCorrection:
+    """Fit :func:`local_correction` from a line's accumulated weighted sums.
+
+    Args:
+        sums_x: ``sum w x^j`` for ``j = 0..4`` with ``w = 1 / max(x, NEAR_WEIGHT_M)^2``.
+        sums_r: ``sum w x^j residual`` for ``j = 0..2``, then the point count, min and max
+            of ``x`` (metres), as ``_kernels.line_sums`` returns them.
+        order: Highest polynomial order allowed (1 or 2).
+        bound_m: Largest correction over the line's support, metres.
+    """
+    count, x_min, x_max = float(sums_r[3]), float(sums_r[4]), float(sums_r[5])
+    if count < 8 or bound_m <= 0:
+        return LocalCorrection(0.0, 0.0, 0.0)
+    k = _correction_order(x_max - x_min, order)
+    idx = np.arange(k + 1)
+    normal = np.asarray(sums_x, dtype=np.float64)[idx[:, None] + idx[None, :]]
+    normal[np.diag_indices_from(normal)] += 1e-9 * (np.trace(normal) / normal.shape[0] + 1.0)
+    coef = np.zeros(3)
+    coef[: k + 1] = np.linalg.solve(normal, np.asarray(sums_r[: k + 1], dtype=np.float64))
+    return _bounded(coef, x_min, x_max, bound_m)

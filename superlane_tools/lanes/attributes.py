@@ -73,10 +73,19 @@ def style_from_support(rows_px: NDArray[np.float64]) -> str:
     rows = np.unique(np.round(np.asarray(rows_px, dtype=np.float64)).astype(np.intp))
     if rows.size == 0:
         return "unknown"
-    span = int(rows[-1] - rows[0]) + 1
-    if span < MIN_ROWS_FOR_STYLE:
+    return style_from_coverage(rows.size, int(rows[-1] - rows[0]) + 1)
+
+
+def style_from_coverage(n_rows: int, span_rows: int) -> str:
+    """Return ``solid``/``dashed``/``unknown`` from a line's covered rows and its row span.
+
+    Args:
+        n_rows: Distinct image rows holding the line's pixels.
+        span_rows: Rows from the line's first to its last row, inclusive.
+    """
+    if n_rows == 0 or span_rows < MIN_ROWS_FOR_STYLE:
         return "unknown"
-    return "solid" if rows.size / span >= DASH_COVERAGE else "dashed"
+    return "solid" if n_rows / span_rows >= DASH_COVERAGE else "dashed"
 
 
 def lane_attributes(

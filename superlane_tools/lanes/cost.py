@@ -12,16 +12,32 @@ Lane parameters are ``theta = (a1, a2, b, a0c)``: heading (rad), half curvature 
 (rise over run) and the road-centre offset (m) used by J1 only. The histogram of Eq. 2 is
 *soft-binned*: each residual is split linearly between its two nearest bins, which makes the
 entropy continuous in ``theta`` (hard bins make it a staircase that Nelder-Mead cannot descend).
+
+Two backends evaluate the same J: compiled numba kernels (``lanes._kernels``, one pass over the
+points, the default) and the pure-numpy reference below (``backend="numpy"``), which the tests
+and the benchmark compare against.
 """
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import TYPE_CHECKING, Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
+if TYPE_CHECKING:
+    from types import ModuleType
+
 FloatArray = NDArray[np.float64]
+Backend = Literal["numba", "numpy"]
+"""Cost backend: compiled numba kernels or the pure-numpy reference."""
+
+
+def kernels() -> ModuleType:
+    """Return the numba kernel module, importing (and compiling) it on first use."""
+    from superlane_tools.lanes import _kernels
+
+    return _kernels
 
 
 class Histogram(NamedTuple):
@@ -144,6 +160,8 @@ class CostFunction:
         n_lane: Number of lane points ``N_l``.
         n_road: Number of road points (0 disables J1).
         evaluations: Number of parameter vectors evaluated so far.
+        backend: ``numba`` (compiled kernels) or ``numpy`` (the reference) for ``__call__``
+            and ``batch``; ``reference`` and ``reference_batch`` are always numpy.
     """
 
     def __init__(
@@ -158,6 +176,7 @@ class CostFunction:
         road_r: FloatArray | None = None,
         lambda_road: float = 0.0,
         sigma_d_m: float = 3.0,
+        backend: Backend = "numba",
     ) -> None:
         self._iq = np.ascontiguousarray(lane_iq, dtype=np.float64)
         self._r = np.ascontiguousarray(lane_r, dtype=np.float64)
@@ -180,6 +199,25 @@ class CostFunction:
         self._lambda = lambda_road
         self._inv_sigma = 1.0 / sigma_d_m
         self.evaluations = 0
+        self.backend: Backend = backend
+        self.cfg = np.array(
+            [
+                self._inv_h,
+                self._min_den,
+                self._pos_scale,
+                self._pos_shift,
+                float(hist.n_bins),
+                kappa,
+                lambda_road if self.n_road else 0.0,
+                self._inv_sigma,
+            ]
+        )
+        self.scratch = np.zeros(self._stride)
+
+    @property
+    def arrays(self) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        """Return the lane and road rays ``(iq, r, road_iq, road_r)`` the kernels take."""
+        return self._iq, self._r, self._riq, self._rr
 
     def lane_term(self, a1: float, a2: float, b: float) -> float:
         """Return J2 (Eq. 2) for one parameter set: soft-binned entropy + kappa * N_l / n_l."""
@@ -221,6 +259,23 @@ class CostFunction:
 
     def __call__(self, theta: FloatArray) -> float:
         """Return J = lambda * J1 + J2 for ``theta = (a1, a2, b, a0c)``."""
+        if self.backend == "numpy":
+            return self.reference(theta)
+        self.evaluations += 1
+        th = np.ascontiguousarray(theta, dtype=np.float64)
+        return float(kernels().total_cost(*self.arrays, th, self.cfg, self.scratch))
+
+    def batch(self, thetas: FloatArray) -> FloatArray:
+        """Return J for each row of ``(P, 4)`` parameter vectors in one evaluation."""
+        if self.backend == "numpy":
+            return self.reference_batch(thetas)
+        th = np.ascontiguousarray(thetas, dtype=np.float64).reshape(-1, 4)
+        self.evaluations += th.shape[0]
+        out: FloatArray = kernels().batch_cost(*self.arrays, th, self.cfg, self.scratch)
+        return out
+
+    def reference(self, theta: FloatArray) -> float:
+        """Return J for one ``theta`` with the pure-numpy reference implementation."""
         self.evaluations += 1
         a1, a2, b, a0c = (float(v) for v in theta)
         cost = self.lane_term(a1, a2, b) if self.n_lane else 0.0
@@ -228,8 +283,8 @@ class CostFunction:
             cost += self._lambda * self.road_term(a1, a2, b, a0c)
         return cost
 
-    def batch(self, thetas: FloatArray) -> FloatArray:
-        """Return J for each row of ``(P, 4)`` parameter vectors in one vectorised evaluation."""
+    def reference_batch(self, thetas: FloatArray) -> FloatArray:
+        """Return J for each row of ``(P, 4)`` parameter vectors, vectorised numpy reference."""
         th = np.asarray(thetas, dtype=np.float64).reshape(-1, 4)
         self.evaluations += th.shape[0]
         a1, a2, b, a0c = (th[:, k : k + 1] for k in range(4))

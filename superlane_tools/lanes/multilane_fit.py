@@ -17,9 +17,22 @@ from numpy.typing import NDArray
 from scipy.optimize import minimize
 
 from superlane_tools.camera.model import CameraModel
-from superlane_tools.lanes._refit import SharedModel, local_correction, refit_shared
-from superlane_tools.lanes.attributes import lane_attributes
-from superlane_tools.lanes.cost import CostFunction, Histogram, ray_points
+from superlane_tools.lanes._refit import (
+    NEAR_WEIGHT_M,
+    LocalCorrection,
+    SharedModel,
+    local_correction,
+    local_correction_from_sums,
+    refit_shared,
+)
+from superlane_tools.lanes.attributes import (
+    UNKNOWN,
+    Marking,
+    lane_attributes,
+    marking_from_codes,
+    style_from_coverage,
+)
+from superlane_tools.lanes.cost import CostFunction, Histogram, kernels, ray_points
 from superlane_tools.lanes.errors import LaneFitError
 from superlane_tools.lanes.params import FitParams
 from superlane_tools.lanes.peaks import assign, find_offsets, merge_close
@@ -52,19 +65,31 @@ class _Points:
             self.iq = self.r = self.rows = np.empty(0)
             self.index = np.empty(0, dtype=np.intp)
             return
-        dirs = camera.rays(pix)
         height = camera.extrinsics.height_m
-        forward = dirs[:, 0] > 1e-9
-        dx = np.where(forward, dirs[:, 0], 1.0)
-        iq = -dirs[:, 2] / (height * dx)
-        r = dirs[:, 1] / dx
         # Keep rays that meet the road within range for some admissible slope.
         reach = params.slope_bound / height if params.slope else 0.0
-        keep = (
-            forward
-            & (iq + reach >= 1.0 / params.max_range_m)
-            & (iq - reach <= 1.0 / params.min_range_m)
-        )
+        if params.backend == "numba":
+            xn, yn = camera.normalized(pix)
+            iq, r, keep = kernels().ray_slopes(
+                np.ascontiguousarray(xn),
+                np.ascontiguousarray(yn),
+                np.ascontiguousarray(camera.extrinsics.rotation, dtype=np.float64),
+                height,
+                reach,
+                1.0 / params.max_range_m,
+                1.0 / params.min_range_m,
+            )
+        else:
+            dirs = camera.rays(pix)
+            forward = dirs[:, 0] > 1e-9
+            dx = np.where(forward, dirs[:, 0], 1.0)
+            iq = -dirs[:, 2] / (height * dx)
+            r = dirs[:, 1] / dx
+            keep = (
+                forward
+                & (iq + reach >= 1.0 / params.max_range_m)
+                & (iq - reach <= 1.0 / params.min_range_m)
+            )
         self.index = np.flatnonzero(keep)
         self.iq, self.r, self.rows = iq[keep], r[keep], pix[keep, 1]
 
@@ -105,13 +130,17 @@ def _initial_guess(cost: CostFunction, params: FitParams, free: list[int]) -> Fl
         i = int(np.argmin(costs))
         best, best_cost = thetas[i].copy(), float(costs[i])
     for _ in range(INIT_ROUNDS):
+        improved = False
         for k in free:
             thetas = np.repeat(best[None, :], grids[k].size, axis=0)
             thetas[:, k] = grids[k]
             costs = cost.batch(thetas)
             i = int(np.argmin(costs))
             if costs[i] < best_cost:
+                improved = improved or not np.array_equal(thetas[i], best)
                 best, best_cost = thetas[i].copy(), float(costs[i])
+        if not improved:  # a pass that moved nothing: the next one would repeat it
+            break
     return best
 
 
@@ -152,6 +181,27 @@ def _nelder_mead(
         col = simplex[:, i]
         col[col > hi] -= 2.0  # keep the initial simplex inside the bounds
         np.clip(col, lo, hi, out=col)
+    if cost.backend == "numba":
+        lo = np.array([b[0] for b in bounds])
+        hi = np.array([b[1] for b in bounds])
+        v, _fun, nit, nfev, ok = kernels().nelder_mead(
+            simplex,
+            base,
+            np.asarray(free, dtype=np.intp),
+            np.ascontiguousarray(scale),
+            lo,
+            hi,
+            params.xatol,
+            params.fatol,
+            params.max_iterations,
+            *cost.arrays,
+            cost.cfg,
+            cost.scratch,
+        )
+        cost.evaluations += int(nfev)
+        theta = base.copy()
+        theta[free] = np.asarray(v) * scale
+        return theta, int(nit), bool(ok)
     res = minimize(
         fun,
         x0,
@@ -291,6 +341,7 @@ def fit_frame(
         road.r[ridx] if ridx is not None else None,
         p.lambda_road if use_road else 0.0,
         p.sigma_d_m,
+        p.backend,
     )
     free = [0]
     if p.order == 2:
@@ -315,6 +366,7 @@ def fit_frame(
             road.r[ridx[::4]] if ridx is not None else None,
             p.lambda_road if use_road else 0.0,
             p.sigma_d_m,
+            p.backend,
         )
         theta0 = _initial_guess(scan, p, free)
         cost.evaluations += scan.evaluations
@@ -329,10 +381,24 @@ def fit_frame(
     model = SharedModel(a1, a2, b, offsets)
     if p.refit and offsets.size:
         for _ in range(2):
-            x_c, y_c, _ok = ray_points(iqs, rs, model.b, height, p.max_range_m)
-            resid = y_c - x_c * (model.a1 + model.a2 * x_c)
-            radius = p.assign_radius_m + ASSIGN_ANGLE_RAD * np.nan_to_num(x_c)
-            labels = assign(resid, model.offsets, radius)
+            if p.backend == "numba":
+                _x, _res, labels = kernels().assign_points(
+                    iqs,
+                    rs,
+                    model.a1,
+                    model.a2,
+                    model.b,
+                    1.0 / height,
+                    1.0 / p.max_range_m,
+                    np.ascontiguousarray(model.offsets),
+                    p.assign_radius_m,
+                    ASSIGN_ANGLE_RAD,
+                )
+            else:
+                x_c, y_c, _ok = ray_points(iqs, rs, model.b, height, p.max_range_m)
+                resid = y_c - x_c * (model.a1 + model.a2 * x_c)
+                radius = p.assign_radius_m + ASSIGN_ANGLE_RAD * np.nan_to_num(x_c)
+                labels = assign(resid, model.offsets, radius)
             model = refit_shared(
                 iqs,
                 rs,
@@ -344,6 +410,7 @@ def fit_frame(
                 p.slope,
                 p.slope_bound,
                 p.max_range_m,
+                compiled=p.backend == "numba",
             )
             merged = merge_close(np.sort(model.offsets), 0.5 * p.min_peak_separation_m)
             model = model._replace(offsets=merged)
@@ -385,6 +452,8 @@ def _build_lanes(
     """Assign all usable points to the lines, add local corrections, ranges and attributes."""
     if model.offsets.size == 0:
         return [], 0.0
+    if p.backend == "numba":
+        return _build_lanes_compiled(lane, model, codes, height, p)
     x, y, ok = ray_points(lane.iq, lane.r, model.b, height, p.max_range_m)
     base = x * (model.a1 + model.a2 * x)
     resid = np.where(ok, y - base, np.nan)
@@ -434,3 +503,62 @@ def _build_lanes(
     lanes.sort(key=lambda ln: -ln.offset_m)
     quality = float((labels >= 0).sum()) / max(lane.size, 1)
     return lanes, quality
+
+
+def _build_lanes_compiled(
+    lane: _Points, model: SharedModel, codes: IntArray | None, height: float, p: FitParams
+) -> tuple[list[Lane], float]:
+    """:func:`_build_lanes` with single-pass kernels over the points (same results)."""
+    k = kernels()
+    offsets = np.ascontiguousarray(model.offsets, dtype=np.float64)
+    x, resid, labels = k.assign_points(
+        lane.iq,
+        lane.r,
+        model.a1,
+        model.a2,
+        model.b,
+        1.0 / height,
+        1.0 / p.max_range_m,
+        offsets,
+        p.assign_radius_m,
+        ASSIGN_ANGLE_RAD,
+    )
+    sums_x, sums_r = k.line_sums(x, resid, labels, offsets, NEAR_WEIGHT_M)
+    zero = LocalCorrection(0.0, 0.0, 0.0)
+    corrections = [
+        local_correction_from_sums(sums_x[n], sums_r[n], p.order, p.local_bound_m)
+        if p.local_correction
+        else zero
+        for n in range(offsets.size)
+    ]
+    if p.local_correction:
+        lines = np.array([(off, *c) for off, c in zip(offsets, corrections, strict=True)])
+        labels = k.reassign(x, resid, lines, p.assign_radius_m, ASSIGN_ANGLE_RAD)
+        _, sums_r = k.line_sums(x, resid, labels, offsets, NEAR_WEIGHT_M)
+    coverage = k.row_coverage(np.ascontiguousarray(lane.rows), labels, offsets.size)
+    lanes = []
+    n_assigned = 0
+    for n, offset in enumerate(offsets):
+        count = int(sums_r[n, 3])
+        if count == 0:
+            continue
+        n_assigned += count
+        mark = marking_from_codes(codes[labels == n]) if codes is not None else UNKNOWN
+        if mark.style == "unknown":
+            n_rows, first, last = (int(v) for v in coverage[n])
+            mark = Marking(mark.colour, style_from_coverage(n_rows, last - first + 1))
+        c = corrections[n]
+        lanes.append(
+            Lane(
+                offset_m=float(offset + c.c0),
+                a1=model.a1 + c.c1,
+                a2=model.a2 + c.c2,
+                range_min_m=float(sums_r[n, 4]),
+                range_max_m=float(sums_r[n, 5]),
+                colour=mark.colour,
+                style=mark.style,
+                n_points=count,
+            )
+        )
+    lanes.sort(key=lambda ln: -ln.offset_m)
+    return lanes, float(n_assigned) / max(lane.size, 1)

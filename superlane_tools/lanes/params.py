@@ -8,6 +8,7 @@ from typing import Any, Literal
 from superlane_tools.lanes.errors import FitParamsError
 
 RoadTerm = Literal["auto", "always", "never"]
+Backend = Literal["numba", "numpy"]
 
 
 @dataclass(frozen=True)
@@ -62,6 +63,9 @@ class FitParams:
         local_bound_m: Largest lateral displacement a local correction may add over the line's
             supported range, metres.
         seed: Seed of the deterministic point subsampling.
+        backend: ``numba`` (compiled single-pass kernels for the cost, Nelder-Mead and the
+            per-point passes) or ``numpy`` (the pure-numpy reference: numpy cost, scipy
+            Nelder-Mead); both give the same fit to rounding.
     """
 
     sigma_d_m: float = 3.0
@@ -97,6 +101,7 @@ class FitParams:
     local_correction: bool = True
     local_bound_m: float = 0.5
     seed: int = 0
+    backend: Backend = "numba"
 
     def __post_init__(self) -> None:
         positive = {
@@ -127,6 +132,8 @@ class FitParams:
             raise FitParamsError("loss-curve grids need at least one point each")
         if not 3 <= self.min_points <= min(self.max_points, self.nm_points):
             raise FitParamsError("need 3 <= min_points <= max_points and nm_points")
+        if self.backend not in ("numba", "numpy"):
+            raise FitParamsError(f"backend must be numba or numpy, got {self.backend}")
         if self.kappa < 0 or self.lambda_road < 0 or self.local_bound_m < 0:
             raise FitParamsError("kappa, lambda_road and local_bound_m must be >= 0")
 

@@ -305,9 +305,7 @@ class _HashedProvenance:
                 inputs = self._pending.result()
             except OSError as err:
                 raise PipelineError(f"cannot hash input {err.filename}: {err.strerror}") from err
-            self._provenance = Provenance(
-                command=self._command, inputs=inputs, config=self._config
-            )
+            self._provenance = Provenance(command=self._command, inputs=inputs, config=self._config)
         return self._provenance
 
     def cancel(self) -> None:

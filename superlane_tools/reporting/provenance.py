@@ -31,8 +31,8 @@ class InputIdentity(NamedTuple):
     sha256: str
 
 
-class _CancelledError(Exception):
-    """A background identity computation was cancelled."""
+class HashCancelledError(Exception):
+    """A background identity computation was cancelled (see :class:`PendingIdentities`)."""
 
 
 def _sha256(path: str | os.PathLike[str], stop: threading.Event | None) -> str:
@@ -41,7 +41,7 @@ def _sha256(path: str | os.PathLike[str], stop: threading.Event | None) -> str:
         while chunk := handle.read(_CHUNK):
             digest.update(chunk)
             if stop is not None and stop.is_set():
-                raise _CancelledError
+                raise HashCancelledError
     return digest.hexdigest()
 
 
@@ -97,15 +97,18 @@ class PendingIdentities:
 
         Raises:
             OSError: If an input could not be read.
+            HashCancelledError: If :meth:`cancel` stopped the hashing first.
         """
         self._thread.join()
+        if self._stop.is_set():
+            raise HashCancelledError("input hashing was cancelled")
         if self._error is not None:
             raise self._error
         assert self._result is not None
         return self._result
 
     def cancel(self) -> None:
-        """Stop hashing soon (within one 1 MiB read); :meth:`result` then raises."""
+        """Stop hashing soon (within one 1 MiB read); :meth:`result` raises from now on."""
         self._stop.set()
 
 

@@ -146,7 +146,7 @@ def write_summary_table(
             if (Path(r) / n).is_file()
         )
         return write_table(
-            frame.astype(str) if any(dt == object for dt in frame.dtypes) else frame,
+            frame.astype(str) if any(dt.kind == "O" for dt in frame.dtypes) else frame,
             path,
             Provenance(command=command, inputs=inputs),
         )

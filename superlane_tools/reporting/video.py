@@ -68,7 +68,12 @@ def draw_overlay(
             cv2.polylines(out, [pts.reshape(-1, 1, 2)], False, colour, thick, cv2.LINE_AA)
             if lane.style == "double":
                 cv2.polylines(
-                    out, [(pts + np.array([4, 0], np.int32)).reshape(-1, 1, 2)], False, colour, 1, cv2.LINE_AA
+                    out,
+                    [(pts + np.array([4, 0], np.int32)).reshape(-1, 1, 2)],
+                    False,
+                    colour,
+                    1,
+                    cv2.LINE_AA,
                 )
     for seg in hough_lines:
         p = np.round(seg).astype(int)

@@ -101,3 +101,25 @@ def test_cli_ray_missing_names_the_extra(
     res = _run(tmp_path / "recs", "--out", tmp_path / "out", "--engine", "ray", "--job", "extract")
     assert res.exit_code == 1, res.output  # type: ignore[attr-defined]
     assert "pip install 'superlane-tools[ray]'" in res.output  # type: ignore[attr-defined]
+
+
+def test_batch_help_imports_nothing_heavy() -> None:
+    import subprocess
+
+    code = (
+        "import sys, typer\n"
+        "from superlane_tools.cli import batch\n"
+        "app = typer.Typer()\n"
+        "@app.callback()\n"
+        "def _r() -> None: pass\n"
+        "batch.register(app)\n"
+        "try:\n    app(['batch', '--help'])\n"
+        "except SystemExit as e:\n    assert e.code in (0, None)\n"
+        "heavy = ('onnxruntime', 'cv2', 'torch', 'matplotlib', 'ray', 'pandas')\n"
+        "print('HEAVY', [m for m in heavy if m in sys.modules])\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=60
+    ).stdout
+    assert "HEAVY []" in out, out
+    assert "--manifest" in out

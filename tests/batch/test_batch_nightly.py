@@ -57,9 +57,12 @@ def test_nightly_processes_only_new_recordings(
         "--settle-min",
         "10",
     ]
-    assert nightly.main(base) == 0  # one corrupt recording is not a systemic failure
+    code = nightly.main(base)
+    assert code == 0, capsys.readouterr()  # one corrupt recording is not a systemic failure
     state = json.loads((out / "nightly_state.json").read_text())
-    assert state["last_counts"] == {"ok": 3, "partial": 0, "failed": 1, "skipped": 0}
+    assert state["last_counts"] == {"ok": 3, "partial": 0, "failed": 1, "skipped": 0}, (
+        capsys.readouterr()
+    )
     assert (out / "summary" / "report.md").is_file()
     status = pd.read_parquet(out / "batch_status.parquet")
     assert "copying" not in " ".join(status["recording"])
@@ -72,7 +75,9 @@ def test_nightly_processes_only_new_recordings(
     assert fresh.stat().st_mtime_ns > state["watermark_ns"]
     assert nightly.main([*base, "--settle-min", "0"]) == 0
     state = json.loads((out / "nightly_state.json").read_text())
-    assert state["last_counts"] == {"ok": 1, "partial": 0, "failed": 0, "skipped": 0}
+    assert state["last_counts"] == {"ok": 1, "partial": 0, "failed": 0, "skipped": 0}, (
+        capsys.readouterr()
+    )
     assert len(pd.read_parquet(out / "batch_status.parquet")) == 5
 
 

@@ -45,7 +45,7 @@ def test_batch_ok_failed_and_idempotent(
     entries = expand_inputs([tmp_path / "recs"])
     seen: list[BatchProgress] = []
     report = run_batch(entries, _params(root), progress=seen.append)
-    assert report.counts == {"ok": 3, "partial": 0, "failed": 2, "skipped": 0}
+    assert report.counts == {"ok": 3, "partial": 0, "failed": 2, "skipped": 0}, report.failures
     assert report.failed_fraction == pytest.approx(0.4)
     reasons = dict(report.failures)
     assert len(reasons) == 2
@@ -87,7 +87,7 @@ def test_batch_ok_failed_and_idempotent(
     # a new config changes the key: redone and replaced in place, nothing left beside it
     drive = [e for e in entries if e.path.name == "drive_00.mcap"]
     jpg = run_batch(drive, _params(root, config={"frame_format": "png"}, workers=1))
-    assert jpg.counts["ok"] == 1
+    assert jpg.counts["ok"] == 1, jpg.failures
     rid = next(r for r in stamp if r.startswith("drive_00-"))
     assert len(list((root / rid / "frames").rglob("*.png"))) == 10
     assert sorted(p.name for p in root.iterdir()) == sorted(

@@ -30,6 +30,8 @@ class CameraRays(NamedTuple):
             plane (for wet-road reflections); -1 outside the image.
         mirror_v: ``(H, W)`` row of that pixel.
         vignette: ``(H, W)`` relative illumination (cos^4 law, 1 at the principal point).
+        mirror_fade: ``(H, W)`` 0..1 fade of wet-road reflections where the mirrored direction
+            leaves the image (no hard reflection border).
     """
 
     dirs: F32
@@ -44,6 +46,7 @@ class CameraRays(NamedTuple):
     mirror_u: F32
     mirror_v: F32
     vignette: F32
+    mirror_fade: F32
 
 
 @lru_cache(maxsize=8)
@@ -99,4 +102,8 @@ def camera_rays(camera: CameraModel) -> CameraRays:
         mirror_u=grid(mirror_u),
         mirror_v=grid(mirror_v),
         vignette=grid(vignette),
+        mirror_fade=grid(
+            np.clip(mirror_v / 80.0, 0.0, 1.0)
+            * np.clip(np.minimum(mirror_u, (w - 1) - mirror_u) / 60.0, 0.0, 1.0)
+        ),
     )

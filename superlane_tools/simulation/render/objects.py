@@ -10,6 +10,7 @@ behind a crest.
 from __future__ import annotations
 
 import zlib
+from collections.abc import Callable
 from functools import lru_cache
 from typing import NamedTuple
 
@@ -89,6 +90,11 @@ def _box_points(box: _Box, unit: F64) -> F64:
     return np.stack([x, y, z], axis=1)
 
 
+_Queued = (
+    tuple[_Box, tuple[float, ...], int, dict[int, list[Detail]] | None] | Callable[[], None]
+)
+
+
 class _Painter:
     """Fills projected polygons into the layers."""
 
@@ -104,6 +110,7 @@ class _Painter:
         self.size = (k.width, k.height)
         self.daylight = daylight
         self.sun = np.array([0.3, 0.5, 0.8])
+        self.queue: list[_Queued] = []
 
     def project(self, pts: F64) -> F64 | None:
         """Return ``(N, 2)`` pixel positions of vehicle-frame points, None if any is too near."""
@@ -118,9 +125,14 @@ class _Painter:
 
     def fill(self, uv: F64, color: tuple[float, ...], label: int, depth: float) -> None:
         """Fill one projected convex polygon into the colour, label and depth layers."""
+        self.fill_fixed(np.round(uv * (1 << _SHIFT)).astype(np.int32), color, label, depth)
+
+    def fill_fixed(
+        self, ip: NDArray[np.int32], color: tuple[float, ...], label: int, depth: float
+    ) -> None:
+        """Fill a polygon given in fixed-point pixels (``_SHIFT`` fractional bits)."""
         import cv2
 
-        ip = np.round(uv * (1 << _SHIFT)).astype(np.int32)
         lay = self.layers
         col = (min(255.0, color[0]), min(255.0, color[1]), min(255.0, color[2]))
         cv2.fillConvexPoly(lay.color, ip, col, cv2.LINE_AA, _SHIFT)
@@ -140,38 +152,86 @@ class _Painter:
         label: int,
         details: dict[int, list[Detail]] | None = None,
     ) -> None:
-        """Draw a box's visible faces, with detail rectangles on some faces."""
-        pts = _box_points(box, _CORNERS)
-        uv = self.project(pts)
-        if uv is None or not self.visible(uv):
-            return
-        depth = float(
-            np.linalg.norm(box.centre + np.array([0.0, 0.0, box.size[2] / 2]) - self.cam_pos)
-        )
-        c, s = np.cos(box.yaw), np.sin(box.yaw)
-        shade = 0.35 + 0.65 * self.daylight
-        for idx, (quad, n) in enumerate(_FACES):
-            normal = (c * n[0] - s * n[1], s * n[0] + c * n[1], n[2])
-            corner = pts[quad[0]]
-            to_face = corner - self.cam_pos
-            if normal[0] * to_face[0] + normal[1] * to_face[1] + normal[2] * to_face[2] >= 0:
+        """Queue a box (visible faces, with detail rectangles on some faces) for :meth:`flush`."""
+        self.queue.append((box, color, label, details))
+
+    def later(self, draw: Callable[[], None]) -> None:
+        """Queue another drawing step (a sprite) in painter's order."""
+        self.queue.append(draw)
+
+    def flush(self) -> None:
+        """Draw the queued boxes and steps in order, projecting all boxes at once."""
+        boxes = [q for q in self.queue if not callable(q)]
+        if boxes:
+            centre = np.array([b[0].centre for b in boxes])
+            size = np.array([b[0].size for b in boxes])
+            yaw = np.array([b[0].yaw for b in boxes])
+            c, s = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
+            p = _CORNERS[None] * size[:, None, :]
+            pts = np.stack(
+                [
+                    centre[:, 0:1] + c * p[..., 0] - s * p[..., 1],
+                    centre[:, 1:2] + s * p[..., 0] + c * p[..., 1],
+                    centre[:, 2:3] + p[..., 2],
+                ],
+                axis=2,
+            )
+            pc = (pts - self.cam_pos) @ self.rot
+            near = pc[..., 2].min(axis=1) < _NEAR_M
+            if self.distorted:
+                uv = self.camera.project(pts.reshape(-1, 3))[0].reshape(-1, 8, 2)
+            else:
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    uv = pc[..., :2] / pc[..., 2:3] * self.fxy + self.cxy
+            w, h = self.size
+            lo, hi = uv.min(axis=1), uv.max(axis=1)
+            show = (
+                ~near & (hi[:, 0] >= -1) & (lo[:, 0] <= w) & (hi[:, 1] >= -1) & (lo[:, 1] <= h)
+            )
+            mid = centre + np.stack([0 * size[:, 2], 0 * size[:, 2], size[:, 2] / 2], axis=1)
+            depth = np.linalg.norm(mid - self.cam_pos, axis=1)
+            # Outward face normals and back-face culling, all boxes at once.
+            nrm = np.array([n for _, n in _FACES])  # (5, 3)
+            nx = c * nrm[None, :, 0] - s * nrm[None, :, 1]
+            ny = s * nrm[None, :, 0] + c * nrm[None, :, 1]
+            nz = np.broadcast_to(nrm[None, :, 2], nx.shape)
+            first = pts[:, [q[0] for q, _ in _FACES], :] - self.cam_pos  # (N, 5, 3)
+            front = nx * first[..., 0] + ny * first[..., 1] + nz * first[..., 2] < 0
+            lit = 0.62 + 0.38 * np.maximum(0.0, nx * 0.3 + ny * 0.5 + nz * 0.8)
+            lit *= 0.35 + 0.65 * self.daylight
+            quads = uv[:, [list(q) for q, _ in _FACES], :]  # (N, 5, 4, 2)
+            fixed = np.round(np.where(show[:, None, None, None], quads, 0.0) * (1 << _SHIFT))
+            fixed_q = np.ascontiguousarray(fixed, dtype=np.int32)
+            small = (quads.max(axis=2) - quads.min(axis=2)).min(axis=2) < 3.0  # (N, 5)
+            faces = (front & show[:, None]).tolist()
+            lit_l, depth_l = lit.tolist(), depth.tolist()
+        k = 0
+        for item in self.queue:
+            if callable(item):
+                item()
                 continue
-            lit = 0.62 + 0.38 * max(0.0, normal[0] * 0.3 + normal[1] * 0.5 + normal[2] * 0.8)
-            lit *= shade
-            q = uv[list(quad)]
-            self.fill(q, (color[0] * lit, color[1] * lit, color[2] * lit), label, depth)
-            if not details or idx not in details:
+            i = k
+            k += 1
+            if not show[i]:
                 continue
-            extent = q.max(axis=0) - q.min(axis=0)
-            if extent[0] < 3.0 or extent[1] < 3.0:
-                continue  # details would be sub-pixel
-            for a0, a1, b0, b1, dcol in details[idx]:
-                self.fill(
-                    _subquad(q, a0, a1, b0, b1),
-                    (dcol[0] * lit, dcol[1] * lit, dcol[2] * lit),
-                    label,
-                    depth,
-                )
+            _, color, label, details = item
+            for idx, visible in enumerate(faces[i]):
+                if not visible:
+                    continue
+                f = lit_l[i][idx]
+                col = (color[0] * f, color[1] * f, color[2] * f)
+                self.fill_fixed(fixed_q[i, idx], col, label, depth_l[i])
+                if not details or idx not in details or small[i, idx]:
+                    continue  # no details, or they would be sub-pixel
+                q = quads[i, idx]
+                for a0, a1, b0, b1, dcol in details[idx]:
+                    self.fill(
+                        _subquad(q, a0, a1, b0, b1),
+                        (dcol[0] * f, dcol[1] * f, dcol[2] * f),
+                        label,
+                        depth_l[i],
+                    )
+        self.queue.clear()
 
     def shadow(self, box: _Box, grow: float, strength: float) -> None:
         """Draw the soft contact shadow of a box on the ground."""
@@ -401,7 +461,8 @@ def _tree(p: _Painter, obj: SceneObject, label: int, rng: np.random.Generator, s
         sprite = (sprite[0][:, ::-1], sprite[1][:, ::-1])
     tint = rng.normal(0.0, 6.0, 3) + np.array([0.0, 4.0, 0.0])
     base = (np.array(obj.color_bgr, float) + tint) * (0.35 + 0.65 * p.daylight) * 1.25
-    _sprite(p, sprite, (u - half_u, v - half_v, u + half_u, v + half_v), base, label, depth)
+    px_box = (u - half_u, v - half_v, u + half_u, v + half_v)
+    p.later(lambda: _sprite(p, sprite, px_box, base, label, depth))
 
 
 def _rail(p: _Painter, obj: SceneObject, label: int) -> None:
@@ -505,6 +566,7 @@ def draw_objects(
             col = tuple(float(c) for c in obj.color_bgr)
             for box in _pieces(obj):
                 painter.box(box, col, label)
+    painter.flush()
     return layers
 
 

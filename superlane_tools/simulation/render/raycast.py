@@ -149,7 +149,7 @@ def _lerp(cols: tuple[tuple[F32, F32], ...], t0: float, dt: float, value: F32) -
     n = cols[0][0].size
     fi = value - np.float32(t0)
     fi *= np.float32(1.0 / dt)
-    i = np.clip(fi, 0, n - 2).astype(np.int32)
+    i = np.clip(fi, 0, n - 2).astype(np.intp)  # intp: np.take converts other index types
     fi -= i.astype(np.float32)  # the fraction within the table step
     out = []
     for val, slope in cols:

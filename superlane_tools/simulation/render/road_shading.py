@@ -145,11 +145,14 @@ def _tex_levels(foot: F32, texel_m: float, n_levels: int) -> NDArray[np.int32]:
 
 
 def _sample_mip(mips: F32, texel_m: float, a: F32, b: F32, levels: NDArray[np.int32]) -> F32:
-    """Sample a mip chain at road coordinates ``a`` (along) and ``b`` (across), per-row level."""
+    """Sample a mip chain at road coordinates ``a`` (along) and ``b`` (across).
+
+    ``levels`` is the mip level per row of 2-D ``a`` (or per element of 1-D ``a``).
+    """
     n, h, w = mips.shape
-    ia = (a * np.float32(1.0 / texel_m)).astype(np.int32) & (w - 1)
-    ib = (b * np.float32(1.0 / texel_m)).astype(np.int32) & (h - 1)
-    lev = np.broadcast_to(levels[:, None], a.shape)
+    ia = (a * np.float32(1.0 / texel_m)).astype(np.intp) & (w - 1)
+    ib = (b * np.float32(1.0 / texel_m)).astype(np.intp) & (h - 1)
+    lev = levels[:, None] if a.ndim == 2 else levels
     out: F32 = mips.reshape(n * h, w)[lev * h + ib, ia]
     return out
 
@@ -314,23 +317,25 @@ def _surface(
         _blend(color, seam, palette.seam)
         gloss = np.maximum(gloss, seam)
 
-    off_road = g.valid & ~g.on_road
-    if np.any(off_road):
+    off = np.flatnonzero(g.valid & ~g.on_road)
+    if off.size:  # terrain and sidewalks, evaluated on their own pixels only
+        so, lo = s.reshape(-1)[off], l_m.reshape(-1)[off]
         glev = _tex_levels(g.foot_l, 4 * FINE_TEXEL_M, tex.grass.shape[0])
-        gr = _sample_mip(tex.grass, 4 * FINE_TEXEL_M, s, l_m, glev)
-        edge_d = np.maximum(l_m - np.float32(road.left_edge_m), np.float32(road.right_edge_m) - l_m)
+        gr = _sample_mip(tex.grass, 4 * FINE_TEXEL_M, so, lo, glev[off // s.shape[1]])
+        edge_d = np.maximum(lo - np.float32(road.left_edge_m), np.float32(road.right_edge_m) - lo)
         dirt_w = np.clip(np.float32(1.6) - edge_d, 0.0, 1.0)  # gravel strip next to the asphalt
-        mix = np.clip(np.float32(0.5) + np.float32(0.35) * blotch + dirt_w, 0.0, 1.0)
+        mix = np.clip(np.float32(0.5) + np.float32(0.35) * blotch.reshape(-1)[off] + dirt_w, 0, 1)
         tshade = np.float32(1.0) + np.float32(0.18) * gr
         grass = np.array(palette.grass, np.float32)
         dirt = np.array(palette.dirt, np.float32)
-        terr = (grass + mix[..., None] * (dirt - grass)) * tshade[..., None]
-        if np.any(g.side):
-            side_c = (np.float32(1.0) + np.float32(0.05) * grain)[..., None] * np.array(
-                palette.sidewalk, np.float32
+        terr = (grass + mix[:, None] * (dirt - grass)) * tshade[:, None]
+        side = g.side.reshape(-1)[off]
+        if np.any(side):
+            side_c = (np.float32(1.0) + np.float32(0.05) * grain.reshape(-1)[off])[:, None] * (
+                np.array(palette.sidewalk, np.float32)
             )
-            terr = np.where(g.side[..., None], side_c, terr)
-        np.copyto(color, terr, where=off_road[..., None])
+            terr = np.where(side[:, None], side_c, terr)
+        color.reshape(-1, 3)[off] = terr
     return color, gloss
 
 
@@ -389,45 +394,50 @@ def _paint_lines(
     hidx = (r // 2) * half.s.shape[1] + c // 2
     gain = light.gain.reshape(-1)[hidx]
     airlight = light.haze.reshape(-1)[hidx]
-    in_view = valid & (s >= road.s_m[0]) & (s <= road.s_m[-1])
-    crosswalk = _in_ranges(s, road.crosswalks_s_m) if road.crosswalks_s_m else None
-    wear_tex: F32 | None = None
+    in_view_all = valid & (s >= road.s_m[0]) & (s <= road.s_m[-1])
+    cross_all = _in_ranges(s, road.crosswalks_s_m) if road.crosswalks_s_m else None
     for line in road.lines:
         paint_col = palette.yellow_paint if line.color is LineColor.YELLOW else palette.white_paint
-        off = line_offset(line, s)
-        d = np.abs(l_m - off)
         hw = 0.5 * line.width_m
+        d_all = np.abs(l_m - line_offset(line, s))
         if line.style is LineStyle.DOUBLE:
-            sep = hw + 0.5 * _DOUBLE_GAP_M
-            d = np.abs(d - np.float32(sep))
-        cov, mark = _stroke(d, hw, foot_l)
-        span = in_view
+            d_all = np.abs(d_all - np.float32(hw + 0.5 * _DOUBLE_GAP_M))
+        # This line's own pixels: paint coverage or label needs d < hw + foot / 2.
+        sub = np.flatnonzero(d_all < np.float32(hw) + np.float32(0.5) * foot_l)
+        if sub.size == 0:
+            continue
+        d, fl, ss = d_all[sub], foot_l[sub], s[sub]
+        cov, mark = _stroke(d, hw, fl)
+        span = in_view_all[sub]
         if np.isfinite(line.start_s_m) or np.isfinite(line.end_s_m):
-            span = span & (s >= line.start_s_m) & (s < line.end_s_m)
-        if crosswalk is not None:
-            span = span & ~crosswalk
+            span = span & (ss >= line.start_s_m) & (ss < line.end_s_m)
+        if cross_all is not None:
+            span = span & ~cross_all[sub]
         if line.style is LineStyle.DASHED:
             period = line.dash_m + line.gap_m
-            m = fmod_pos(s - np.float32(line.phase_m), period)
+            m = fmod_pos(ss - np.float32(line.phase_m), period)
             along = np.minimum(m, np.float32(line.dash_m) - m)
-            cov = cov * np.clip(along / foot_s + np.float32(0.5), 0.0, 1.0)
+            cov = cov * np.clip(along / foot_s[sub] + np.float32(0.5), 0.0, 1.0)
             mark &= m < line.dash_m
         mark &= span
         cov = cov * span
         if line.wear > 0:
-            if wear_tex is None:
-                wear_tex = _wear_texture(tex, s, l_m, foot_l)
+            wear_tex = _wear_texture(tex, ss, l_m[sub], fl)
             keep = np.clip(
                 np.float32(1.0 - 1.2 * line.wear) + np.float32(0.45 * line.wear) * wear_tex,
                 0.0,
                 1.0,
             )
             cov = cov * keep
-        lit = np.array(paint_col, np.float32) * gain[:, None]
-        lit += airlight[:, None] * np.array(light.haze_bgr, np.float32)
-        col += (cov * np.float32(0.92))[:, None] * (lit - col)
+        lit = np.array(paint_col, np.float32) * gain[sub, None]
+        lit += airlight[sub, None] * np.array(light.haze_bgr, np.float32)
+        cs = col[sub]
+        cs += (cov * np.float32(0.92))[:, None] * (lit - cs)
+        col[sub] = cs
         if line.wear < 0.999:
-            lab[mark] = line_label(line)
+            ls = lab[sub]
+            ls[mark] = line_label(line)
+            lab[sub] = ls
     color.reshape(-1, 3)[idx] = col
     labels.reshape(-1)[idx] = lab
 

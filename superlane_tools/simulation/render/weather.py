@@ -69,22 +69,30 @@ def headlight_gain(dir_z: F32, azimuth: F32, range_m: F32, hit: NDArray[np.bool_
 
 
 def wet_reflection(img: F32, rays: CameraRays, gloss: F32, row0: int, wet: float) -> None:
-    """Mirror the scene above the horizon into glossy ground pixels (blurred), in place."""
+    """Mirror the scene above the horizon into glossy ground pixels (blurred), in place.
+
+    The reflection is blurry anyway, so it is built at half resolution and resized up.
+    """
     import cv2
 
-    src = cv2.GaussianBlur(img, (0, 0), 1.2 + 2.0 * (1.0 - wet))
-    mu, mv = rays.mirror_u[row0:], rays.mirror_v[row0:]
-    refl = cv2.remap(src, mu, mv, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    h, w = img.shape[:2]
+    w2, h2 = (w + 1) // 2, (h + 1) // 2
+    small = cv2.resize(img, (w2, h2), interpolation=cv2.INTER_AREA)
+    src = cv2.GaussianBlur(small, (0, 0), 0.5 * (1.2 + 2.0 * (1.0 - wet)))
+    # Half-resolution source coordinates of the full-resolution mirror maps (every 2nd pixel).
+    mu = rays.mirror_u[row0::2, ::2] * np.float32(0.5) - np.float32(0.25)
+    mv = rays.mirror_v[row0::2, ::2] * np.float32(0.5) - np.float32(0.25)
+    refl_h = cv2.remap(src, mu, mv, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
     # Streak the reflections vertically like a real wet road (micro-ripples).
-    refl = cv2.blur(refl, (3, 15))
-    # Fade out where the mirrored direction leaves the image (no hard reflection border).
-    w = img.shape[1]
-    edge = np.clip(mv / np.float32(80.0), 0.0, 1.0) * np.clip(
-        np.minimum(mu, np.float32(w - 1) - mu) / np.float32(60.0), 0.0, 1.0
-    )
-    a = gloss * np.float32(0.45) * edge
+    refl_h = cv2.blur(refl_h, (2, 8))
+    rows = h - row0
+    refl = cv2.resize(refl_h, (w, rows), interpolation=cv2.INTER_LINEAR)
+    a = gloss * rays.mirror_fade[row0:]
+    a *= np.float32(0.45)
     part = img[row0:]
-    part += a[..., None] * (refl - part)
+    refl -= part
+    refl *= a[..., None]
+    part += refl
 
 
 def add_lights(img: F32, lights: list[Light], strength: float) -> None:
@@ -109,16 +117,17 @@ def add_glare(img: F32, sun_uv: tuple[float, float] | None, glare: float, elev_d
     import cv2
 
     h, w = img.shape[:2]
-    veil = np.float32(40.0 * glare)
-    img += veil
-    if sun_uv is None:
+    veil = float(40.0 * glare)
+    if sun_uv is None or not (-0.5 * w < sun_uv[0] < 1.5 * w and -0.5 * h < sun_uv[1] < 1.5 * h):
+        cv2.add(img, (veil, veil, veil, 0.0), dst=img)
         return
     u, v = sun_uv
-    if not (-0.5 * w < u < 1.5 * w and -0.5 * h < v < 1.5 * h):
-        return
+    # Bloom and ghosts are smooth: draw them at 1/4 (ghosts) and 1/16 (wide bloom) resolution.
     small = np.zeros((h // 4, w // 4), np.float32)
     cv2.circle(small, (int(u / 4 * 16), int(v / 4 * 16)), 6 * 16, 1.0, -1, cv2.LINE_AA, 4)
-    bloom = cv2.GaussianBlur(small, (0, 0), 25.0) * 8.0 + cv2.GaussianBlur(small, (0, 0), 4.0)
+    tiny = cv2.resize(small, (w // 16, h // 16), interpolation=cv2.INTER_AREA)
+    wide = cv2.resize(cv2.GaussianBlur(tiny, (0, 0), 25.0 / 4.0), (w // 4, h // 4))
+    bloom = wide * np.float32(8.0) + cv2.GaussianBlur(small, (0, 0), 4.0)
     # Ghosts on the line through the image centre.
     ghosts = np.zeros_like(small)
     cx, cy = w / 2, h / 2
@@ -127,8 +136,11 @@ def add_glare(img: F32, sun_uv: tuple[float, float] | None, glare: float, elev_d
         cv2.circle(ghosts, (int(gu / 4 * 16), int(gv / 4 * 16)), rad * 16, 0.12, -1, cv2.LINE_AA, 4)
     ghosts = cv2.GaussianBlur(ghosts, (0, 0), 2.0)
     low = np.float32(1.0 + 1.5 * np.clip((20.0 - elev_deg) / 20.0, 0.0, 1.0))
-    tot = cv2.resize(bloom * low + ghosts, (w, h), interpolation=cv2.INTER_LINEAR)
-    img += (tot * np.float32(255.0 * glare))[..., None] * np.array([0.8, 0.95, 1.0], np.float32)
+    tot = (bloom * low + ghosts) * np.float32(255.0 * glare)
+    tot += np.float32(veil)  # the veil rides along in the same pass (colour-tinted slightly)
+    full = cv2.resize(tot, (w, h), interpolation=cv2.INTER_LINEAR)
+    tint = cv2.multiply(cv2.cvtColor(full, cv2.COLOR_GRAY2BGR), (0.8, 0.95, 1.0, 0.0))
+    cv2.add(img, tint, dst=img)
 
 
 def add_rain(img: F32, rng: np.random.Generator, rain: float) -> None:
@@ -142,22 +154,29 @@ def add_rain(img: F32, rng: np.random.Generator, rain: float) -> None:
     ys = rng.uniform(0, h / 2, n)
     ln = rng.uniform(6, 22, n)
     ang = rng.normal(1.45, 0.06, n)
-    for x, y, L, a in zip(xs, ys, ln, ang, strict=True):
-        x2, y2 = x + L * np.cos(a), y + L * np.sin(a)
+    x2s, y2s = xs + ln * np.cos(ang), ys + ln * np.sin(ang)
+    for x, y, x2, y2 in zip(xs.tolist(), ys.tolist(), x2s.tolist(), y2s.tolist(), strict=True):
         cv2.line(streaks, (int(x), int(y)), (int(x2), int(y2)), 0.5, 1, cv2.LINE_AA)
-    streaks = cv2.GaussianBlur(streaks, (0, 0), 0.7)
-    img += (cv2.resize(streaks, (w, h)) * np.float32(70.0 * rain))[..., None]
-    # Droplets: local blurred, slightly brighter, refracted patches.
-    blurred = cv2.GaussianBlur(img, (0, 0), 6.0)
-    mask = np.zeros((h, w), np.float32)
+    streaks = cv2.GaussianBlur(streaks, (0, 0), 0.7) * np.float32(70.0 * rain)
+    full = cv2.resize(streaks, (w, h))
+    cv2.add(img, cv2.cvtColor(full, cv2.COLOR_GRAY2BGR), dst=img)
+    # Droplets: local blurred, slightly brighter, refracted patches (blurred at 1/4 size).
+    small = cv2.resize(img, (w // 4, h // 4), interpolation=cv2.INTER_AREA)
+    blurred = cv2.resize(cv2.GaussianBlur(small, (0, 0), 1.5), (w, h))
+    blurred *= np.float32(1.08)
     for _ in range(int(40 * rain)):
         cx, cy = int(rng.uniform(0, w)), int(rng.uniform(0, h))
         r = int(rng.uniform(6, 28))
-        cv2.ellipse(
-            mask, (cx, cy), (r, int(r * rng.uniform(0.7, 1.0))), 0, 0, 360, 1.0, -1, cv2.LINE_AA
-        )
-    soft = cv2.GaussianBlur(mask, (0, 0), 2.0)[..., None]
-    img += soft * (blurred * np.float32(1.08) - img)
+        ry = int(r * rng.uniform(0.7, 1.0))
+        m = r + 6  # soft edge margin
+        x0, y0, x1, y1 = max(0, cx - m), max(0, cy - m), min(w, cx + m + 1), min(h, cy + m + 1)
+        if x1 <= x0 or y1 <= y0:
+            continue
+        mask = np.zeros((y1 - y0, x1 - x0), np.float32)
+        cv2.ellipse(mask, (cx - x0, cy - y0), (r, ry), 0, 0, 360, 1.0, -1, cv2.LINE_AA)
+        soft = cv2.GaussianBlur(mask, (0, 0), 2.0)[..., None]
+        roi = img[y0:y1, x0:x1]
+        roi += soft * (blurred[y0:y1, x0:x1] - roi)
 
 
 def add_spray(img: F32, box_uv: tuple[float, float, float, float] | None, rain: float) -> None:
@@ -168,19 +187,22 @@ def add_spray(img: F32, box_uv: tuple[float, float, float, float] | None, rain: 
         return
     h, w = img.shape[:2]
     u0, v0, u1, v1 = box_uv
-    mask = np.zeros((h // 4, w // 4), np.float32)
     bw = u1 - u0
     cu, cv_ = (u0 + u1) / 2, v1 - 0.15 * (v1 - v0)
-    cv2.ellipse(
-        mask,
-        (int(cu / 4), int(cv_ / 4)),
-        (int(bw * 0.75 / 4) + 1, int(bw * 0.3 / 4) + 1),
-        0,
-        0,
-        360,
-        1.0,
-        -1,
-    )
-    mask = cv2.GaussianBlur(mask, (0, 0), max(1.0, bw / 20))
-    mask = cv2.resize(mask, (w, h))[..., None] * np.float32(0.6 * rain)
-    img += mask * (np.float32(175.0) - img)
+    ax, ay = bw * 0.75 + 4, bw * 0.3 + 4
+    sigma = max(1.0, bw / 20)
+    # Work only in the cloud's box (ellipse plus three blur sigmas), at 1/4 resolution.
+    pad = 3 * 4 * sigma
+    x0, x1 = max(0, int(cu - ax - pad)), min(w, int(cu + ax + pad) + 1)
+    y0, y1 = max(0, int(cv_ - ay - pad)), min(h, int(cv_ + ay + pad) + 1)
+    if x1 - x0 < 8 or y1 - y0 < 8:
+        return
+    sw, sh = (x1 - x0) // 4 + 1, (y1 - y0) // 4 + 1
+    mask = np.zeros((sh, sw), np.float32)
+    centre = (int((cu - x0) / 4), int((cv_ - y0) / 4))
+    cv2.ellipse(mask, centre, (int(bw * 0.75 / 4) + 1, int(bw * 0.3 / 4) + 1), 0, 0, 360, 1.0, -1)
+    mask = cv2.GaussianBlur(mask, (0, 0), sigma)
+    alpha = cv2.resize(mask, (sw * 4, sh * 4))[: y1 - y0, : x1 - x0, None]
+    alpha = alpha * np.float32(0.6 * rain)
+    roi = img[y0:y1, x0:x1]
+    roi += alpha * (np.float32(175.0) - roi)

@@ -1,0 +1,240 @@
+"""Benchmark `slt batch`: 1 vs 2 local workers, Ray vs local, corrupt inputs, kill and resume.
+
+Run: ``python benchmarks/bench_batch.py [--recordings 8] [--frames 20] [--repeats 3]``.
+
+Job: ``extract`` with ``frame_format: png`` on 1280x720 JPEG recordings written with the
+project's writers: every frame is JPEG-decoded and PNG-encoded in the job's thread (the frame
+writer's threads only write files), a CPU-bound, single-threaded per-frame load like
+reprocess's decode and image stages. Throughput is recordings per second of wall time, median
+of ``--repeats`` interleaved runs, each into a fresh output root, pools started inside the
+timed region; the Ray instance is started once (``ray.init(num_cpus=2)``) and its start-up is
+reported apart, as a running cluster is what ``--ray-address auto`` joins. Then a
+20-recording batch with 2 corrupt recordings runs in a subprocess that is SIGKILLed halfway
+and started again. Writes
+``benchmarks/results/batch.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import signal
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+RESULTS = Path(__file__).resolve().parent / "results" / "batch.json"
+T0 = 1_700_000_000_000_000_000
+MS = 1_000_000
+SLT = (
+    "from superlane_tools.cli.app import app\n"
+    "from superlane_tools.cli import batch\n"
+    "batch.register(app)\n"
+    "app()\n"
+)
+
+
+def jpeg_pool(width: int, height: int, count: int = 8) -> list[bytes]:
+    import cv2
+
+    rng = np.random.default_rng(0)
+    ys, xs = np.mgrid[0:height, 0:width]
+    pool = []
+    for k in range(count):
+        base = np.stack([(xs + 8 * k) % 256, (ys // 3) % 256, (xs + ys) % 256], axis=-1)
+        img = np.clip(base + rng.normal(0, 12, base.shape), 0, 255).astype(np.uint8)
+        pool.append(cv2.imencode(".jpg", img, [cv2.IMWRITE_JPEG_QUALITY, 85])[1].tobytes())
+    return pool
+
+
+def make_recording(path: Path, seed: int, frames: int, pool: list[bytes]) -> None:
+    from superlane_tools.recording.messages import can_frame, compressed_image, navsatfix
+    from superlane_tools.recording.writers import open_writer
+
+    with open_writer(path, "mcap") as w:
+        w.add_topic("/cam/compressed", "sensor_msgs/msg/CompressedImage")
+        w.add_topic("/can", "can_msgs/msg/Frame")
+        w.add_topic("/fix", "sensor_msgs/msg/NavSatFix")
+        for i in range(frames):
+            t = T0 + seed * 10**12 + i * 66 * MS
+            jpeg = pool[(i + seed) % len(pool)]
+            w.write("/cam/compressed", t, compressed_image(t, "cam", "jpeg", jpeg))
+            w.write("/can", t, can_frame(t, 256, bytes([seed % 256, i % 256])))
+            w.write("/fix", t, navsatfix(t, "gps", 48 + i * 1e-5, 11.0, 500.0, status=2))
+
+
+def timed_batch(recs: Path, root: Path, engine: str, workers: int) -> float:
+    from superlane_tools.pipeline.batch import BatchParams, expand_inputs, run_batch
+
+    params = BatchParams(
+        root,
+        "extract",
+        engine=engine,
+        workers=workers,
+        config={"frame_format": "png"},
+        summary=False,
+    )
+    entries = expand_inputs([recs])
+    t0 = time.perf_counter()
+    report = run_batch(entries, params)
+    wall = time.perf_counter() - t0
+    assert report.counts["ok"] == len(entries), report.failures
+    return wall
+
+
+def throughput(tmp: Path, recordings: int, frames: int, repeats: int) -> dict[str, object]:
+    recs = tmp / "recs"
+    recs.mkdir()
+    pool = jpeg_pool(1280, 720)
+    for k in range(recordings):
+        make_recording(recs / f"drive_{k:02d}.mcap", k, frames, pool)
+    runs: dict[str, list[float]] = {"local_1": [], "local_2": [], "ray_2": []}
+    import ray
+
+    t0 = time.perf_counter()
+    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
+    ray_start = time.perf_counter() - t0
+    load_before = os.getloadavg()
+    try:
+        # interleaved, so that the three configurations see the same background load
+        for r in range(repeats):
+            for workers in (1, 2):
+                runs[f"local_{workers}"].append(
+                    timed_batch(recs, tmp / f"l{workers}_{r}", "local", workers)
+                )
+            runs["ray_2"].append(timed_batch(recs, tmp / f"r_{r}", "ray", 2))
+            print(
+                f"repeat {r}: local 1 worker {runs['local_1'][-1]:.2f} s, "
+                f"2 workers {runs['local_2'][-1]:.2f} s, ray 2 {runs['ray_2'][-1]:.2f} s"
+            )
+    finally:
+        ray.shutdown()
+    load_after = os.getloadavg()
+    med = {k: statistics.median(v) for k, v in runs.items()}
+    rate = {k: recordings / v for k, v in med.items()}
+    return {
+        "recordings": recordings,
+        "frames_per_recording": frames,
+        "frame_size": "1280x720",
+        "job": "extract, frame_format png (JPEG decode + PNG encode per frame)",
+        "wall_s": runs,
+        "median_wall_s": med,
+        "recordings_per_s": rate,
+        "speedup_2_vs_1_local": rate["local_2"] / rate["local_1"],
+        "ray_vs_local_2": rate["ray_2"] / rate["local_2"],
+        "ray_init_s": ray_start,
+        "load_average_before_after": [load_before, load_after],
+        "cpus": os.cpu_count(),
+    }
+
+
+def kill_and_resume(tmp: Path) -> dict[str, object]:
+    from superlane_tools.pipeline.batch import MARKER, read_status
+
+    recs = tmp / "kill_recs"
+    recs.mkdir()
+    pool = jpeg_pool(320, 180)
+    for k in range(18):
+        make_recording(recs / f"drive_{k:02d}.mcap", k, 20, pool)
+    (recs / "corrupt_garbage.mcap").write_bytes(b"not a recording\n" * 64)
+    (recs / "corrupt_truncated.mcap").write_bytes(b"\x89MCAP0\r\n\x01\x02")
+    root = tmp / "kill_out"
+
+    def cmd_for(out: Path) -> list[str]:
+        return [
+            sys.executable,
+            "-c",
+            SLT,
+            "batch",
+            str(recs),
+            "--out",
+            str(out),
+            "--job",
+            "extract",
+            "--workers",
+            "2",
+        ]
+
+    cmd = cmd_for(root)
+    # an uninterrupted reference run gives the expected folders and files
+    first = subprocess.run(cmd_for(tmp / "ref"), capture_output=True, text=True, check=False)
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    done_at_kill = 0
+    while proc.poll() is None:
+        done_at_kill = len(list(root.glob("*/" + MARKER)))
+        if done_at_kill >= 9:
+            proc.send_signal(signal.SIGKILL)
+            break
+        time.sleep(0.005)
+    proc.wait()
+    tmp_left = sorted(p.name for p in (root / ".tmp").glob("*")) if (root / ".tmp").exists() else []
+    resumed = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    status = read_status(root)
+    ref = read_status(tmp / "ref")
+    folders = sorted(p.name for p in root.iterdir() if p.is_dir() and p.name != "summary")
+    ref_folders = sorted(
+        p.name for p in (tmp / "ref").iterdir() if p.is_dir() and p.name != "summary"
+    )
+    files = sorted(
+        str(p.relative_to(root))
+        for p in root.rglob("*")
+        if p.is_file()
+        and not p.name.startswith(".")
+        and "summary" not in p.parts
+        and p.name != "batch_status.parquet"
+    )
+    ref_files = sorted(
+        str(p.relative_to(tmp / "ref"))
+        for p in (tmp / "ref").rglob("*")
+        if p.is_file()
+        and not p.name.startswith(".")
+        and "summary" not in p.parts
+        and p.name != "batch_status.parquet"
+    )
+    failed = status[status["result"] == "failed"]
+    return {
+        "recordings": 20,
+        "reference_exit_code": first.returncode,
+        "reference_counts": ref["result"].value_counts().to_dict(),
+        "finished_at_kill": done_at_kill,
+        "tmp_folders_left_by_kill": tmp_left,
+        "resume_exit_code": resumed.returncode,
+        "resume_stdout": resumed.stdout.strip().splitlines()[0] if resumed.stdout else "",
+        "final_counts": status["result"].value_counts().to_dict(),
+        "skipped_on_resume": int((status["status"] == "skipped").sum()),
+        "failed_reasons": dict(zip(failed["recording_id"], failed["error"], strict=True)),
+        "status_rows": len(status),
+        "unique_recordings": int(status["recording_id"].nunique()),
+        "same_folders_as_uninterrupted_run": folders == ref_folders,
+        "same_files_as_uninterrupted_run": files == ref_files,
+        "tmp_left_after_resume": (root / ".tmp").exists(),
+    }
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--recordings", type=int, default=8)
+    ap.add_argument("--frames", type=int, default=20)
+    ap.add_argument("--repeats", type=int, default=5)
+    args = ap.parse_args()
+    with tempfile.TemporaryDirectory(prefix="bench_batch_") as name:
+        tmp = Path(name)
+        result = {
+            "machine": f"{platform.machine()} {platform.python_version()}",
+            "throughput": throughput(tmp, args.recordings, args.frames, args.repeats),
+            "kill_and_resume": kill_and_resume(tmp),
+        }
+    RESULTS.parent.mkdir(parents=True, exist_ok=True)
+    RESULTS.write_text(json.dumps(result, indent=1, default=str) + "\n")
+    print(json.dumps(result, indent=1, default=str))
+
+
+if __name__ == "__main__":
+    main()

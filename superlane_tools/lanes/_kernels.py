@@ -1,0 +1,495 @@
+"""Numba kernels of the multi-lane fit: the cost J, its batched form, Nelder-Mead, point passes.
+
+Each kernel makes one pass over the points without temporaries; they mirror the pure-numpy
+reference in :mod:`superlane_tools.lanes.cost` (same formulas, same operation order) and
+scipy's bounded Nelder-Mead step for step, so both backends agree to rounding.
+
+Imported lazily (numba's import costs ~0.5 s and the first call compiles for seconds): only
+functions that run a fit import this module. ``cache=True`` keeps compiled code next to this
+file, or in numba's per-user cache when the install is read-only; where neither is writable the
+kernels are compiled in memory each process.
+
+The cost configuration travels as one float array ``cfg`` (see the ``CFG_*`` indices).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any, TypeVar
+
+import numba
+import numpy as np
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+CFG_INV_H = 0
+"""``1 / camera height`` (1/m)."""
+CFG_MIN_DEN = 1
+"""``1 / max_range_m``: smallest valid ray denominator (1/m)."""
+CFG_POS_SCALE = 2
+"""``1 / bin width`` (1/m)."""
+CFG_POS_SHIFT = 3
+"""Histogram slot of residual 0 (slot k + 1 holds bin k)."""
+CFG_N_BINS = 4
+"""Number of histogram bins."""
+CFG_KAPPA = 5
+"""Weight of the out-of-range penalty of Eq. 2."""
+CFG_LAMBDA = 6
+"""Weight of J1 in Eq. 3 (0: no road term)."""
+CFG_INV_SIGMA = 7
+"""``1 / sigma_d`` of Eq. 1 (1/m)."""
+CFG_SIZE = 8
+
+
+def _jit(func: F) -> F:
+    """Compile ``func`` with an on-disk cache, or without one where no cache dir is writable."""
+    try:
+        return numba.njit(cache=True, fastmath=False, nogil=True)(func)  # type: ignore[no-any-return]
+    except RuntimeError:  # numba: "cannot cache function ...: no locator available"
+        return numba.njit(cache=False, fastmath=False, nogil=True)(func)  # type: ignore[no-any-return]
+
+
+@_jit
+def lane_cost(iq: Any, r: Any, a1: float, a2: float, b: float, cfg: Any, hist: Any) -> float:
+    """Return J2 (Eq. 2): soft-binned entropy of the residuals + kappa * N_l / n_l.
+
+    ``hist`` is scratch space of ``n_bins + 3`` floats (slot 0 and slots above ``n_bins``
+    collect the out-of-range residuals).
+    """
+    n_bins = int(cfg[CFG_N_BINS])
+    c = b * cfg[CFG_INV_H]
+    min_den = cfg[CFG_MIN_DEN]
+    scale = cfg[CFG_POS_SCALE]
+    shift = cfg[CFG_POS_SHIFT]
+    top = n_bins + 1.0
+    for k in range(n_bins + 3):
+        hist[k] = 0.0
+    for i in range(iq.size):
+        den = iq[i] + c
+        if den < min_den:
+            pos = 0.0
+        else:
+            x = 1.0 / den
+            pos = x * (r[i] - a1 - a2 * x) * scale + shift
+            if pos < 0.0:
+                pos = 0.0
+            elif pos > top:
+                pos = top
+        k = int(pos)
+        frac = pos - k
+        hist[k] += 1.0 - frac
+        hist[k + 1] += frac
+    n_in = 0.0
+    for k in range(1, n_bins + 1):
+        n_in += hist[k]
+    if n_in <= 0.0:
+        return math.log(n_bins) + cfg[CFG_KAPPA] * iq.size
+    inv_n = 1.0 / n_in
+    h = 0.0
+    for k in range(1, n_bins + 1):
+        if hist[k] > 0.0:
+            p = hist[k] * inv_n
+            h -= p * math.log(p)
+    return h + cfg[CFG_KAPPA] * iq.size / n_in
+
+
+@_jit
+def road_cost(riq: Any, rr: Any, a1: float, a2: float, b: float, a0c: float, cfg: Any) -> float:
+    """Return J1 (Eq. 1): minus the Gaussian closeness of road points to the centre line."""
+    c = b * cfg[CFG_INV_H]
+    min_den = cfg[CFG_MIN_DEN]
+    inv_sigma = cfg[CFG_INV_SIGMA]
+    s = 0.0
+    for i in range(riq.size):
+        den = riq[i] + c
+        if den >= min_den:
+            x = 1.0 / den
+            d = (x * (rr[i] - a1 - a2 * x) - a0c) * inv_sigma
+            s += math.exp(-(d * d))
+    return -s
+
+
+@_jit
+def total_cost(iq: Any, r: Any, riq: Any, rr: Any, theta: Any, cfg: Any, hist: Any) -> float:
+    """Return J = lambda * J1 + J2 (Eq. 3) for ``theta = (a1, a2, b, a0c)``."""
+    cost = 0.0
+    if iq.size:
+        cost = lane_cost(iq, r, theta[0], theta[1], theta[2], cfg, hist)
+    if riq.size:
+        cost += cfg[CFG_LAMBDA] * road_cost(riq, rr, theta[0], theta[1], theta[2], theta[3], cfg)
+    return cost
+
+
+@_jit
+def batch_cost(iq: Any, r: Any, riq: Any, rr: Any, thetas: Any, cfg: Any, hist: Any) -> Any:
+    """Return J for each row of ``(P, 4)`` parameter vectors (the initial grid)."""
+    out = np.empty(thetas.shape[0])
+    for j in range(thetas.shape[0]):
+        out[j] = total_cost(iq, r, riq, rr, thetas[j], cfg, hist)
+    return out
+
+
+@_jit
+def _eval_scaled(
+    v: Any,
+    base: Any,
+    free: Any,
+    scale: Any,
+    iq: Any,
+    r: Any,
+    riq: Any,
+    rr: Any,
+    cfg: Any,
+    hist: Any,
+) -> float:
+    theta = base.copy()
+    for k in range(free.size):
+        theta[free[k]] = v[k] * scale[k]
+    return total_cost(iq, r, riq, rr, theta, cfg, hist)
+
+
+@_jit
+def _sort_simplex(sim: Any, fsim: Any) -> None:
+    """Stable insertion sort of the simplex by cost (numpy's argsort on <= 16 items)."""
+    for i in range(1, fsim.size):
+        f = fsim[i]
+        row = sim[i].copy()
+        j = i - 1
+        while j >= 0 and fsim[j] > f:
+            fsim[j + 1] = fsim[j]
+            sim[j + 1] = sim[j]
+            j -= 1
+        fsim[j + 1] = f
+        sim[j + 1] = row
+
+
+@_jit
+def _clip(v: Any, lo: Any, hi: Any) -> None:
+    for k in range(v.size):
+        v[k] = min(max(v[k], lo[k]), hi[k])
+
+
+@_jit
+def nelder_mead(
+    sim0: Any,
+    base: Any,
+    free: Any,
+    scale: Any,
+    lo: Any,
+    hi: Any,
+    xatol: float,
+    fatol: float,
+    max_iterations: int,
+    iq: Any,
+    r: Any,
+    riq: Any,
+    rr: Any,
+    cfg: Any,
+    hist: Any,
+) -> tuple[Any, float, int, int, bool]:
+    """Minimise J over ``theta[free] = v * scale`` with bounded Nelder-Mead.
+
+    The same algorithm as ``scipy.optimize.minimize(method="Nelder-Mead", bounds=...,
+    initial_simplex=sim0)``: standard coefficients (1, 2, 0.5, 0.5), every trial point clipped
+    to ``[lo, hi]``, stop when the simplex spans at most ``xatol`` and its costs ``fatol``.
+
+    Returns:
+        Best ``v``, its cost, iterations, cost evaluations and whether it converged.
+    """
+    n = sim0.shape[1]
+    sim = sim0.copy()
+    for j in range(n + 1):
+        for k in range(n):
+            if sim[j, k] > hi[k]:
+                sim[j, k] = 2.0 * hi[k] - sim[j, k]
+        _clip(sim[j], lo, hi)
+    fsim = np.empty(n + 1)
+    for j in range(n + 1):
+        fsim[j] = _eval_scaled(sim[j], base, free, scale, iq, r, riq, rr, cfg, hist)
+    nfev = n + 1
+    _sort_simplex(sim, fsim)
+    xbar = np.empty(n)
+    trial = np.empty(n)
+    iterations = 1
+    while iterations < max_iterations:
+        spread = 0.0
+        fspread = 0.0
+        for j in range(1, n + 1):
+            fspread = max(fspread, abs(fsim[0] - fsim[j]))
+            for k in range(n):
+                spread = max(spread, abs(sim[j, k] - sim[0, k]))
+        if spread <= xatol and fspread <= fatol:
+            break
+        for k in range(n):
+            acc = 0.0
+            for j in range(n):
+                acc += sim[j, k]
+            xbar[k] = acc / n
+        for k in range(n):
+            trial[k] = 2.0 * xbar[k] - sim[n, k]
+        _clip(trial, lo, hi)
+        fxr = _eval_scaled(trial, base, free, scale, iq, r, riq, rr, cfg, hist)
+        nfev += 1
+        xr = trial.copy()
+        if fxr < fsim[0]:
+            for k in range(n):
+                trial[k] = 3.0 * xbar[k] - 2.0 * sim[n, k]
+            _clip(trial, lo, hi)
+            fxe = _eval_scaled(trial, base, free, scale, iq, r, riq, rr, cfg, hist)
+            nfev += 1
+            if fxe < fxr:
+                sim[n] = trial
+                fsim[n] = fxe
+            else:
+                sim[n] = xr
+                fsim[n] = fxr
+        elif fxr < fsim[n - 1]:
+            sim[n] = xr
+            fsim[n] = fxr
+        else:
+            shrink = False
+            if fxr < fsim[n]:
+                for k in range(n):
+                    trial[k] = 1.5 * xbar[k] - 0.5 * sim[n, k]
+                _clip(trial, lo, hi)
+                fxc = _eval_scaled(trial, base, free, scale, iq, r, riq, rr, cfg, hist)
+                nfev += 1
+                if fxc <= fxr:
+                    sim[n] = trial
+                    fsim[n] = fxc
+                else:
+                    shrink = True
+            else:
+                for k in range(n):
+                    trial[k] = 0.5 * xbar[k] + 0.5 * sim[n, k]
+                _clip(trial, lo, hi)
+                fxcc = _eval_scaled(trial, base, free, scale, iq, r, riq, rr, cfg, hist)
+                nfev += 1
+                if fxcc < fsim[n]:
+                    sim[n] = trial
+                    fsim[n] = fxcc
+                else:
+                    shrink = True
+            if shrink:
+                for j in range(1, n + 1):
+                    for k in range(n):
+                        sim[j, k] = sim[0, k] + 0.5 * (sim[j, k] - sim[0, k])
+                    _clip(sim[j], lo, hi)
+                    fsim[j] = _eval_scaled(sim[j], base, free, scale, iq, r, riq, rr, cfg, hist)
+                    nfev += 1
+        iterations += 1
+        _sort_simplex(sim, fsim)
+    return sim[0].copy(), fsim[0], iterations, nfev, iterations < max_iterations
+
+
+@_jit
+def ray_slopes(
+    xn: Any, yn: Any, rot: Any, height_m: float, reach: float, min_den: float, max_den: float
+) -> tuple[Any, Any, Any]:
+    """Return ``iq``, ``r`` of each normalised pixel ray and whether it is usable.
+
+    ``iq = -dz / (h dx)`` (1/m) and ``r = dy / dx`` of the vehicle-frame ray
+    ``rot @ (xn, yn, 1)``; a ray is usable when it points forward and meets the road within
+    ``[1 / max_den, 1 / min_den]`` metres for some slope within ``reach * h``.
+    """
+    n = xn.size
+    iq = np.empty(n)
+    r = np.empty(n)
+    keep = np.zeros(n, dtype=np.bool_)
+    for i in range(n):
+        dx = rot[0, 0] * xn[i] + rot[0, 1] * yn[i] + rot[0, 2]
+        dy = rot[1, 0] * xn[i] + rot[1, 1] * yn[i] + rot[1, 2]
+        dz = rot[2, 0] * xn[i] + rot[2, 1] * yn[i] + rot[2, 2]
+        norm = math.sqrt(dx * dx + dy * dy + dz * dz)
+        if dx > 1e-9 * norm:
+            q = -dz / (height_m * dx)
+            iq[i] = q
+            r[i] = dy / dx
+            keep[i] = (q + reach >= min_den) and (q - reach <= max_den)
+        else:
+            iq[i] = -1.0 / height_m
+            r[i] = 0.0
+    return iq, r, keep
+
+
+@_jit
+def assign_points(
+    iq: Any,
+    r: Any,
+    a1: float,
+    a2: float,
+    b: float,
+    inv_h: float,
+    min_den: float,
+    offsets: Any,
+    radius_m: float,
+    radius_per_m: float,
+) -> tuple[Any, Any, Any]:
+    """Return forward distance ``x`` (NaN: invalid), residual and nearest line of each point.
+
+    A point belongs to the nearest offset within ``radius_m + radius_per_m * x`` (else -1).
+    """
+    n = iq.size
+    x_out = np.empty(n)
+    res_out = np.empty(n)
+    labels = np.full(n, -1, dtype=np.intp)
+    c = b * inv_h
+    for i in range(n):
+        den = iq[i] + c
+        if den < min_den:
+            x_out[i] = np.nan
+            res_out[i] = np.nan
+            continue
+        x = 1.0 / den
+        res = r[i] * x - x * (a1 + a2 * x)
+        x_out[i] = x
+        res_out[i] = res
+        best = np.inf
+        for j in range(offsets.size):
+            d = abs(res - offsets[j])
+            if d < best:
+                best = d
+                labels[i] = j
+        if best > radius_m + radius_per_m * x:
+            labels[i] = -1
+    return x_out, res_out, labels
+
+
+@_jit
+def line_sums(x: Any, res: Any, labels: Any, offsets: Any, near_m: float) -> tuple[Any, Any]:
+    """Return per line the weighted sums of ``x^j`` (j < 5) and ``x^j (res - offset)`` (j < 3).
+
+    Weights ``1 / max(x, near_m)^2`` (image-space error); also ``[count, min x, max x]`` per
+    line in the second array's columns 3-5.
+    """
+    n_lines = offsets.size
+    sx = np.zeros((n_lines, 5))
+    sy = np.zeros((n_lines, 6))
+    for n in range(n_lines):
+        sy[n, 4] = np.inf
+        sy[n, 5] = -np.inf
+    for i in range(x.size):
+        n = labels[i]
+        if n < 0:
+            continue
+        xi = x[i]
+        w = 1.0 / max(xi, near_m)
+        w *= w
+        d = res[i] - offsets[n]
+        p = w
+        for j in range(5):
+            sx[n, j] += p
+            if j < 3:
+                sy[n, j] += p * d
+            p *= xi
+        sy[n, 3] += 1.0
+        sy[n, 4] = min(sy[n, 4], xi)
+        sy[n, 5] = max(sy[n, 5], xi)
+    return sx, sy
+
+
+@_jit
+def reassign(x: Any, res: Any, lines: Any, radius_m: float, radius_per_m: float) -> Any:
+    """Assign each point to the nearest corrected line ``(offset, c0, c1, c2)`` within radius."""
+    n = x.size
+    labels = np.full(n, -1, dtype=np.intp)
+    for i in range(n):
+        xi = x[i]
+        if not math.isfinite(xi):
+            continue
+        best = np.inf
+        for j in range(lines.shape[0]):
+            d = abs(res[i] - lines[j, 0] - (lines[j, 1] + xi * (lines[j, 2] + xi * lines[j, 3])))
+            if d < best:
+                best = d
+                labels[i] = j
+        if best > radius_m + radius_per_m * xi:
+            labels[i] = -1
+    return labels
+
+
+@_jit
+def row_coverage(rows_px: Any, labels: Any, n_lines: int) -> Any:
+    """Return per line ``[distinct image rows, first row, last row]`` of its points (pixels)."""
+    out = np.zeros((n_lines, 3), dtype=np.int64)
+    if rows_px.size == 0 or n_lines == 0:
+        return out
+    lo = int(round(rows_px.min()))
+    hi = int(round(rows_px.max()))
+    seen = np.zeros((n_lines, hi - lo + 1), dtype=np.bool_)
+    for n in range(n_lines):
+        out[n, 1] = hi + 1
+        out[n, 2] = lo - 1
+    for i in range(rows_px.size):
+        n = labels[i]
+        if n < 0:
+            continue
+        row = int(round(rows_px[i]))
+        if not seen[n, row - lo]:
+            seen[n, row - lo] = True
+            out[n, 0] += 1
+            out[n, 1] = min(out[n, 1], row)
+            out[n, 2] = max(out[n, 2], row)
+    return out
+
+
+@_jit
+def refit_normal(
+    iq: Any,
+    r: Any,
+    labels: Any,
+    n_lines: int,
+    a1: float,
+    a2: float,
+    b: float,
+    inv_h: float,
+    min_den: float,
+    order: int,
+    fit_slope: bool,
+    near_m: float,
+) -> tuple[Any, Any]:
+    """Return the weighted normal equations of one Gauss-Newton step of ``_refit.refit_shared``.
+
+    Columns: one offset per line, ``x``, ``x^2`` (order 2), the slope derivative (when
+    ``fit_slope``); target ``y``; weights ``1 / max(x, near_m)^2``; unassigned points and points
+    beyond range are left out.
+    """
+    m = n_lines + 1 + (1 if order == 2 else 0) + (1 if fit_slope else 0)
+    normal = np.zeros((m, m))
+    rhs = np.zeros(m)
+    col = np.zeros(m - n_lines)
+    c = b * inv_h
+    for i in range(iq.size):
+        n = labels[i]
+        if n < 0:
+            continue
+        den = iq[i] + c
+        if den < min_den:
+            continue
+        x = 1.0 / den
+        y = r[i] * x
+        w = 1.0 / max(x, near_m)
+        w *= w
+        col[0] = x
+        k = 1
+        if order == 2:
+            col[1] = x * x
+            k = 2
+        if fit_slope:
+            col[k] = (a1 + 2.0 * a2 * x) * (-x * x * inv_h) - (-x * y * inv_h)
+        normal[n, n] += w
+        rhs[n] += w * y
+        for j in range(m - n_lines):
+            wj = w * col[j]
+            normal[n, n_lines + j] += wj
+            rhs[n_lines + j] += wj * y
+            for q in range(j, m - n_lines):
+                normal[n_lines + j, n_lines + q] += wj * col[q]
+    for j in range(n_lines, m):
+        for q in range(j + 1, m):
+            normal[q, j] = normal[j, q]
+    for n in range(n_lines):
+        for j in range(n_lines, m):
+            normal[j, n] = normal[n, j]
+    return normal, rhs
