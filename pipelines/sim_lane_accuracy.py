@@ -9,8 +9,10 @@ fit to the drive's size); each frame is matched to its truth row by index and co
 * heading ``a1`` vs ``lane_heading_rad`` (rad), curvature ``2 a2`` vs ``lane_curvature`` (1/m),
   slope ``b`` vs ``road_slope`` (both fitted by the simulator over 5-60 m);
 * the ego lines' offsets (fit ``offsets[ego_left]``, ``offsets[ego_right]``) vs
-  ``line_offset_m[ego_left_line]``, ``line_offset_m[ego_right_line]`` (m), over frames where
-  both sides have an ego line.
+  ``line_offset_m[ego_left_line]``, ``line_offset_m[ego_right_line]`` (m);
+* the ego lines' lateral position 20 m ahead (each line's own ``lane_a1``, ``lane_a2`` vs the
+  truth's shared polynomial), which does not depend on how a quadratic splits a clothoid into
+  heading and curvature over a given range.
 
 The labels are the simulator's exact classes (an oracle segmentation): what remains is the
 geometry of the fit. Writes a markdown table (RMSE and median absolute error per scenario) with
@@ -50,7 +52,9 @@ SCENARIOS = (
     "faded_lines",
 )
 CAMERA = "sim_default"
-METRICS = ("heading_rad", "curvature_1pm", "slope", "ego_left_m", "ego_right_m")
+METRICS = ("heading_rad", "curvature_1pm", "slope", "ego_left_m", "ego_right_m", "ego_y20_m")
+AHEAD_M = 20.0
+"""Forward distance of the range-independent check: ego lines' lateral position there, metres."""
 
 
 def classes_yaml() -> dict[str, list[int]]:
@@ -104,6 +108,18 @@ def _ego(offsets: Any, index: int) -> float:
     return float(offsets[index]) if 0 <= index < len(offsets) else math.nan
 
 
+def _ahead(fit: dict[str, Any], index: int) -> float:
+    if not 0 <= index < len(fit["offsets"]):
+        return math.nan
+    x = AHEAD_M
+    return float(fit["offsets"][index] + x * (fit["lane_a1"][index] + x * fit["lane_a2"][index]))
+
+
+def _ahead_truth(truth: dict[str, Any], offset_m: float) -> float:
+    x = AHEAD_M
+    return offset_m + x * (truth["lane_heading_rad"] + x * 0.5 * truth["lane_curvature"])
+
+
 def compare(gt_path: Path, lanes_path: Path) -> dict[str, Any]:
     """Return per-metric errors (fit minus truth) and coverage of one scenario's drive."""
     gt = pq.read_table(gt_path).to_pylist()
@@ -127,6 +143,7 @@ def compare(gt_path: Path, lanes_path: Path) -> dict[str, Any]:
             got = _ego(fit["offsets"], int(fit[key]))
             if math.isfinite(true):
                 errors[side].append(got - true)  # NaN when the fit has no ego line there
+                errors["ego_y20_m"].append(_ahead(fit, int(fit[key])) - _ahead_truth(truth, true))
     out: dict[str, Any] = {"frames": len(gt), "fitted": n_fitted}
     for name, values in errors.items():
         v = np.asarray(values, dtype=np.float64)
@@ -146,9 +163,9 @@ def report(results: dict[str, dict[str, Any]], commands: list[str], argv: list[s
     head = (
         "| scenario | fitted | heading RMSE / med (mrad) | curvature RMSE / med (1e-4 1/m) "
         "| slope RMSE / med (%) | ego left RMSE / med (m), found | ego right RMSE / med (m), "
-        "found |"
+        "found | ego lines at 20 m RMSE / med (m) |"
     )
-    rows = [head, "|---|---|---|---|---|---|---|"]
+    rows = [head, "|---|---|---|---|---|---|---|---|"]
     scale = {"heading_rad": 1e3, "curvature_1pm": 1e4, "slope": 1e2}
 
     def cell(res: dict[str, Any], key: str, unit: float = 1.0, digits: int = 2) -> str:
@@ -161,7 +178,7 @@ def report(results: dict[str, dict[str, Any]], commands: list[str], argv: list[s
             f"| {name} | {res['fitted']}/{res['frames']} | "
             f"{cell(res, 'heading_rad', 1e3)} | {cell(res, 'curvature_1pm', 1e4)} | "
             f"{cell(res, 'slope', 1e2)} | {cell(res, 'ego_left_m')} | "
-            f"{cell(res, 'ego_right_m')} |"
+            f"{cell(res, 'ego_right_m')} | {cell(res, 'ego_y20_m')} |"
         )
     cmd = shlex.join(["python", "pipelines/sim_lane_accuracy.py", *argv[1:]])
     return "\n".join(
@@ -217,8 +234,7 @@ def main(argv: list[str] | None = None) -> int:
             print(
                 f"{scenario}: fitted {res['fitted']}/{res['frames']}, "
                 + ", ".join(
-                    f"{m} rmse {res[m]['rmse']:.4g} med {res[m]['median_abs']:.4g}"
-                    for m in METRICS
+                    f"{m} rmse {res[m]['rmse']:.4g} med {res[m]['median_abs']:.4g}" for m in METRICS
                 ),
                 flush=True,
             )

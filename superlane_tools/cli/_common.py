@@ -6,8 +6,10 @@ import os
 import sys
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
+from pathlib import Path
 from typing import NoReturn
 
+import click
 import typer
 from rich.console import Console
 
@@ -60,5 +62,21 @@ def exit_with(code: ExitCode) -> None:
 
 
 def command_line() -> str:
-    """Return the command line as typed, for provenance metadata."""
-    return " ".join(["slt", *sys.argv[1:]])
+    """Return the command line, for provenance metadata.
+
+    As typed when running as the ``slt`` program; otherwise (the CLI invoked in-process, e.g.
+    by a test runner or another tool) rebuilt from the click context's command path and
+    parameters, since ``sys.argv`` then belongs to the host program.
+    """
+    if sys.argv and Path(sys.argv[0]).name == "slt":
+        return " ".join(["slt", *sys.argv[1:]])
+    ctx = click.get_current_context(silent=True)
+    if ctx is None:
+        return "slt"
+    parts = ["slt", *ctx.command_path.split()[1:]]
+    for name, value in ctx.params.items():
+        if value is None or value is False or value in ((), []):
+            continue
+        flag = "--" + name.replace("_", "-")
+        parts.append(flag if value is True else f"{flag} {value}")
+    return " ".join(parts)

@@ -8,6 +8,7 @@ import typer
 
 from superlane_tools._version import __version__
 from superlane_tools.cli import (
+    batch,
     camera,
     extract,
     info,
@@ -50,6 +51,7 @@ def _root(
 
 
 reprocess.register(app)
+batch.register(app)
 info.register(app)
 extract.register(app)
 simulate.register(app)

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from typing import Any, TypeVar
+from typing import Any, TypeVar, cast
 
 import numba
 import numpy as np
@@ -45,9 +45,9 @@ CFG_SIZE = 8
 def _jit(func: F) -> F:
     """Compile ``func`` with an on-disk cache, or without one where no cache dir is writable."""
     try:
-        return numba.njit(cache=True, fastmath=False, nogil=True)(func)  # type: ignore[no-any-return]
+        return cast("F", numba.njit(cache=True, fastmath=False, nogil=True)(func))
     except RuntimeError:  # numba: "cannot cache function ...: no locator available"
-        return numba.njit(cache=False, fastmath=False, nogil=True)(func)  # type: ignore[no-any-return]
+        return cast("F", numba.njit(cache=False, fastmath=False, nogil=True)(func))
 
 
 @_jit
@@ -58,6 +58,7 @@ def lane_cost(iq: Any, r: Any, a1: float, a2: float, b: float, cfg: Any, hist: A
     collect the out-of-range residuals).
     """
     n_bins = int(cfg[CFG_N_BINS])
+    penalty: float = cfg[CFG_KAPPA] * iq.size
     c = b * cfg[CFG_INV_H]
     min_den = cfg[CFG_MIN_DEN]
     scale = cfg[CFG_POS_SCALE]
@@ -84,14 +85,14 @@ def lane_cost(iq: Any, r: Any, a1: float, a2: float, b: float, cfg: Any, hist: A
     for k in range(1, n_bins + 1):
         n_in += hist[k]
     if n_in <= 0.0:
-        return math.log(n_bins) + cfg[CFG_KAPPA] * iq.size
+        return math.log(n_bins) + penalty
     inv_n = 1.0 / n_in
     h = 0.0
     for k in range(1, n_bins + 1):
         if hist[k] > 0.0:
             p = hist[k] * inv_n
             h -= p * math.log(p)
-    return h + cfg[CFG_KAPPA] * iq.size / n_in
+    return h + penalty / n_in
 
 
 @_jit
@@ -415,8 +416,8 @@ def row_coverage(rows_px: Any, labels: Any, n_lines: int) -> Any:
     out = np.zeros((n_lines, 3), dtype=np.int64)
     if rows_px.size == 0 or n_lines == 0:
         return out
-    lo = int(round(rows_px.min()))
-    hi = int(round(rows_px.max()))
+    lo = int(np.rint(rows_px.min()))
+    hi = int(np.rint(rows_px.max()))
     seen = np.zeros((n_lines, hi - lo + 1), dtype=np.bool_)
     for n in range(n_lines):
         out[n, 1] = hi + 1
@@ -425,7 +426,7 @@ def row_coverage(rows_px: Any, labels: Any, n_lines: int) -> Any:
         n = labels[i]
         if n < 0:
             continue
-        row = int(round(rows_px[i]))
+        row = int(np.rint(rows_px[i]))
         if not seen[n, row - lo]:
             seen[n, row - lo] = True
             out[n, 0] += 1
@@ -493,3 +494,114 @@ def refit_normal(
         for j in range(n_lines, m):
             normal[j, n] = normal[n, j]
     return normal, rhs
+
+
+@_jit
+def solve_ridged(normal: Any, rhs: Any) -> Any:
+    """Solve ``(normal + ridge I) p = rhs`` for a small symmetric positive semi-definite matrix.
+
+    The ridge ``1e-9 * (trace / m + 1)`` matches ``_refit._solve``; Cholesky in place of LU (the
+    ridged matrix is positive definite).
+    """
+    m = rhs.size
+    a = normal.copy()
+    tr = 0.0
+    for j in range(m):
+        tr += a[j, j]
+    ridge = 1e-9 * (tr / m + 1.0)
+    for j in range(m):
+        a[j, j] += ridge
+    for j in range(m):
+        s = a[j, j]
+        for k in range(j):
+            s -= a[j, k] * a[j, k]
+        d = math.sqrt(max(s, 1e-300))
+        a[j, j] = d
+        for i in range(j + 1, m):
+            s = a[i, j]
+            for k in range(j):
+                s -= a[i, k] * a[j, k]
+            a[i, j] = s / d
+    y = np.empty(m)
+    for i in range(m):
+        s = rhs[i]
+        for k in range(i):
+            s -= a[i, k] * y[k]
+        y[i] = s / a[i, i]
+    p = np.empty(m)
+    for i in range(m - 1, -1, -1):
+        s = y[i]
+        for k in range(i + 1, m):
+            s -= a[k, i] * p[k]
+        p[i] = s / a[i, i]
+    return p
+
+
+@_jit
+def refit_gauss_newton(
+    iq: Any,
+    r: Any,
+    labels: Any,
+    n_lines: int,
+    a1: float,
+    a2: float,
+    b: float,
+    inv_h: float,
+    min_den: float,
+    order: int,
+    fit_slope: bool,
+    slope_bound: float,
+    near_m: float,
+    iterations: int,
+) -> tuple[float, float, float, Any]:
+    """Run the Gauss-Newton loop of ``_refit.refit_shared``; return ``a1, a2, b, offsets``."""
+    offsets = np.empty(n_lines)
+    for _ in range(iterations if fit_slope else 1):
+        normal, rhs = refit_normal(
+            iq, r, labels, n_lines, a1, a2, b, inv_h, min_den, order, fit_slope, near_m
+        )
+        p = solve_ridged(normal, rhs)
+        offsets[:] = p[:n_lines]
+        a1 = p[n_lines]
+        a2 = p[n_lines + 1] if order == 2 else 0.0
+        if not fit_slope:
+            break
+        b_new = min(max(b + p[p.size - 1], -slope_bound), slope_bound)
+        done = abs(b_new - b) < 1e-7
+        b = b_new
+        if done:
+            break
+    return a1, a2, b, offsets
+
+
+@_jit
+def local_corrections(sums_x: Any, sums_r: Any, order: int, bound_m: float) -> Any:
+    """Return each line's bounded correction ``(c0, c1, c2)`` from ``line_sums``.
+
+    As ``_refit.local_correction``: the order grows with the support span, and the correction
+    is scaled into ``+-bound_m`` over the support.
+    """
+    n_lines = sums_x.shape[0]
+    out = np.zeros((n_lines, 3))
+    for n in range(n_lines):
+        count, x_min, x_max = sums_r[n, 3], sums_r[n, 4], sums_r[n, 5]
+        if count < 8 or bound_m <= 0:
+            continue
+        span = x_max - x_min
+        k = 0 if span < 5.0 else (1 if span < 15.0 or order == 1 else 2)
+        normal = np.empty((k + 1, k + 1))
+        for i in range(k + 1):
+            for j in range(k + 1):
+                normal[i, j] = sums_x[n, i + j]
+        coef = solve_ridged(normal, sums_r[n, : k + 1].copy())
+        worst = 0.0
+        for g in range(16):
+            x = x_min + (x_max - x_min) * g / 15.0
+            v = coef[0]
+            if k >= 1:
+                v += x * (coef[1] + (x * coef[2] if k == 2 else 0.0))
+            worst = max(worst, abs(v))
+        scale = bound_m / worst if worst > bound_m else 1.0
+        for i in range(k + 1):
+            out[n, i] = coef[i] * scale
+    return out

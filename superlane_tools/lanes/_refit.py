@@ -136,41 +136,15 @@ def _refit_compiled(
     iterations: int,
 ) -> SharedModel:
     """:func:`refit_shared` on normal equations accumulated by ``_kernels.refit_normal``."""
-    from superlane_tools.lanes._kernels import refit_normal
+    from superlane_tools.lanes._kernels import refit_gauss_newton
 
     if int((labels >= 0).sum()) < n_lines + order + 1:
         return start
-    a1, a2, b = start.a1, start.a2, start.b
-    offsets = start.offsets
-    fit_slope = fit_slope and n_lines >= 2
-    for _ in range(iterations if fit_slope else 1):
-        normal, rhs = refit_normal(
-            iq,
-            r,
-            labels,
-            n_lines,
-            a1,
-            a2,
-            b,
-            1.0 / height_m,
-            1.0 / max_range_m,
-            order,
-            fit_slope,
-            NEAR_WEIGHT_M,
-        )
-        normal[np.diag_indices_from(normal)] += 1e-9 * (np.trace(normal) / normal.shape[0] + 1.0)
-        p = np.linalg.solve(normal, rhs)
-        offsets = p[:n_lines]
-        a1 = float(p[n_lines])
-        a2 = float(p[n_lines + 1]) if order == 2 else 0.0
-        if not fit_slope:
-            break
-        b_new = float(np.clip(b + float(p[-1]), -slope_bound, slope_bound))
-        done = abs(b_new - b) < 1e-7
-        b = b_new
-        if done:
-            break
-    return SharedModel(a1, a2, b, np.asarray(offsets, dtype=np.float64))
+    a1, a2, b, offsets = refit_gauss_newton(
+        iq, r, labels, n_lines, start.a1, start.a2, start.b, 1.0 / height_m, 1.0 / max_range_m,
+        order, fit_slope and n_lines >= 2, slope_bound, NEAR_WEIGHT_M, iterations,
+    )  # fmt: skip
+    return SharedModel(float(a1), float(a2), float(b), np.asarray(offsets, dtype=np.float64))
 
 
 class LocalCorrection(NamedTuple):

@@ -22,7 +22,6 @@ from superlane_tools.lanes._refit import (
     LocalCorrection,
     SharedModel,
     local_correction,
-    local_correction_from_sums,
     refit_shared,
 )
 from superlane_tools.lanes.attributes import (
@@ -524,17 +523,14 @@ def _build_lanes_compiled(
         ASSIGN_ANGLE_RAD,
     )
     sums_x, sums_r = k.line_sums(x, resid, labels, offsets, NEAR_WEIGHT_M)
-    zero = LocalCorrection(0.0, 0.0, 0.0)
-    corrections = [
-        local_correction_from_sums(sums_x[n], sums_r[n], p.order, p.local_bound_m)
-        if p.local_correction
-        else zero
-        for n in range(offsets.size)
-    ]
     if p.local_correction:
-        lines = np.array([(off, *c) for off, c in zip(offsets, corrections, strict=True)])
+        coef = k.local_corrections(sums_x, sums_r, p.order, p.local_bound_m)
+        lines = np.concatenate([offsets[:, None], coef], axis=1)
         labels = k.reassign(x, resid, lines, p.assign_radius_m, ASSIGN_ANGLE_RAD)
         _, sums_r = k.line_sums(x, resid, labels, offsets, NEAR_WEIGHT_M)
+    else:
+        coef = np.zeros((offsets.size, 3))
+    corrections = [LocalCorrection(*(float(v) for v in row)) for row in coef]
     coverage = k.row_coverage(np.ascontiguousarray(lane.rows), labels, offsets.size)
     lanes = []
     n_assigned = 0

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any, BinaryIO, NamedTuple, Self
 
 from superlane_tools.recording._mcap_decode import (
     DecodeFailureError,
+    Decoder,
     McapDecoders,
     header_first,
     msgtype_name,
@@ -250,13 +251,24 @@ class McapRecording:
         stop_ns: int | None = None,
     ) -> Iterator[Message]:
         """Yield decoded messages in log-time order; undecodable ones are counted as skipped."""
+        per_channel: dict[int, tuple[str, Decoder | DecodeFailureError]] = {}
         for channel, msg in self._records(topics, start_ns, stop_ns):
-            schema = self._schemas.get(channel.schema_id)
-            msgtype = msgtype_name(schema, channel.message_encoding)
-            try:
-                decoder = self._decoders.decoder_for(channel.message_encoding, schema)
-            except DecodeFailureError as err:
-                self._iter_skips.add("unknown message type", f"{channel.topic}: {err}")
+            known = per_channel.get(channel.id)
+            if known is None:  # look the type and decoder up once per channel, not per message
+                schema = self._schemas.get(channel.schema_id)
+                try:
+                    found: Decoder | DecodeFailureError = self._decoders.decoder_for(
+                        channel.message_encoding, schema
+                    )
+                except DecodeFailureError as err:
+                    found = err
+                known = per_channel[channel.id] = (
+                    msgtype_name(schema, channel.message_encoding),
+                    found,
+                )
+            msgtype, decoder = known
+            if isinstance(decoder, DecodeFailureError):
+                self._iter_skips.add("unknown message type", f"{channel.topic}: {decoder}")
                 continue
             try:
                 data = decoder(msg.data)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -28,17 +30,37 @@ _DRIVABLE_LUT = np.zeros(256, np.uint8)
 _DRIVABLE_LUT[list(DRIVABLE_IDS)] = 1
 
 
-def render(scene: FrameScene) -> RenderedFrame:
+class _StageClock:
+    """Adds the CPU time (ms) of consecutive render stages to a dict (no-op without one)."""
+
+    def __init__(self, out: dict[str, float] | None) -> None:
+        self.out = out
+        self.t = time.thread_time() if out is not None else 0.0
+
+    def __call__(self, stage: str) -> None:
+        if self.out is not None:
+            t = time.thread_time()
+            self.out[stage] = self.out.get(stage, 0.0) + (t - self.t) * 1e3
+            self.t = t
+
+
+def render(scene: FrameScene, stage_ms: dict[str, float] | None = None) -> RenderedFrame:
     """Render ``scene`` into a BGR image, a leaf-id label image and the ego-corridor mask.
 
     The same scene always gives byte-identical output: every random choice is drawn from
     ``world_seed`` (textures, skyline, object details) or ``frame_seed`` (noise, rain).
+
+    Args:
+        scene: The frame to draw.
+        stage_ms: If given, CPU milliseconds of each stage (``ray_cast``, ``objects``,
+            ``road_shading``, ``composite``, ``effects``, ``sensor``) are added to it.
 
     Raises:
         ScenarioError: If the scene is inconsistent (bad profile, ego line indices).
     """
     import cv2
 
+    clock = _StageClock(stage_ms)
     road, cond, cam = scene.road, scene.conditions, scene.camera
     n_lines = len(road.lines)
     if not (0 <= scene.ego_left_line < n_lines and 0 <= scene.ego_right_line < n_lines):
@@ -51,6 +73,7 @@ def render(scene: FrameScene) -> RenderedFrame:
     rays = camera_rays(cam)
     tables = road_tables(road)
     hit = cast_road(rays, tables)
+    clock("ray_cast")
     tex = road_textures(scene.world_seed)
     row0 = hit.row0
     h, w = cam.height, cam.width
@@ -61,12 +84,21 @@ def render(scene: FrameScene) -> RenderedFrame:
     dim = 0.5 + 0.5 * min(1.0, cond.daylight)
     hz = (base[0] * dim, base[1] * dim, base[2] * dim)
     sky = hazed_sky(
-        cam, scene.world_seed, cond.sun_elevation_deg, cond.sun_azimuth_rad, night, cond.fog, hz, vis
+        cam,
+        scene.world_seed,
+        cond.sun_elevation_deg,
+        cond.sun_azimuth_rad,
+        night,
+        cond.fog,
+        hz,
+        vis,
     )
     img = sky.color.copy()
     labels = sky.labels.copy()
     range_m = sky.range_m.copy()
-    layers = draw_objects(cam, scene.objects, cond.daylight, scene.world_seed)
+    clock("composite")
+    layers = draw_objects(cam, scene.objects, cond.daylight, scene.world_seed, hz, vis)
+    clock("objects")
 
     # Ground light on the half grid: daylight ambient, headlights at night, object contact
     # shadows, then haze; the ground is shaded straight into the frame's rows below row0.
@@ -87,13 +119,16 @@ def render(scene: FrameScene) -> RenderedFrame:
     ground = shade_ground(
         hit, road, tex, look.palette, cond.cracks, cond.tar_seams, cond.wet, light, img[row0:]
     )
+    clock("road_shading")
     gh = hit.hit
     misses = np.flatnonzero(~gh.all(axis=1))
     if misses.size:  # rows where some rays miss the ground keep the sky there
         a, b = int(misses[0]), int(misses[-1]) + 1
-        np.copyto(img[row0 + a : row0 + b], sky.color[row0 + a : row0 + b], where=~gh[a:b, :, None])
-    np.copyto(labels[row0:], ground.labels, where=gh)
-    np.copyto(range_m[row0:], hit.range_m, where=gh)
+        miss = (~gh[a:b]).view(np.uint8)
+        cv2.copyTo(sky.color[row0 + a : row0 + b], miss, img[row0 + a : row0 + b])
+    gh8 = gh.view(np.uint8)
+    cv2.copyTo(ground.labels, gh8, labels[row0:])
+    cv2.copyTo(hit.range_m, gh8, range_m[row0:])
 
     if cond.tunnel:
         ground_mask = np.zeros((h, w), bool)
@@ -107,12 +142,9 @@ def render(scene: FrameScene) -> RenderedFrame:
     occl = layers.labels > 0
     occl &= layers.depth < range_m
     if scene.objects:
-        idx = np.flatnonzero(occl)
-        depth = layers.depth.reshape(-1)[idx]
-        col = layers.color.reshape(-1, 3)[idx].astype(np.float32)
-        weather.haze_colors(col, depth, hz, vis)
-        img.reshape(-1, 3)[idx] = col
-        labels.reshape(-1)[idx] = layers.labels.reshape(-1)[idx]
+        occl8 = occl.view(np.uint8)
+        cv2.copyTo(layers.color.astype(np.float32), occl8, img)
+        cv2.copyTo(layers.labels, occl8, labels)
     if cond.wet > 0 or cond.tar_seams > 0:
         gloss = ground.gloss * gh
         gloss *= ~occl[row0:]
@@ -139,6 +171,7 @@ def render(scene: FrameScene) -> RenderedFrame:
     corridor &= cv2.LUT(labels, _DRIVABLE_LUT).view(bool)
 
     # Lights, weather, sensor.
+    clock("composite")
     if night or cond.fog > 0.3 or cond.rain > 0.3:
         weather.add_lights(img, layers.lights, 0.8 if night else 0.4)
     if cond.rain > 0:
@@ -146,7 +179,9 @@ def render(scene: FrameScene) -> RenderedFrame:
         weather.add_rain(img, rng, cond.rain)
     if cond.glare > 0:
         weather.add_glare(img, sky.sun_uv, cond.glare, cond.sun_elevation_deg)
+    clock("effects")
     image = finish(img, rays.vignette, cond, look, rng)
+    clock("sensor")
     return RenderedFrame(image_bgr=image, labels=labels, corridor=corridor)
 
 

@@ -90,15 +90,20 @@ def _box_points(box: _Box, unit: F64) -> F64:
     return np.stack([x, y, z], axis=1)
 
 
-_Queued = (
-    tuple[_Box, tuple[float, ...], int, dict[int, list[Detail]] | None] | Callable[[], None]
-)
+_Queued = tuple[_Box, tuple[float, ...], int, dict[int, list[Detail]] | None] | Callable[[], None]
 
 
 class _Painter:
     """Fills projected polygons into the layers."""
 
-    def __init__(self, camera: CameraModel, layers: Layers, daylight: float) -> None:
+    def __init__(
+        self,
+        camera: CameraModel,
+        layers: Layers,
+        daylight: float,
+        haze_bgr: tuple[float, float, float],
+        vis_m: float,
+    ) -> None:
         self.camera = camera
         self.layers = layers
         self.cam_pos = camera.extrinsics.position
@@ -111,6 +116,18 @@ class _Painter:
         self.daylight = daylight
         self.sun = np.array([0.3, 0.5, 0.8])
         self.queue: list[_Queued] = []
+        self.haze_bgr = haze_bgr
+        self.vis_m = vis_m
+
+    def hazed(self, color: tuple[float, ...], depth: float) -> tuple[float, float, float]:
+        """Return ``color`` seen through the haze at ``depth`` metres (Koschmieder's law)."""
+        k = float(np.exp(-3.0 * min(depth, 1e5) / self.vis_m))
+        hz = self.haze_bgr
+        return (
+            color[0] * k + hz[0] * (1.0 - k),
+            color[1] * k + hz[1] * (1.0 - k),
+            color[2] * k + hz[2] * (1.0 - k),
+        )
 
     def project(self, pts: F64) -> F64 | None:
         """Return ``(N, 2)`` pixel positions of vehicle-frame points, None if any is too near."""
@@ -134,7 +151,8 @@ class _Painter:
         import cv2
 
         lay = self.layers
-        col = (min(255.0, color[0]), min(255.0, color[1]), min(255.0, color[2]))
+        hz = self.hazed(color, depth)
+        col = (min(255.0, hz[0]), min(255.0, hz[1]), min(255.0, hz[2]))
         cv2.fillConvexPoly(lay.color, ip, col, cv2.LINE_AA, _SHIFT)
         cv2.fillConvexPoly(lay.labels, ip, label, cv2.LINE_8, _SHIFT)
         cv2.fillConvexPoly(lay.depth, ip, depth, cv2.LINE_8, _SHIFT)
@@ -185,9 +203,7 @@ class _Painter:
                     uv = pc[..., :2] / pc[..., 2:3] * self.fxy + self.cxy
             w, h = self.size
             lo, hi = uv.min(axis=1), uv.max(axis=1)
-            show = (
-                ~near & (hi[:, 0] >= -1) & (lo[:, 0] <= w) & (hi[:, 1] >= -1) & (lo[:, 1] <= h)
-            )
+            show = ~near & (hi[:, 0] >= -1) & (lo[:, 0] <= w) & (hi[:, 1] >= -1) & (lo[:, 1] <= h)
             mid = centre + np.stack([0 * size[:, 2], 0 * size[:, 2], size[:, 2] / 2], axis=1)
             depth = np.linalg.norm(mid - self.cam_pos, axis=1)
             # Outward face normals and back-face culling, all boxes at once.
@@ -390,8 +406,8 @@ def _crown_sprites(world_seed: int) -> tuple[tuple[F32, F32], ...]:
             cv2.circle(shade, ctr, rad, float(val), -1, cv2.LINE_AA)
             cv2.circle(alpha, ctr, rad, 1.0, -1, cv2.LINE_AA)
         leaf = rng.uniform(0.82, 1.12, (n, n)).astype(np.float32)
-        shade = cv2.GaussianBlur(shade * leaf, (0, 0), 0.6)
-        out.append((np.asarray(shade, np.float32), np.asarray(alpha, np.float32)))
+        soft = np.asarray(cv2.GaussianBlur(shade * leaf, (0, 0), 0.6), np.float32)
+        out.append((soft, alpha))
     return tuple(out)
 
 
@@ -415,21 +431,40 @@ def _sprite(
         return
     shade, alpha = sprite
     interp = cv2.INTER_AREA if sw < shade.shape[1] else cv2.INTER_LINEAR
-    al_r = cv2.resize(alpha, (sw, sh), interpolation=interp)
-    tint = (float(color[0]), float(color[1]), float(color[2]), 0.0)
+    # Crown coverage: the sprite's alpha thresholded at one half (solid foliage clusters).
+    solid = cv2.resize(alpha, (sw, sh), interpolation=interp)[
+        cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0
+    ]
+    mask = np.ascontiguousarray((solid > np.float32(0.5)).view(np.uint8))
+    # Haze the crown's colour at its distance (light and haze act on the shaded colour as
+    # c * k + airlight: fold the airlight into the shade via a per-channel offset).
+    k = float(np.exp(-3.0 * min(depth, 1e5) / p.vis_m))
+    tint = (float(color[0]) * k, float(color[1]) * k, float(color[2]) * k, 0.0)
+    air = tuple(float(c) * (1.0 - k) for c in p.haze_bgr)
     if sw * sh < shade.size:  # colour at the smaller of the two sizes
-        sh_r = cv2.resize(shade, (sw, sh), interpolation=interp)
-        col_r = cv2.multiply(cv2.merge([sh_r, sh_r, sh_r]), tint, dtype=cv2.CV_8U)
+        sh_r = np.asarray(cv2.resize(shade, (sw, sh), interpolation=interp), np.float32)
+        col_r = _tinted(sh_r, tint, air)
     else:
-        col = cv2.multiply(cv2.merge([shade, shade, shade]), tint, dtype=cv2.CV_8U)
-        col_r = cv2.resize(col, (sw, sh), interpolation=interp)
-    sl = np.s_[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0]
-    c, a = np.ascontiguousarray(col_r[sl]), np.ascontiguousarray(al_r[sl])
-    roi = p.layers.color[cy0:cy1, cx0:cx1]
-    roi[:] = cv2.blendLinear(c, np.ascontiguousarray(roi), a, np.float32(1.0) - a)
-    solid = a > 0.5
-    np.copyto(p.layers.labels[cy0:cy1, cx0:cx1], np.uint8(label), where=solid)
-    np.copyto(p.layers.depth[cy0:cy1, cx0:cx1], np.float32(depth), where=solid)
+        col_r = np.asarray(cv2.resize(_tinted(shade, tint, air), (sw, sh), interpolation=interp))
+    c = np.ascontiguousarray(col_r[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0])
+    # cv2.copyTo with a mask is far faster than numpy's masked copies on large regions.
+    lay = p.layers
+    cv2.copyTo(c, mask, lay.color[cy0:cy1, cx0:cx1])
+    cv2.copyTo(np.full(mask.shape, label, np.uint8), mask, lay.labels[cy0:cy1, cx0:cx1])
+    cv2.copyTo(np.full(mask.shape, depth, np.float32), mask, lay.depth[cy0:cy1, cx0:cx1])
+
+
+def _tinted(
+    shade: F32, tint: tuple[float, float, float, float], air: tuple[float, ...]
+) -> NDArray[np.uint8]:
+    """Return ``shade * tint + air`` as 8-bit BGR."""
+    import cv2
+
+    # Per-channel scalars (tuples) are fine for OpenCV but not in its type stubs.
+    col = cv2.multiply(cv2.merge([shade, shade, shade]), tint)  # type: ignore[call-overload]
+    offset = (air[0], air[1], air[2], 0.0)
+    out = cv2.add(col, offset, dtype=cv2.CV_8U)  # type: ignore[call-overload]
+    return np.asarray(out, np.uint8)
 
 
 def _tree(p: _Painter, obj: SceneObject, label: int, rng: np.random.Generator, seed: int) -> None:
@@ -526,15 +561,25 @@ def _building(p: _Painter, obj: SceneObject, label: int, rng: np.random.Generato
 
 
 def draw_objects(
-    camera: CameraModel, objects: tuple[SceneObject, ...], daylight: float, world_seed: int
+    camera: CameraModel,
+    objects: tuple[SceneObject, ...],
+    daylight: float,
+    world_seed: int,
+    haze_bgr: tuple[float, float, float] = (205.0, 200.0, 196.0),
+    vis_m: float = float("inf"),
 ) -> Layers:
-    """Draw ``objects`` into fresh full-frame layers, far to near.
+    """Draw ``objects`` into fresh full-frame layers, far to near, seen through the haze.
+
+    Every polygon (and tree crown) has one depth, so the haze is applied to its colour once
+    rather than per pixel.
 
     Args:
         camera: The camera.
         objects: Scene objects in the vehicle frame.
         daylight: Daylight level 0..1 (dims faces, lights tail lights at night).
         world_seed: World seed (shape details are seeded per object from it).
+        haze_bgr: Airlight colour, BGR grey levels.
+        vis_m: Meteorological visibility, metres (inf: no haze).
     """
     h, w = camera.height, camera.width
     layers = Layers(
@@ -544,7 +589,7 @@ def draw_objects(
         np.zeros(((h + 1) // 2, (w + 1) // 2), np.float32),
         [],
     )
-    painter = _Painter(camera, layers, daylight)
+    painter = _Painter(camera, layers, daylight, haze_bgr, vis_m)
     cam = camera.extrinsics.position
     order = sorted(objects, key=lambda o: -float(np.hypot(o.x_m - cam[0], o.y_m - cam[1])))
     for obj in order:

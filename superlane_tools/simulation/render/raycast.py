@@ -25,7 +25,8 @@ F32 = NDArray[np.float32]
 F64 = NDArray[np.float64]
 
 _TABLE_STEP_M = 0.25
-_MAX_FOOTPRINT_M = 5.0
+#: Largest pixel footprint reported (metres), at the horizon and crests.
+MAX_FOOTPRINT_M = 5.0
 
 
 class RoadTables(NamedTuple):
@@ -280,8 +281,8 @@ def footprint_at(a: F32, hit: NDArray[np.bool_], idx: NDArray[np.intp]) -> F32:
     if rows > 1:
         rv = np.where(r < rows - 1, idx, idx - cols)
         fp += np.abs(flat[rv + cols] - flat[rv])
-    fp = np.where(hit.reshape(-1)[idx], fp, np.float32(_MAX_FOOTPRINT_M))
-    out: F32 = np.clip(fp, 1e-4, _MAX_FOOTPRINT_M).astype(np.float32)
+    fp = np.where(hit.reshape(-1)[idx], fp, np.float32(MAX_FOOTPRINT_M))
+    out: F32 = np.clip(fp, 1e-4, MAX_FOOTPRINT_M).astype(np.float32)
     return out
 
 
@@ -300,5 +301,5 @@ def footprint(a: F32, hit: NDArray[np.bool_]) -> F32:
         dv = np.abs(np.diff(a, axis=0))
         fp[:-1] += dv
         fp[-1] += dv[-1]
-    fp = np.where(hit, fp, np.float32(_MAX_FOOTPRINT_M))
-    return np.clip(fp, 1e-4, _MAX_FOOTPRINT_M).astype(np.float32)
+    fp = np.where(hit, fp, np.float32(MAX_FOOTPRINT_M))
+    return np.clip(fp, 1e-4, MAX_FOOTPRINT_M).astype(np.float32)

@@ -122,9 +122,9 @@ def finish(img: F32, vignette: F32, cond: Conditions, look: Look, rng: np.random
     cv2.multiply(img, _vignette3(vignette), dst=img, scale=float(cond.exposure))
     if look.gain_bgr != (1.0, 1.0, 1.0):
         g = look.gain_bgr
-        cv2.multiply(img, (g[0], g[1], g[2], 0.0), dst=img)
+        cv2.multiply(img, (g[0], g[1], g[2], 0.0), dst=img)  # type: ignore[call-overload]
     if look.contrast != 1.0 or look.brightness != 0.0:
-        # (img - 128) * contrast + 128 + brightness
+        # Contrast about mid-grey 128, then brightness.
         off = 128.0 * (1.0 - look.contrast) + look.brightness
         cv2.addWeighted(img, look.contrast, img, 0.0, off, dst=img)
     sigma = float(look.noise_sigma)
@@ -148,7 +148,7 @@ def _motion_blur(img: F32, length_px: float) -> None:
     k = round(length_px)
     small = cv2.resize(img, (w // 2, h // 2), interpolation=cv2.INTER_AREA)
     small = cv2.blur(small, (max(1, k // 4), max(1, k // 2)))
-    blurred = cv2.resize(small, (w, h), interpolation=cv2.INTER_LINEAR)
+    blurred = np.asarray(cv2.resize(small, (w, h), interpolation=cv2.INTER_LINEAR), np.float32)
     # Motion blur grows towards the image bottom (closer, faster-moving road).
     wgt = np.linspace(0.0, 1.0, h, dtype=np.float32)[:, None, None]
     blurred -= img

@@ -86,7 +86,7 @@ def wet_reflection(img: F32, rays: CameraRays, gloss: F32, row0: int, wet: float
     # Streak the reflections vertically like a real wet road (micro-ripples).
     refl_h = cv2.blur(refl_h, (2, 8))
     rows = h - row0
-    refl = cv2.resize(refl_h, (w, rows), interpolation=cv2.INTER_LINEAR)
+    refl = np.asarray(cv2.resize(refl_h, (w, rows), interpolation=cv2.INTER_LINEAR), np.float32)
     a = gloss * rays.mirror_fade[row0:]
     a *= np.float32(0.45)
     part = img[row0:]
@@ -119,7 +119,7 @@ def add_glare(img: F32, sun_uv: tuple[float, float] | None, glare: float, elev_d
     h, w = img.shape[:2]
     veil = float(40.0 * glare)
     if sun_uv is None or not (-0.5 * w < sun_uv[0] < 1.5 * w and -0.5 * h < sun_uv[1] < 1.5 * h):
-        cv2.add(img, (veil, veil, veil, 0.0), dst=img)
+        img += np.float32(veil)
         return
     u, v = sun_uv
     # Bloom and ghosts are smooth: draw them at 1/4 (ghosts) and 1/16 (wide bloom) resolution.
@@ -139,7 +139,9 @@ def add_glare(img: F32, sun_uv: tuple[float, float] | None, glare: float, elev_d
     tot = (bloom * low + ghosts) * np.float32(255.0 * glare)
     tot += np.float32(veil)  # the veil rides along in the same pass (colour-tinted slightly)
     full = cv2.resize(tot, (w, h), interpolation=cv2.INTER_LINEAR)
-    tint = cv2.multiply(cv2.cvtColor(full, cv2.COLOR_GRAY2BGR), (0.8, 0.95, 1.0, 0.0))
+    tint = cv2.multiply(  # type: ignore[call-overload]  # a per-channel scalar
+        cv2.cvtColor(full, cv2.COLOR_GRAY2BGR), (0.8, 0.95, 1.0, 0.0)
+    )
     cv2.add(img, tint, dst=img)
 
 
@@ -162,7 +164,7 @@ def add_rain(img: F32, rng: np.random.Generator, rain: float) -> None:
     cv2.add(img, cv2.cvtColor(full, cv2.COLOR_GRAY2BGR), dst=img)
     # Droplets: local blurred, slightly brighter, refracted patches (blurred at 1/4 size).
     small = cv2.resize(img, (w // 4, h // 4), interpolation=cv2.INTER_AREA)
-    blurred = cv2.resize(cv2.GaussianBlur(small, (0, 0), 1.5), (w, h))
+    blurred = np.asarray(cv2.resize(cv2.GaussianBlur(small, (0, 0), 1.5), (w, h)), np.float32)
     blurred *= np.float32(1.08)
     for _ in range(int(40 * rain)):
         cx, cy = int(rng.uniform(0, w)), int(rng.uniform(0, h))
