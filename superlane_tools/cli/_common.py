@@ -61,6 +61,14 @@ def exit_with(code: ExitCode) -> None:
         raise typer.Exit(int(code))
 
 
+def _current_context() -> click.Context | None:
+    """Return the active click context; recent typer versions run on a vendored click copy."""
+    vendored = getattr(getattr(typer, "_click", None), "globals", None)
+    getter = getattr(vendored, "get_current_context", None) or click.get_current_context
+    ctx: click.Context | None = getter(silent=True)
+    return ctx
+
+
 def command_line() -> str:
     """Return the command line, for provenance metadata.
 
@@ -70,7 +78,7 @@ def command_line() -> str:
     """
     if sys.argv and Path(sys.argv[0]).name == "slt":
         return " ".join(["slt", *sys.argv[1:]])
-    ctx = click.get_current_context(silent=True)
+    ctx = _current_context()
     if ctx is None:
         return "slt"
     parts = ["slt", *ctx.command_path.split()[1:]]

@@ -103,7 +103,7 @@ def camera_rays(camera: CameraModel) -> CameraRays:
         mirror_v=grid(mirror_v),
         vignette=grid(vignette),
         mirror_fade=grid(
-            np.clip(mirror_v / 80.0, 0.0, 1.0)
+            np.clip(mirror_v / 250.0, 0.0, 1.0)
             * np.clip(np.minimum(mirror_u, (w - 1) - mirror_u) / 60.0, 0.0, 1.0)
         ),
     )

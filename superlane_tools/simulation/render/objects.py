@@ -72,6 +72,7 @@ class _Box(NamedTuple):
     centre: F64  # bottom centre, vehicle frame
     size: F64  # length, width, height
     yaw: float
+    taper: tuple[float, float] = (0.0, 0.0)  # top face shrunk by these fractions (along, across)
 
 
 def _seed(obj: SceneObject) -> int:
@@ -185,7 +186,13 @@ class _Painter:
             size = np.array([b[0].size for b in boxes])
             yaw = np.array([b[0].yaw for b in boxes])
             c, s = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
-            p = _CORNERS[None] * size[:, None, :]
+            # Unit corners, the top ones pulled in by each box's taper (car cabins).
+            taper = np.array([b[0].taper for b in boxes])  # (N, 2)
+            top = _CORNERS[None, :, 2:3]  # 1 for the top corners
+            unit = np.broadcast_to(_CORNERS[None], (len(boxes), 8, 3)).copy()
+            unit[..., 0:1] *= 1.0 - top * taper[:, None, 0:1]
+            unit[..., 1:2] *= 1.0 - top * taper[:, None, 1:2]
+            p = unit * size[:, None, :]
             pts = np.stack(
                 [
                     centre[:, 0:1] + c * p[..., 0] - s * p[..., 1],
@@ -341,7 +348,7 @@ def _vehicle(p: _Painter, obj: SceneObject, label: int) -> None:
         return
     body = _scaled(box, 0.0, 1.0, 1.0, 0.12, 0.58)
     p.box(body, col, label, {1: rear_details, 0: front_details})
-    cabin = _scaled(box, 0.18, 0.78, 0.86, 0.58, 1.0)
+    cabin = _scaled(box, 0.14, 0.82, 0.9, 0.58, 1.0)._replace(taper=(0.3, 0.14))
     win: list[Detail] = [(0.08, 0.92, 0.1, 0.9, glass)]
     p.box(cabin, col, label, {0: win, 1: win, 2: win, 3: win})
     if p.daylight < 0.6:
@@ -390,7 +397,7 @@ def _crown_sprites(world_seed: int) -> tuple[tuple[F32, F32], ...]:
             )
         shade = np.zeros((n, n), np.float32)
         alpha = np.zeros((n, n), np.float32)
-        shade[body > 0] = 0.42
+        shade[body > 0] = 0.3
         alpha[body > 0] = 1.0
         ys, xs = np.nonzero(body)
         pick = rng.integers(0, ys.size, 420)
@@ -399,7 +406,7 @@ def _crown_sprites(world_seed: int) -> tuple[tuple[F32, F32], ...]:
         for k, depth in zip(pick, order, strict=True):
             y, x = int(ys[k]), int(xs[k])
             top = 1.0 - y / n
-            val = (0.5 + 0.35 * top + 0.35 * depth) * rng.uniform(0.8, 1.1)
+            val = (0.45 + 0.3 * top + 0.3 * depth) * rng.uniform(0.8, 1.1)
             rad = int(rng.uniform(2.0, 6.5))
             jx, jy = rng.normal(0.0, 3.0, 2)
             ctr = (int(x + jx), int(y + jy))
@@ -495,7 +502,7 @@ def _tree(p: _Painter, obj: SceneObject, label: int, rng: np.random.Generator, s
     if rng.random() < 0.5:
         sprite = (sprite[0][:, ::-1], sprite[1][:, ::-1])
     tint = rng.normal(0.0, 6.0, 3) + np.array([0.0, 4.0, 0.0])
-    base = (np.array(obj.color_bgr, float) + tint) * (0.35 + 0.65 * p.daylight) * 1.25
+    base = (np.array(obj.color_bgr, float) + tint) * (0.35 + 0.65 * p.daylight)
     px_box = (u - half_u, v - half_v, u + half_u, v + half_v)
     p.later(lambda: _sprite(p, sprite, px_box, base, label, depth))
 

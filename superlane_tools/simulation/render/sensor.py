@@ -48,15 +48,17 @@ def look_for(cond: Conditions, rng: np.random.Generator) -> Look:
         return (float(out[0]), float(out[1]), float(out[2]))
 
     p = DEFAULT_PALETTE
+    # Grey surfaces (pavement, paint, sidewalks) keep a near-neutral hue: a strong per-channel
+    # tint turns whole roads pink or green, which no camera sees; vegetation varies more.
     palette = Palette(
-        asphalt=jit(p.asphalt, 12.0),
-        concrete=jit(p.concrete, 12.0),
-        white_paint=jit(p.white_paint, 10.0),
-        yellow_paint=jit(p.yellow_paint, 20.0),
-        grass=jit(p.grass, 25.0),
-        dirt=jit(p.dirt, 20.0),
-        sidewalk=jit(p.sidewalk, 15.0),
-        seam=jit(p.seam, 5.0),
+        asphalt=jit(p.asphalt, 4.0),
+        concrete=jit(p.concrete, 5.0),
+        white_paint=jit(p.white_paint, 4.0),
+        yellow_paint=jit(p.yellow_paint, 15.0),
+        grass=jit(p.grass, 18.0),
+        dirt=jit(p.dirt, 12.0),
+        sidewalk=jit(p.sidewalk, 5.0),
+        seam=jit(p.seam, 3.0),
     )
     g = np.exp(rng.normal(0.0, 0.08 * r, 3))
     return Look(

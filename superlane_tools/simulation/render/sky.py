@@ -19,6 +19,7 @@ U8 = NDArray[np.uint8]
 SKY = LEAF_IDS["sky"]
 TERRAIN = LEAF_IDS["terrain_ground"]
 VEGETATION = LEAF_IDS["vegetation"]
+_SKY_AIR_M = 350.0
 
 
 class SkyLayer(NamedTuple):
@@ -100,8 +101,8 @@ def sky_layer(
     color[trees] = tree_col * (0.85 + 0.3 * tex.clouds[(cv[trees] * 7) & 255, cu[trees]])[:, None]
     labels[hills] = TERRAIN
     labels[trees] = VEGETATION
-    rng[hills] = 3000.0
-    rng[trees] = 1200.0
+    rng[hills] = 1500.0
+    rng[trees] = 800.0
     color = np.clip(color, 0.0, 255.0).astype(np.float32)
     return SkyLayer(color, labels, rng, sun_uv)
 
@@ -134,6 +135,9 @@ def hazed_sky(
     if fog > 0:
         f = np.float32(min(1.0, fog * 1.3))
         color += f * (np.float32(205.0 if not night else 40.0) - color)
-    keep = np.exp(np.minimum(sky.range_m, np.float32(1e5)) * np.float32(-3.0 / vis_m))[..., None]
+    # The open sky is not a surface: haze it as if seen through a few hundred metres of air, so
+    # clouds show on clear days and vanish in fog (visibility shrinks).
+    seen = np.where(sky.labels == SKY, np.float32(_SKY_AIR_M), sky.range_m)
+    keep = np.exp(np.minimum(seen, np.float32(1e5)) * np.float32(-3.0 / vis_m))[..., None]
     color = color * keep + (np.float32(1.0) - keep) * np.array(haze_bgr, np.float32)
     return SkyLayer(color.astype(np.float32), sky.labels, sky.range_m, sky.sun_uv)
