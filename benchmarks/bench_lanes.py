@@ -119,10 +119,11 @@ def sim_sequence(labels_dir: Path, camera: CameraModel, params: FitParams) -> di
     from superlane_tools.pipeline.lanes_fit import parse_classes
 
     classes = parse_classes(classes_yaml())
-    frames = [
-        mask_points(cv2.imread(str(p), cv2.IMREAD_UNCHANGED), classes).lane_uv
-        for p in sorted(labels_dir.glob("*.png"))
-    ]
+    frames = []
+    for path in sorted(labels_dir.glob("*.png")):
+        mask = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+        if mask is not None:
+            frames.append(mask_points(np.asarray(mask), classes).lane_uv)
     cold, seq, cold_cpu, seq_cpu = [], [], [], []
     prev: LaneFit | None = None
     for uv in frames:

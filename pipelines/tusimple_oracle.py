@@ -47,7 +47,7 @@ def realdata_root() -> Path:
 
 def load_labels(root: Path, limit: int | None = None, step: int = 1) -> list[dict[str, Any]]:
     """Return train label records (every ``step``-th, at most ``limit``), file order."""
-    records = []
+    records: list[dict[str, Any]] = []
     for name in LABEL_FILES:
         with (root / "tusimple" / "train_labels" / name).open(encoding="utf-8") as handle:
             records.extend(json.loads(line) for line in handle if line.strip())
@@ -127,7 +127,7 @@ def score(preds: list[dict[str, Any]], gts: list[dict[str, Any]]) -> dict[str, f
     }
 
 
-VARIANTS = {
+VARIANTS: dict[str, dict[str, Any]] = {
     "full (slope + refit + local correction)": {},
     "no slope compensation (b = 0)": {"slope": False},
     "paper steps only (no refit, no local correction)": {"refit": False, "local_correction": False},

@@ -88,9 +88,7 @@ def ancestors(name: str) -> tuple[str, ...]:
 
 def leaf_ids_under(name: str) -> tuple[int, ...]:
     """Return the leaf ids of ``name`` and of every node below it."""
-    return tuple(
-        n.leaf_id for n in NODES if n.leaf_id >= 0 and name in ancestors(n.name)
-    )
+    return tuple(n.leaf_id for n in NODES if n.leaf_id >= 0 and name in ancestors(n.name))
 
 
 def node_at_level(leaf_name: str, level: int) -> str:

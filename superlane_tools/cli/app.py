@@ -10,6 +10,7 @@ from superlane_tools._version import __version__
 from superlane_tools.cli import (
     batch,
     camera,
+    corridor,
     extract,
     info,
     lanes,
@@ -17,6 +18,7 @@ from superlane_tools.cli import (
     segment,
     simulate,
     tables,
+    train,
 )
 from superlane_tools.cli import eval as eval_cmd
 from superlane_tools.cli._common import EXIT_CODES_HELP, debug_enabled, err_console
@@ -58,6 +60,8 @@ simulate.register(app)
 camera.register(app)
 lanes.register(app)
 segment.register(app)
+corridor.register(app)
+train.register(app)
 eval_cmd.register(app)
 tables.register(app)
 

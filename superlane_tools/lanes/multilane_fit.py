@@ -413,10 +413,11 @@ def fit_frame(
             )
             merged = merge_close(np.sort(model.offsets), 0.5 * p.min_peak_separation_m)
             model = model._replace(offsets=merged)
-        # Keep the refit only if J agrees it is no worse and it stays inside the search bounds:
-        # a wrong assignment (or a single short line) can make least squares run away.
+        # Keep the refit only if J agrees it is no worse: a wrong assignment can make least
+        # squares run away. A single line (often short: a stripe, a curb) constrains nothing
+        # across lines, so its refit must also stay inside the optimiser's bounds.
         j_refit = cost(np.array([model.a1, model.a2, model.b, a0c]))
-        inside = (
+        inside = model.offsets.size >= 2 or (
             abs(model.a1) <= 2.0 * p.heading_bound_rad and abs(model.a2) <= p.curvature_bound / 2
         )
         if not (inside and np.isfinite(j_refit) and j_refit <= j_final + REFIT_COST_SLACK):

@@ -69,12 +69,10 @@ def _classical(model: str | None, camera: CameraModel | None) -> SegmentationBac
 
 
 def _onnx(model: str | None, camera: CameraModel | None) -> SegmentationBackend:
-    del camera
-    hint = f"model {model!r}" if model else "no model was given (--model PATH|NAME)"
-    raise BackendUnavailableError(
-        f"the onnx segmentation backend is not available in this build ({hint}): no ONNX "
-        "segmentation runtime or shipped model is installed yet; use --backend classical"
-    )
+    del camera  # the network works in the image; its card fixes the input size
+    from superlane_tools.scene.onnx_backend import OnnxSegmentationBackend
+
+    return OnnxSegmentationBackend(model)
 
 
 _FACTORIES: dict[str, BackendFactory] = {"classical": _classical, "onnx": _onnx}

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize
 
-from superlane_tools.lanes import CostFunction, FitParams, Histogram, fit_frame
+from superlane_tools.lanes import CostFunction, FitParams, FitParamsError, Histogram, fit_frame
 from superlane_tools.lanes.cost import kernels
 from superlane_tools.lanes.multilane_fit import _nelder_mead
 
@@ -96,7 +96,8 @@ def test_kernel_nelder_mead_on_a_quadratic_bowl_with_bounds() -> None:
     cost = _cost(6)
     params = replace(FitParams(), xatol=1e-4, fatol=1e-7)
     theta, nit, ok = _nelder_mead(cost, np.array([0.5, 0.0, 0.03, 0.0]), [0, 1, 2], params)
-    assert ok and nit > 5
+    assert ok
+    assert nit > 5
     assert abs(theta[0]) <= 2 * params.heading_bound_rad + 1e-12
     assert abs(theta[2]) <= params.slope_bound + 1e-12
     scipy = minimize(
@@ -166,7 +167,9 @@ def test_kernels_work_from_a_read_only_install() -> None:
 def _check_read_only_install(root: Path) -> None:
     install = root / "ro"
     shutil.copytree(
-        REPO / "superlane_tools", install / "superlane_tools", ignore=shutil.ignore_patterns("*.nb*")
+        REPO / "superlane_tools",
+        install / "superlane_tools",
+        ignore=shutil.ignore_patterns("*.nb*"),
     )
     script = (
         "import numpy as np\n"
@@ -181,7 +184,15 @@ def _check_read_only_install(root: Path) -> None:
     env.pop("NUMBA_CACHE_DIR", None)
     env.pop("XDG_CACHE_HOME", None)
     done = subprocess.run(
-        ["setpriv", "--reuid=65534", "--regid=65534", "--clear-groups", sys.executable, "-c", script],
+        [
+            "setpriv",
+            "--reuid=65534",
+            "--regid=65534",
+            "--clear-groups",
+            sys.executable,
+            "-c",
+            script,
+        ],
         env=env,
         cwd="/",
         capture_output=True,
@@ -192,3 +203,8 @@ def _check_read_only_install(root: Path) -> None:
     assert done.returncode == 0, done.stderr
     assert float(done.stdout.split()[-1]) == pytest.approx(2.0)  # both points in one bin
     assert not list(install.rglob("*.nbi"))
+
+
+def test_unknown_backend_is_rejected() -> None:
+    with pytest.raises(FitParamsError, match="backend"):
+        FitParams(backend="cuda")  # type: ignore[arg-type]

@@ -107,3 +107,25 @@ def test_card_rejects_heads_off_the_hierarchy(models: dict[str, Path], tmp_path:
     card_file.write_text(yaml.safe_dump(data), encoding="utf-8")
     with pytest.raises(ModelError, match="not below 'drivable'"):
         load_card(card_file)
+
+
+def test_shipped_models_match_their_cards() -> None:
+    backend = OnnxSegmentationBackend()  # super_seg_v1, verified against its card
+    assert backend.card.name == "super_seg_v1"
+    assert backend.card.input.shape == (1, 3, 288, 512)
+    image, _, _ = toy_frame(np.random.default_rng(5), 320, 180)
+    assert backend.segment(image).shape == (180, 320)
+    runtime = OnnxCorridorModel()  # ego_corridor_v1
+    assert runtime.card.input.shape == (1, 1, 360, 652)
+    assert runtime.card.parameters < 1_000_000
+    assert runtime.probability(image).shape == (180, 320)
+
+
+def test_shipped_segmentation_on_a_real_frame(realdata: Path) -> None:
+    import cv2
+
+    image = cv2.imread(str(realdata / "tusimple" / "frames" / "0000.png"), cv2.IMREAD_COLOR)
+    labels = OnnxSegmentationBackend().segment(image)
+    assert labels.shape == image.shape[:2]
+    bottom = labels[600:, 400:880]  # the road ahead of the car
+    assert np.mean(bottom == LEAF_IDS["road"]) > 0.5

@@ -26,7 +26,7 @@ from superlane_tools.corridor import (
     corridor_from_mask,
     detect_ego_lane,
 )
-from superlane_tools.errors import UsageError
+from superlane_tools.errors import SltError, UsageError
 from superlane_tools.hierarchy import LEAF_IDS
 from superlane_tools.lanes import CODE_OF, FitParams, LaneFit, fit_frame
 from superlane_tools.pipeline.reprocess.config import ReprocessConfig
@@ -73,6 +73,24 @@ def road_points(labels: NDArray[np.uint8], seed: int = 0) -> FloatArray:
         keep = np.sort(np.random.default_rng(seed).choice(rows.size, MAX_ROAD_PIXELS, False))
         rows, cols = rows[keep], cols[keep]
     return np.stack([cols, rows], axis=1).astype(np.float64)
+
+
+#: ``auto`` uses the shipped segmentation model only when its model card reports at least this
+#: lane-marking IoU on held-out data; otherwise the classical backend, which is better for lanes.
+AUTO_MIN_LANE_IOU = 0.5
+
+
+def _card_lane_iou(model_name: str) -> float:
+    """Return the held-out lane-marking IoU stated in a shipped model's card (0 if absent)."""
+    from superlane_tools.scene.model_card import load_card
+    from superlane_tools.scene.onnx_backend import resolve_model
+
+    try:
+        card = load_card(resolve_model(model_name)[1])
+        value = card.metrics.get("sim_heldout", {}).get("lane_marking_iou", 0.0)
+        return float(value)
+    except (SltError, AttributeError, TypeError, ValueError):
+        return 0.0
 
 
 @dataclass
@@ -178,14 +196,23 @@ class FrameStages:
         if name == "auto":
             from superlane_tools.scene.onnx_backend import DEFAULT_SEGMENTATION_MODEL
 
-            if seg.model or DEFAULT_SEGMENTATION_MODEL in list_models():
+            if seg.model:
                 name = "onnx"
-            else:
+            elif DEFAULT_SEGMENTATION_MODEL not in list_models():
                 name = "classical"
                 self.notes.append(
                     f"no shipped segmentation model ({DEFAULT_SEGMENTATION_MODEL}): "
                     "fell back to the classical backend"
                 )
+            else:
+                iou = _card_lane_iou(DEFAULT_SEGMENTATION_MODEL)
+                name = "onnx" if iou >= AUTO_MIN_LANE_IOU else "classical"
+                if name == "classical":
+                    self.notes.append(
+                        f"shipped model {DEFAULT_SEGMENTATION_MODEL} measured lane-marking IoU "
+                        f"{iou:.2f} < {AUTO_MIN_LANE_IOU} on held-out simulator data (model card): "
+                        "the classical backend feeds the lane fit (--backend onnx forces the model)"
+                    )
         if name == "onnx":
             from superlane_tools.scene.onnx_backend import OnnxSegmentationBackend
 

@@ -19,7 +19,7 @@ from superlane_tools.simulation.render.road_shading import (
     shade_ground,
 )
 from superlane_tools.simulation.render.sensor import finish, look_for
-from superlane_tools.simulation.render.sky import hazed_sky
+from superlane_tools.simulation.render.sky import add_sun, hazed_sky
 from superlane_tools.simulation.render.textures import road_textures
 from superlane_tools.simulation.render.tunnel import WALL, draw_tunnel
 from superlane_tools.simulation.scene import FrameScene, RenderedFrame, SceneObject
@@ -83,17 +83,13 @@ def render(scene: FrameScene, stage_ms: dict[str, float] | None = None) -> Rende
     base = (205.0, 200.0, 196.0) if not night else (30.0, 28.0, 28.0)
     dim = 0.5 + 0.5 * min(1.0, cond.daylight)
     hz = (base[0] * dim, base[1] * dim, base[2] * dim)
-    sky = hazed_sky(
-        cam,
-        scene.world_seed,
-        cond.sun_elevation_deg,
-        cond.sun_azimuth_rad,
-        night,
-        cond.fog,
-        hz,
-        vis,
-    )
+    sky = hazed_sky(cam, scene.world_seed, night, cond.fog, hz, vis)
     img = sky.color.copy()
+    sun_uv = (
+        None
+        if night
+        else add_sun(img, cam, cond.sun_elevation_deg, cond.sun_azimuth_rad, vis, row0 + 8)
+    )
     labels = sky.labels.copy()
     range_m = sky.range_m.copy()
     clock("composite")
@@ -178,7 +174,7 @@ def render(scene: FrameScene, stage_ms: dict[str, float] | None = None) -> Rende
         weather.add_spray(img, _lead_box(scene), cond.rain)
         weather.add_rain(img, rng, cond.rain)
     if cond.glare > 0:
-        weather.add_glare(img, sky.sun_uv, cond.glare, cond.sun_elevation_deg)
+        weather.add_glare(img, sun_uv, cond.glare, cond.sun_elevation_deg)
     clock("effects")
     image = finish(img, rays.vignette, cond, look, rng)
     clock("sensor")

@@ -233,24 +233,8 @@ def shade_ground(
         gloss = np.zeros((rows, cols), np.float32)
     _paint_lines(hit, road, tex, palette, half, light, color, labels)
 
-    # --- stop lines and zebra crosswalks (urban scenes only) -----------------------------
-    crosswalk = _in_ranges(s, road.crosswalks_s_m) if road.crosswalks_s_m else None
-    if road.stop_lines_s_m:
-        foot_s = footprint(s, valid)
-        lo, hi = _stop_line_span(road)
-        across = on_road & (l_m >= lo) & (l_m <= hi)
-        for s_stop in road.stop_lines_s_m:
-            d = np.abs(s - np.float32(s_stop + 0.5 * _STOP_LINE_WIDTH_M))
-            cov, lab = _stroke(d, 0.5 * _STOP_LINE_WIDTH_M, foot_s)
-            _blend_lit(color, cov * across, palette.white_paint, light)
-            labels[lab & across] = STOP_LINE
-    if crosswalk is not None:
-        zm = fmod_pos(l_m, 2 * _ZEBRA_STRIPE_M)
-        dz = np.abs(zm - np.float32(0.5 * _ZEBRA_STRIPE_M))
-        cov, lab = _stroke(dz, 0.5 * _ZEBRA_STRIPE_M, footprint(l_m, valid))
-        zone = crosswalk & on_road
-        _blend_lit(color, cov * zone * np.float32(0.9), palette.white_paint, light)
-        labels[lab & zone] = CROSSWALK
+    if road.stop_lines_s_m or road.crosswalks_s_m:
+        _paint_transverse(hit, road, palette, half, light, on_road, color, labels)
     return Ground(color, labels, gloss)
 
 
@@ -471,6 +455,58 @@ def _paint_lines(
     labels.reshape(-1)[idx] = lab
 
 
+def _paint_transverse(
+    hit: RoadHit,
+    road: RoadProfile,
+    palette: Palette,
+    half: _Half,
+    light: GroundLight,
+    on_road: NDArray[np.bool_],
+    color: F32,
+    labels: U8,
+) -> None:
+    """Paint stop lines and zebra crosswalks (colour and labels), on their own pixels only."""
+    s, l_m = hit.s_m, hit.l_m
+    cols = s.shape[1]
+    # A stop line's label may widen by half a (clipped) footprint: look that far around it.
+    reach = 0.5 * MAX_FOOTPRINT_M + _STOP_LINE_WIDTH_M
+    sel = np.zeros(s.shape, bool)
+    for s_stop in road.stop_lines_s_m:
+        sel |= (s > np.float32(s_stop - reach)) & (s < np.float32(s_stop + reach))
+    for a, b in road.crosswalks_s_m:
+        sel |= (s >= a) & (s < b)
+    sel &= on_road
+    idx = np.flatnonzero(sel)
+    if idx.size == 0:
+        return
+    ss, ll = s.reshape(-1)[idx], l_m.reshape(-1)[idx]
+    r, c = np.divmod(idx, cols)
+    hidx = (r // 2) * half.s.shape[1] + c // 2
+    gain, air = light.gain.reshape(-1)[hidx], light.haze.reshape(-1)[hidx]
+    col = color.reshape(-1, 3)[idx]
+    lab = labels.reshape(-1)[idx]
+    white = np.array(palette.white_paint, np.float32) * gain[:, None]
+    white += air[:, None] * np.array(light.haze_bgr, np.float32)
+    if road.stop_lines_s_m:
+        foot_s = footprint_at(s, hit.hit, idx)
+        lo, hi = _stop_line_span(road)
+        across = (ll >= lo) & (ll <= hi)
+        for s_stop in road.stop_lines_s_m:
+            d = np.abs(ss - np.float32(s_stop + 0.5 * _STOP_LINE_WIDTH_M))
+            cov, mark = _stroke(d, 0.5 * _STOP_LINE_WIDTH_M, foot_s)
+            col += (cov * across)[:, None] * (white - col)
+            lab[mark & across] = STOP_LINE
+    if road.crosswalks_s_m:
+        zone = _in_ranges(ss, road.crosswalks_s_m)
+        zm = fmod_pos(ll, 2 * _ZEBRA_STRIPE_M)
+        dz = np.abs(zm - np.float32(0.5 * _ZEBRA_STRIPE_M))
+        cov, mark = _stroke(dz, 0.5 * _ZEBRA_STRIPE_M, footprint_at(l_m, hit.hit, idx))
+        col += (cov * zone * np.float32(0.9))[:, None] * (white - col)
+        lab[mark & zone] = CROSSWALK
+    color.reshape(-1, 3)[idx] = col
+    labels.reshape(-1)[idx] = lab
+
+
 def _wear_texture(tex: RoadTextures, s: F32, l_m: F32, foot_l: F32) -> F32:
     """Return grain + blotch noise at scattered road points (patchy paint wear)."""
     n_lev = tex.fine.shape[0]
@@ -498,21 +534,3 @@ def _stop_line_span(road: RoadProfile) -> tuple[float, float]:
             hi = ln.offset_m
             break
     return lo, hi
-
-
-def _light(color: F32, gain: F32, haze: F32, haze_bgr: tuple[float, float, float]) -> None:
-    """Apply ``color * gain + haze * haze_bgr`` in place (``color`` is ``(..., 3)``)."""
-    color *= gain[..., None]
-    color += haze[..., None] * np.array(haze_bgr, np.float32)
-
-
-def _blend_lit(color: F32, alpha: F32, rgb: tuple[float, float, float], light: GroundLight) -> None:
-    """Blend paint ``rgb``, lit and hazed like the ground, over full-resolution ``color``."""
-    import cv2
-
-    rows, cols = color.shape[:2]
-    gain = np.asarray(cv2.resize(light.gain, (cols, rows), interpolation=cv2.INTER_NEAREST), F)
-    haze = np.asarray(cv2.resize(light.haze, (cols, rows), interpolation=cv2.INTER_NEAREST), F)
-    paint = np.broadcast_to(np.array(rgb, np.float32), color.shape).copy()
-    _light(paint, gain, haze, light.haze_bgr)
-    color += alpha[..., None] * (paint - color)
