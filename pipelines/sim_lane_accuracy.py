@@ -219,7 +219,8 @@ def report(results: dict[str, dict[str, Any]], commands: list[str], argv: list[s
             "the ego lines are not visible and the cross street's markings are fitted as lines; "
             "`merge_split`: outliers in the taper, where a line leaves the parallel model.",
             "",
-            "Commands run:",
+            "Commands run (with `--reuse`, drives already in `--work` are re-fitted and their "
+            "`slt simulate` command is the one recorded in their provenance):",
             "",
             "```",
             *commands,

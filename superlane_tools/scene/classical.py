@@ -93,6 +93,7 @@ class ClassicalParams:
     road_max_z: float = 3.5
     road_margin_m: float = 3.5
     sky_max_gradient: float = 12.0
+    surface_margin_m: float = 0.0
 
 
 class RowGeometry(NamedTuple):
@@ -164,6 +165,8 @@ class ClassicalExtractor:
         road = road_region(image, geometry, markings, self.params)
         margin_px = self.params.road_margin_m / geometry.metres_per_px
         markings &= _within_row_span(road, np.nan_to_num(margin_px, nan=0.0))
+        if self.params.surface_margin_m > 0:
+            markings &= _near_region(road, geometry, self.params.surface_margin_m)
         labels = np.zeros((height, width), dtype=np.uint8)
         labels[sky_region(image, geometry, self.params)] = SKY
         labels[road] = ROAD
@@ -307,6 +310,16 @@ def road_region(
     rows_ok = geometry.distance_m <= params.max_distance_m * 2
     out: BoolArray = full & rows_ok[:, None]
     return out
+
+
+def _near_region(region: BoolArray, geometry: RowGeometry, margin_m: float) -> BoolArray:
+    """Return the mask of pixels within ``margin_m`` (lateral ground metres) of ``region``."""
+    import cv2  # late: heavy import
+
+    dist = cv2.distanceTransform((~region).astype(np.uint8), cv2.DIST_L2, 3)
+    limit = np.nan_to_num(margin_m / geometry.metres_per_px, nan=0.0)
+    near: BoolArray = dist <= limit[:, None]
+    return near
 
 
 def _within_row_span(region: BoolArray, margin_px: FloatArray) -> BoolArray:

@@ -2,9 +2,13 @@
 
 Fully convolutional; the output has the input's size (652x360 by default). Under 1 M
 parameters. The paper's network keeps stride one throughout on a GPU; to meet the 30 ms budget on
-two CPU cores this one downsamples to 1/16 with depthwise-separable blocks (context of the whole
-lane width), joins the 1/8 and 1/4 skips, and upsamples the logits bilinearly: the corridor is a
-large smooth region, so 1/4-resolution logits lose little.
+two CPU cores this one optionally average-pools the input (``pool``), downsamples to 1/16 with
+depthwise-separable blocks (context of the whole lane width), joins the 1/8 and 1/4 skips, and
+upsamples the logits bilinearly: the corridor is a large smooth region, so coarse logits lose
+little. Which lane is the *ego* lane depends on where it lies in the image, which a fully
+convolutional network cannot see; ``coords`` appends a horizontal-position channel (-1 at the
+left edge, +1 at the right) to the input, so the network can tell the ego lane from its
+neighbours (train on full frames then: a random crop would move the origin).
 """
 
 from __future__ import annotations
@@ -25,10 +29,14 @@ class CorridorNetConfig:
     Attributes:
         widths: Channels at 1/2, 1/4, 1/8 and 1/16 of the input size.
         decoder: Channels of the decoder joins at 1/8 and 1/4, and of the refinement block.
+        pool: Average-pool the input by this factor first (1 = full resolution).
+        coords: Append a horizontal-position channel to the input.
     """
 
     widths: tuple[int, int, int, int] = (16, 48, 96, 192)
     decoder: tuple[int, int, int] = (96, 64, 32)
+    pool: int = 2
+    coords: bool = True
 
 
 class EgoCorridorNet(nn.Module):
@@ -43,7 +51,9 @@ class EgoCorridorNet(nn.Module):
         cfg = config or CorridorNetConfig()
         w1, w2, w3, w4 = cfg.widths
         d3, d2, d1 = cfg.decoder
-        self.stem = ConvBNReLU(1, w1, stride=2)
+        self.pool = max(1, cfg.pool)
+        self.coords = cfg.coords
+        self.stem = ConvBNReLU(2 if cfg.coords else 1, w1, stride=2)
         self.enc2 = nn.Sequential(DSConv(w1, w2, stride=2), DSConv(w2, w2))
         self.enc3 = nn.Sequential(DSConv(w2, w3, stride=2), DSConv(w3, w3))
         self.enc4 = nn.Sequential(DSConv(w3, w4, stride=2), DSConv(w4, w4), DSConv(w4, w4))
@@ -54,7 +64,11 @@ class EgoCorridorNet(nn.Module):
 
     def logits(self, image: torch.Tensor) -> torch.Tensor:
         """Return the ``(N, 1, H, W)`` pre-sigmoid logits (what the training loss uses)."""
-        s1 = self.stem(image)
+        x = F.avg_pool2d(image, self.pool) if self.pool > 1 else image
+        if self.coords:
+            xs = torch.linspace(-1.0, 1.0, x.shape[-1], dtype=x.dtype, device=x.device)
+            x = torch.cat([x, xs.view(1, 1, 1, -1).expand(x.shape[0], 1, x.shape[-2], -1)], 1)
+        s1 = self.stem(x)
         s2 = self.enc2(s1)
         s3 = self.enc3(s2)
         s4 = self.enc4(s3)

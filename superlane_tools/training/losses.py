@@ -1,4 +1,4 @@
-"""Training losses: weighted per-head cross-entropy for heterogeneous labels, corridor BCE."""
+"""Training losses: per-head cross-entropy for heterogeneous labels, marking Dice, corridor BCE+Dice."""
 
 from __future__ import annotations
 
@@ -7,7 +7,9 @@ from collections.abc import Sequence
 import torch
 import torch.nn.functional as F  # noqa: N812  (torch convention)
 
-from superlane_tools.scene.adapters.heads import IGNORE
+from superlane_tools.scene.adapters.heads import HEADS, IGNORE, Head
+
+_EPS = 1.0
 
 
 def hierarchical_loss(
@@ -41,10 +43,85 @@ def hierarchical_loss(
     return total
 
 
-def corridor_loss(logits: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
-    """Return the binary cross-entropy between corridor logits and a ``{0, 1}`` float mask.
+def soft_dice_loss(
+    prob: torch.Tensor, target: torch.Tensor, valid: torch.Tensor | None = None
+) -> torch.Tensor:
+    """Return ``1 - soft Dice`` of probabilities against a ``{0, 1}`` target, pooled over the batch.
+
+    Dice is insensitive to how rare the positive class is, which is what thin structures (lane
+    markings a few pixels wide, 1-3 % of the image) need on top of cross-entropy.
+
+    Args:
+        prob: Probabilities in ``[0, 1]``, any shape.
+        target: Float ``{0, 1}`` target of the same shape.
+        valid: Optional boolean mask of the pixels that count.
+    """
+    if valid is not None:
+        prob, target = prob[valid], target[valid]
+    inter = (prob * target).sum()
+    return 1.0 - (2.0 * inter + _EPS) / (prob.sum() + target.sum() + _EPS)
+
+
+def _index(head: Head, cls: str) -> int:
+    return head.classes.index(cls)
+
+
+def marking_probability(logits: Sequence[torch.Tensor]) -> torch.Tensor:
+    """Return ``P(lane_marking)`` per pixel: the product of the softmaxes down the tree.
+
+    ``P(support) * P(drivable | support) * P(lane_marking | drivable)`` from the root, support
+    and drivable heads (:data:`HEADS` order), shape ``(N, H, W)``.
+    """
+    root, _, support, drivable = HEADS[0], HEADS[1], HEADS[2], HEADS[3]
+    p = torch.softmax(logits[0], dim=1)[:, _index(root, "support")]
+    p = p * torch.softmax(logits[2], dim=1)[:, _index(support, "drivable")]
+    return p * torch.softmax(logits[3], dim=1)[:, _index(drivable, "lane_marking")]
+
+
+def marking_targets(targets: Sequence[torch.Tensor]) -> tuple[torch.Tensor, torch.Tensor]:
+    """Return ``(is_marking float, known bool)`` from the per-head targets (:data:`HEADS` order).
+
+    A pixel is known when the drivable head has a target there (marking or not) or when a coarser
+    head says it is not drivable; a dataset whose drivable pixels stop at ``drivable`` (Cityscapes'
+    road includes its markings) leaves them unknown.
+    """
+    root, _, support, drivable = HEADS[0], HEADS[1], HEADS[2], HEADS[3]
+    t_root, t_support, t_drivable = targets[0], targets[2], targets[3]
+    not_drivable = ((t_root != IGNORE) & (t_root != _index(root, "support"))) | (
+        (t_support != IGNORE) & (t_support != _index(support, "drivable"))
+    )
+    known = (t_drivable != IGNORE) | not_drivable
+    return (t_drivable == _index(drivable, "lane_marking")).float(), known
+
+
+def segmentation_loss(
+    logits: Sequence[torch.Tensor],
+    targets: Sequence[torch.Tensor],
+    weights: Sequence[float],
+    class_weights: Sequence[torch.Tensor | None] = (),
+    marking_dice: float = 0.0,
+) -> torch.Tensor:
+    """Return :func:`hierarchical_loss` plus ``marking_dice`` x the Dice loss of lane markings.
+
+    The Dice term acts on :func:`marking_probability`, so it trains the three heads whose
+    decisions a marking pixel has to survive (support, drivable, lane_marking vs road).
+    """
+    loss = hierarchical_loss(logits, targets, weights, class_weights)
+    if marking_dice > 0:
+        target, known = marking_targets(targets)
+        if bool(target[known].any()):
+            loss = loss + marking_dice * soft_dice_loss(marking_probability(logits), target, known)
+    return loss
+
+
+def corridor_loss(logits: torch.Tensor, target: torch.Tensor, dice: float = 0.0) -> torch.Tensor:
+    """Return BCE (+ ``dice`` x soft Dice) between corridor logits and a ``{0, 1}`` float mask.
 
     The corridor paper trains with RMSE on probabilities; BCE on logits converges faster from
-    few synthetic frames and reaches the same fixed point (the per-pixel probability).
+    few synthetic frames and reaches the same fixed point (the per-pixel probability). The Dice
+    term rewards the overlap of the whole region (what corridor IoU measures).
     """
-    return F.binary_cross_entropy_with_logits(logits, target)
+    loss = F.binary_cross_entropy_with_logits(logits, target)
+    if dice > 0:
+        loss = loss + dice * soft_dice_loss(torch.sigmoid(logits), target)
+    return loss

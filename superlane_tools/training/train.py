@@ -35,7 +35,7 @@ from superlane_tools.training.corridor_net import EgoCorridorNet
 from superlane_tools.training.data import INDEX_NAME, AugmentParams, FrameSet, augment, load_frames
 from superlane_tools.training.errors import TrainingError
 from superlane_tools.training.export import OPSET, export_onnx
-from superlane_tools.training.losses import corridor_loss, hierarchical_loss
+from superlane_tools.training.losses import corridor_loss, segmentation_loss
 from superlane_tools.training.seg_net import HierarchicalSegNet
 
 TASKS = ("segmentation", "corridor")
@@ -68,6 +68,8 @@ class TrainParams:
         augment: Augmentation parameters, or None to train on the frames as they are.
         crop: Train on random ``(width, height)`` crops of the frames (same scale, fewer
             pixels per step; the network is fully convolutional and is exported at ``size``).
+        marking_dice: Weight of the lane-marking Dice loss (segmentation; 0 = cross-entropy only).
+        corridor_dice: Weight of the Dice loss added to the corridor BCE (0 = BCE only).
         name: Model name for the card (default: the output file stem).
         command: The command line that started training, recorded in the card.
     """
@@ -85,6 +87,8 @@ class TrainParams:
     threads: int = 2
     augment: AugmentParams | None = field(default_factory=AugmentParams)
     crop: tuple[int, int] | None = None
+    marking_dice: float = 1.0
+    corridor_dice: float = 1.0
     name: str = ""
     command: str = ""
 
@@ -216,6 +220,7 @@ def train(params: TrainParams, progress: Progress | None = None) -> TrainResult:
             "lr": params.lr,
             "augmentation": "none" if params.augment is None else str(params.augment),
             "crop": "full frames" if params.crop is None else list(params.crop),
+            "loss": _loss_text(params),
             "final_epoch_loss": round(epoch_losses[-1], 5),
             "train_seconds": round(seconds, 1),
             "torch_version": str(torch.__version__),
@@ -226,6 +231,15 @@ def train(params: TrainParams, progress: Progress | None = None) -> TrainResult:
     )
     card_path = write_card(card, card_path_for(params.out))
     return TrainResult(params.out, card_path, card, step_losses, epoch_losses, seconds)
+
+
+def _loss_text(params: TrainParams) -> str:
+    if params.task == "segmentation":
+        text = "per-head cross-entropy, class weights (median freq / freq) ** 0.5"
+        dice = params.marking_dice
+        return text + (f" + {dice} x soft Dice on P(lane_marking)" if dice > 0 else "")
+    dice = params.corridor_dice
+    return "BCE on logits" + (f" + {dice} x soft Dice" if dice > 0 else "")
 
 
 _DESCRIPTIONS = {
@@ -293,10 +307,12 @@ def _fit(
             if params.task == "segmentation":
                 targets = [lut[y] for lut in luts]
                 logits = model(x)
-                loss = hierarchical_loss(logits, targets, HEAD_WEIGHTS, class_weights)
+                loss = segmentation_loss(
+                    logits, targets, HEAD_WEIGHTS, class_weights, params.marking_dice
+                )
             else:
                 assert isinstance(model, EgoCorridorNet)
-                loss = corridor_loss(model.logits(x), y.unsqueeze(1).float())
+                loss = corridor_loss(model.logits(x), y.unsqueeze(1).float(), params.corridor_dice)
             optimizer.zero_grad(set_to_none=True)
             loss.backward()  # type: ignore[no-untyped-call]
             optimizer.step()

@@ -19,7 +19,14 @@ from superlane_tools.simulation.render.raycast import (
     footprint_at,
     road_tables,
 )
-from superlane_tools.simulation.render.road_shading import ground_labels, line_label
+from superlane_tools.simulation.render.road_shading import (
+    DEFAULT_PALETTE,
+    GroundLight,
+    ground_labels,
+    line_label,
+    shade_ground,
+)
+from superlane_tools.simulation.render.textures import road_textures
 from superlane_tools.simulation.scene import Conditions, FrameScene, LineStyle, SceneObject
 
 DISTORTED = CameraModel(
@@ -131,3 +138,20 @@ def test_objects_fade_into_fog_with_distance() -> None:
     far_px = frame.image_bgr[comp == order[1] + 1].astype(float).mean(axis=0)
     # The far car is closer to the grey fog: less red saturation.
     assert (near_px[2] - near_px[0]) > (far_px[2] - far_px[0]) + 10
+
+
+def test_raised_pavement_markers_change_the_colour_only() -> None:
+    scene = example_scene("curve", with_objects=False, s0_m=1006.0)
+    hit = _hit(scene)
+    half = hit.range_m[::2, ::2].shape
+    light = GroundLight(np.ones(half, np.float32), np.zeros(half, np.float32), (0.0, 0.0, 0.0))
+    tex = road_textures(0)
+    args = (hit, scene.road, tex, DEFAULT_PALETTE, 0.2, 0.0, 0.0, light)
+    dots = shade_ground(*args, road_dots=True)
+    plain = shade_ground(*args, road_dots=False)
+    assert np.array_equal(dots.labels, plain.labels)
+    brighter = (dots.color - plain.color).sum(axis=2)
+    changed = brighter > 60.0
+    assert changed.sum() > 20
+    # Markers lie on road pixels (never on the paint) in the dashed lines' gaps.
+    assert np.all(dots.labels[changed] == LEAF_IDS["road"])

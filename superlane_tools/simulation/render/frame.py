@@ -112,8 +112,10 @@ def render(scene: FrameScene, stage_ms: dict[str, float] | None = None) -> Rende
     if scene.objects:
         keep *= shadow_factor(layers.shadow, row0, keep.shape, 0.45 + 0.3 * cond.daylight)
     light = GroundLight(keep, airlight, hz)
+    # Raised pavement markers (Botts' dots) are a property of the world: half of them have them.
+    dots = scene.world_seed % 2 == 1
     ground = shade_ground(
-        hit, road, tex, look.palette, cond.cracks, cond.tar_seams, cond.wet, light, img[row0:]
+        hit, road, tex, look.palette, cond.cracks, cond.tar_seams, cond.wet, light, img[row0:], dots
     )
     clock("road_shading")
     gh = hit.hit

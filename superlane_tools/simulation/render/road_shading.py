@@ -43,6 +43,8 @@ DRIVABLE_IDS = (ROAD, CROSSWALK, LEAF_IDS["other_marking"], *range(13, 20))
 _DOUBLE_GAP_M = 0.15
 _STOP_LINE_WIDTH_M = 0.45
 _ZEBRA_STRIPE_M = 0.5
+_DOT_M = 0.12  # raised pavement marker size
+_DOT_BGR = (215.0, 222.0, 228.0)
 
 
 class Palette(NamedTuple):
@@ -194,6 +196,7 @@ def shade_ground(
     wet: float,
     light: GroundLight,
     out: F32 | None = None,
+    road_dots: bool = False,
 ) -> Ground:
     """Label, colour, light and haze the ground pixels of ``hit`` (see the module docstring).
 
@@ -211,6 +214,7 @@ def shade_ground(
         wet: Wetness 0..1 (darkens the surface, raises gloss).
         light: Illumination and haze on the half grid.
         out: ``(R, W, 3)`` float32 array to write the colour into (a new one if None).
+        road_dots: Raised pavement markers in the gaps of dashed lines (appearance only).
     """
     import cv2
 
@@ -231,7 +235,7 @@ def shade_ground(
         )
     else:
         gloss = np.zeros((rows, cols), np.float32)
-    _paint_lines(hit, road, tex, palette, half, light, color, labels)
+    _paint_lines(hit, road, tex, palette, half, light, color, labels, road_dots)
 
     if road.stop_lines_s_m or road.crosswalks_s_m:
         _paint_transverse(hit, road, palette, half, light, on_road, color, labels)
@@ -370,8 +374,12 @@ def _paint_lines(
     light: GroundLight,
     color: F32,
     labels: U8,
+    road_dots: bool = False,
 ) -> None:
     """Paint the longitudinal lines (colour and labels) at full resolution, in place.
+
+    With ``road_dots``, dashed lines get a raised pavement marker in each gap (appearance only:
+    the pixels stay labelled road).
 
     Only pixels within a few footprints of a line on the half grid are evaluated: a full
     resolution pixel lies at most one half-grid footprint from its half-grid sample, so the
@@ -446,6 +454,15 @@ def _paint_lines(
         lit += airlight[sub, None] * np.array(light.haze_bgr, np.float32)
         cs = col[sub]
         cs += (cov * np.float32(0.92))[:, None] * (lit - cs)
+        if road_dots and line.style is LineStyle.DASHED:
+            # A raised pavement marker (~10 cm reflector) in the middle of each gap.
+            gap_d = np.abs(m - np.float32(line.dash_m + 0.5 * line.gap_m))
+            dot = np.clip((np.float32(_DOT_M / 2) - d) / fl + np.float32(0.5), 0.0, 1.0)
+            dot *= np.clip((np.float32(_DOT_M / 2) - gap_d) / foot_s[sub] + np.float32(0.5), 0, 1)
+            dot *= span
+            shine = np.array(_DOT_BGR, np.float32) * gain[sub, None]
+            shine += airlight[sub, None] * np.array(light.haze_bgr, np.float32)
+            cs += (dot * np.float32(0.9))[:, None] * (shine - cs)
         col[sub] = cs
         if line.wear < 0.999:
             ls = lab[sub]

@@ -1,0 +1,326 @@
+"""Real-frame end-to-end lane accuracy: TuSimple LaneEval on 6 labelled frames, KITTI ego lane.
+
+For each segmentation backend the documented CLI chain runs as subprocesses, exactly as a user
+would type it:
+
+```
+slt segment FRAMES --out SEG --backend B --camera tusimple --overlay
+slt lanes fit SEG --camera tusimple --out lanes.parquet
+slt lanes export-tusimple lanes.parquet --camera tusimple --h-samples 160:720:10 \
+    --out pred.json --raw-ext .png
+slt eval tusimple pred.json DATA/tusimple/frames/labels.json --json
+```
+
+``FRAMES`` is a folder of links to the six labelled PNGs (the data folder also holds
+``labels.json`` and ``unlabeled/``, which ``slt segment`` would otherwise pick up). The same chain
+with ``--camera kitti`` runs on KITTI ``um_000000``; the ego lane between the fitted ego-left and
+ego-right lines, rasterised up to the shorter line's fitted range, is scored against
+``gt_um_lane_000000.png`` (:mod:`superlane_tools.evaluation.kitti`). The four ``unlabeled/``
+TuSimple frames go through segment + fit for the overlays only.
+
+Besides the official score, the report gives the score with the ``run_time`` gate switched off
+(LaneEval scores a frame 0 when its run time exceeds 200 ms) and the marking-pixel support of
+the segmentation: recall = labelled lane points within 3 px of a predicted marking pixel,
+precision = predicted marking pixels within 10 px of a labelled lane polyline.
+
+Usage:
+    python pipelines/real_frames_eval.py [--data ../shared/data] [--work DIR]
+        [--backends classical,onnx] [--report reports/real_frames.md] [--json out.json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import os
+import shlex
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+import pyarrow.parquet as pq
+
+from superlane_tools.camera import load_camera
+from superlane_tools.evaluation import evaluate, evaluate_frames, load_jsonl
+from superlane_tools.evaluation.kitti import decode_ground_truth, lane_area_mask, score_mask
+from superlane_tools.hierarchy import leaf_ids_under
+from superlane_tools.lanes.project import columns_at_rows
+from superlane_tools.pipeline.lanes_fit import lanes_from_row
+from superlane_tools.reporting.atomic import write_text_atomic
+
+REPO = Path(__file__).resolve().parents[1]
+SLT = str(Path(sys.executable).with_name("slt"))
+MARKING_IDS = np.array(leaf_ids_under("lane_marking"))
+LABELLED = tuple(f"{i:04d}.png" for i in range(6))
+KITTI_NAME = "um_000000"
+
+
+def _default_data() -> Path:
+    return Path(os.environ.get("SLT_REALDATA", REPO.parent / "shared" / "data"))
+
+
+def slt(*args: str | Path) -> tuple[str, str]:
+    """Run one ``slt`` command; return it (for the report) and its stdout."""
+    argv = [SLT, *map(str, args)]
+    proc = subprocess.run(argv, capture_output=True, text=True, check=False)
+    if proc.returncode != 0:
+        raise RuntimeError(f"{shlex.join(argv)} failed ({proc.returncode}): {proc.stderr.strip()}")
+    return shlex.join(["slt", *map(str, args)]), proc.stdout
+
+
+def _links(sources: list[Path], folder: Path) -> Path:
+    folder.mkdir(parents=True, exist_ok=True)
+    for src in sources:
+        link = folder / src.name
+        if not link.exists():
+            link.symlink_to(src.resolve())
+    return folder
+
+
+def marking_support(seg_dir: Path, labels_json: Path) -> tuple[float, float]:
+    """Return (recall within 3 px, precision within 10 px) of marking pixels vs the labels."""
+    found = total = near = marked = 0
+    for rec in load_jsonl(labels_json):
+        mask = np.isin(cv2.imread(str(seg_dir / rec.raw_file), cv2.IMREAD_UNCHANGED), MARKING_IDS)
+        gt = np.zeros(mask.shape, dtype=np.uint8)
+        for lane in rec.lanes:
+            pts = [(x, y) for x, y in zip(lane, rec.h_samples, strict=True) if x >= 0]
+            for x, y in pts:
+                total += 1
+                y0, x0 = int(y), int(round(x))
+                found += bool(mask[max(y0 - 3, 0) : y0 + 4, max(x0 - 3, 0) : x0 + 4].any())
+            poly = np.array(pts, dtype=np.float64).round().astype(np.int32)
+            if len(poly) > 1:
+                cv2.polylines(gt, [poly], False, 1, thickness=21)
+        near += int(np.count_nonzero(mask & (gt > 0)))
+        marked += int(np.count_nonzero(mask))
+    return found / max(total, 1), near / max(marked, 1)
+
+
+def tusimple_chain(backend: str, frames: Path, labels: Path, work: Path) -> dict[str, Any]:
+    """Run the four-command chain for one backend; return scores, commands and timings."""
+    seg, lanes = work / f"seg_{backend}", work / f"lanes_{backend}.parquet"
+    pred = work / f"pred_{backend}.json"
+    t0 = time.perf_counter()
+    commands = [
+        slt("segment", frames, "--out", seg, "--backend", backend, "--camera", "tusimple",
+            "--overlay")[0],
+        slt("lanes", "fit", seg, "--camera", "tusimple", "--out", lanes)[0],
+        slt("lanes", "export-tusimple", lanes, "--camera", "tusimple", "--h-samples",
+            "160:720:10", "--out", pred, "--raw-ext", ".png")[0],
+    ]  # fmt: skip
+    cmd, out = slt("eval", "tusimple", pred, labels, "--json")
+    commands.append(cmd)
+    official = json.loads(out)
+    preds, gts = load_jsonl(pred), load_jsonl(labels)
+    no_gate = [p._replace(run_time_ms=0.0) for p in preds]
+    ungated = evaluate(no_gate, gts)
+    recall, precision = marking_support(seg, labels)
+    return {
+        "official": official,
+        "ungated": dataclasses.asdict(ungated),
+        "frames": [s._asdict() for s in evaluate_frames(no_gate, gts)],
+        "run_time_ms": [p.run_time_ms for p in preds],
+        "marking_recall_3px": recall,
+        "marking_precision_10px": precision,
+        "commands": commands,
+        "wall_s": time.perf_counter() - t0,
+        "seg": str(seg),
+        "pred": str(pred),
+    }
+
+
+def kitti_chain(backend: str, data: Path, work: Path) -> dict[str, Any]:
+    """Segment and fit KITTI ``um_000000``; score the fitted ego lane against the lane GT."""
+    folder = _links([data / "kitti_road" / f"image_{KITTI_NAME}.png"], work / "kitti_frames")
+    seg, lanes = work / f"kitti_seg_{backend}", work / f"kitti_lanes_{backend}.parquet"
+    commands = [
+        slt("segment", folder, "--out", seg, "--backend", backend, "--camera", "kitti",
+            "--overlay")[0],
+        slt("lanes", "fit", seg, "--camera", "kitti", "--out", lanes)[0],
+    ]  # fmt: skip
+    row = pq.read_table(lanes).to_pylist()[0]
+    gt_bgr = cv2.imread(str(data / "kitti_road" / f"gt_um_lane_{KITTI_NAME[3:]}.png"))
+    gt = decode_ground_truth(gt_bgr[:, :, ::-1])
+    camera = load_camera("kitti").resized(int(row["width"]), int(row["height"]))
+    pred = ego_lane_mask(row, camera, gt.positive.shape)
+    score = score_mask(pred, gt)
+    return {
+        "score": score._asdict(),
+        "lane_width_m": row["lane_width"],
+        "reason": row["reason"],
+        "commands": commands,
+        "seg": str(seg),
+        "mask": pred,
+    }
+
+
+def ego_lane_mask(row: dict[str, Any], camera: Any, shape: tuple[int, int]) -> np.ndarray:
+    """Rasterise the area between the fitted ego lines of a ``lanes.parquet`` row."""
+    lanes, slope = lanes_from_row(row)
+    if not lanes or min(row["ego_left"] if row["ego_left"] is not None else -1, row["ego_right"] if row["ego_right"] is not None else -1) < 0:
+        return np.zeros(shape, dtype=bool)
+    left, right = lanes[int(row["ego_left"])], lanes[int(row["ego_right"])]
+    rows = np.arange(shape[0])
+    cols_l = columns_at_rows(left, slope, camera, rows.astype(np.float64))
+    cols_r = columns_at_rows(right, slope, camera, rows.astype(np.float64))
+    return lane_area_mask(cols_l, cols_r, rows, shape)
+
+
+def _draw_lanes(img: np.ndarray, rec: Any, colour: tuple[int, int, int]) -> None:
+    for lane in rec.lanes:
+        pts = [(round(x), int(y)) for x, y in zip(lane, rec.h_samples, strict=True) if x >= 0]
+        for a, b in zip(pts, pts[1:], strict=False):
+            cv2.line(img, a, b, colour, 2)
+
+
+def overlay_sheet(
+    seg: Path, pred: Path, labels: Path | None, images: list[Path], out: Path
+) -> None:
+    """Write a half-size contact sheet: markings magenta, labels green, predictions red."""
+    gts = {r.raw_file: r for r in load_jsonl(labels)} if labels else {}
+    preds = {r.raw_file: r for r in load_jsonl(pred)}
+    tiles = []
+    for src in images:
+        img = cv2.imread(str(src))
+        lab = cv2.imread(str(seg / f"{src.stem}.png"), cv2.IMREAD_UNCHANGED)
+        img[lab == leaf_ids_under("road")[0]] //= 2
+        img[np.isin(lab, MARKING_IDS)] = (255, 0, 255)
+        if src.name in gts:
+            _draw_lanes(img, gts[src.name], (0, 255, 0))
+        key = next((k for k in preds if Path(k).stem == src.stem), None)
+        if key is not None:
+            _draw_lanes(img, preds[key], (0, 0, 255))
+        tiles.append(cv2.resize(img, (img.shape[1] // 2, img.shape[0] // 2)))
+    if len(tiles) % 2:
+        tiles.append(np.zeros_like(tiles[0]))
+    sheet = np.vstack([np.hstack(tiles[i : i + 2]) for i in range(0, len(tiles), 2)])
+    cv2.imwrite(str(out), sheet, [cv2.IMWRITE_PNG_COMPRESSION, 9])
+
+
+def unlabeled_chain(backend: str, data: Path, work: Path) -> Path:
+    """Segment, fit and export the unlabelled TuSimple frames (for overlays only)."""
+    src = data / "tusimple" / "frames" / "unlabeled"
+    seg, lanes = work / f"unl_seg_{backend}", work / f"unl_lanes_{backend}.parquet"
+    pred = work / f"unl_pred_{backend}.json"
+    slt("segment", src, "--out", seg, "--backend", backend, "--camera", "tusimple")
+    slt("lanes", "fit", seg, "--camera", "tusimple", "--out", lanes)
+    slt("lanes", "export-tusimple", lanes, "--camera", "tusimple", "--h-samples", "160:720:10",
+        "--out", pred, "--raw-ext", ".jpg")  # fmt: skip
+    return pred
+
+
+def kitti_overlay(data: Path, result: dict[str, Any], out: Path) -> None:
+    """Write the KITTI frame with GT ego lane (green), fitted ego lane (red) and markings."""
+    img = cv2.imread(str(data / "kitti_road" / f"image_{KITTI_NAME}.png"))
+    gt_bgr = cv2.imread(str(data / "kitti_road" / f"gt_um_lane_{KITTI_NAME[3:]}.png"))
+    gt = decode_ground_truth(gt_bgr[:, :, ::-1]).positive
+    lab = cv2.imread(str(Path(result["seg"]) / f"image_{KITTI_NAME}.png"), cv2.IMREAD_UNCHANGED)
+    img[gt] = (0.6 * img[gt] + (0, 100, 0)).astype(np.uint8)
+    img[result["mask"]] = (0.6 * img[result["mask"]] + (0, 0, 100)).astype(np.uint8)
+    img[np.isin(lab, MARKING_IDS)] = (255, 0, 255)
+    cv2.imwrite(str(out), img, [cv2.IMWRITE_PNG_COMPRESSION, 9])
+
+
+def render_report(results: dict[str, Any], data: Path) -> str:
+    """Return the Markdown report."""
+    lines = [
+        "# Real frames: end-to-end lane accuracy",
+        "",
+        "Generated by `python pipelines/real_frames_eval.py` (numbers below are from that run).",
+        f"Data: `{data}` (TuSimple `frames/` 6 labelled + 4 unlabelled, KITTI `um_000000`).",
+        "",
+        "| backend | LaneEval acc | FP | FN | F1 | acc without run-time gate | marking recall 3 px"
+        " | marking precision 10 px | KITTI ego IoU | KITTI F / P / R |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for name, res in results.items():
+        off, ung, k = res["tusimple"]["official"], res["tusimple"]["ungated"], res["kitti"]["score"]
+        t = res["tusimple"]
+        lines.append(
+            f"| {name} | {off['accuracy']:.3f} | {off['fp']:.3f} | {off['fn']:.3f} "
+            f"| {off['f1']:.3f} | {ung['accuracy']:.3f} | {t['marking_recall_3px']:.3f} "
+            f"| {t['marking_precision_10px']:.3f} | {k['iou']:.3f} "
+            f"| {k['f_measure']:.3f} / {k['precision']:.3f} / {k['recall']:.3f} |"
+        )
+    lines += ["", "## Per frame (run-time gate off) and fit run times", ""]
+    for name, res in results.items():
+        t = res["tusimple"]
+        cells = [
+            f"{f['raw_file']} {f['accuracy']:.3f} (FP {f['fp']:.2f}, FN {f['fn']:.2f}, "
+            f"{rt:.0f} ms)"
+            for f, rt in zip(t["frames"], t["run_time_ms"], strict=True)
+        ]
+        lines.append(f"* **{name}**: " + "; ".join(cells))
+    lines += ["", "## Exact commands", ""]
+    for name, res in results.items():
+        lines += [f"{name}:", "", "```"]
+        lines += res["tusimple"]["commands"] + res["kitti"]["commands"] + ["```", ""]
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the evaluation; write the report, overlays and optional JSON."""
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--data", type=Path, default=_default_data())
+    ap.add_argument("--work", type=Path, default=None, help="work folder (default: a temp dir)")
+    ap.add_argument("--backends", default="classical,onnx")
+    ap.add_argument("--report", type=Path, default=None, help="Markdown report to write")
+    ap.add_argument("--overlays", type=Path, default=None, help="folder for overlay PNGs")
+    ap.add_argument("--json", type=Path, default=None)
+    args = ap.parse_args(argv)
+    frames_src = args.data / "tusimple" / "frames"
+    labels = frames_src / "labels.json"
+    if not labels.is_file():
+        print(f"no real data at {args.data}", file=sys.stderr)
+        return 1
+    with tempfile.TemporaryDirectory() as tmp:
+        work = args.work or Path(tmp)
+        work.mkdir(parents=True, exist_ok=True)
+        frames = _links([frames_src / n for n in LABELLED], work / "frames")
+        results: dict[str, Any] = {}
+        for backend in args.backends.split(","):
+            tus = tusimple_chain(backend, frames, labels, work)
+            kit = kitti_chain(backend, args.data, work)
+            results[backend] = {"tusimple": tus, "kitti": kit}
+            off = tus["official"]
+            print(
+                f"{backend}: LaneEval acc {off['accuracy']:.4f} FP {off['fp']:.4f} "
+                f"FN {off['fn']:.4f} (no run-time gate: {tus['ungated']['accuracy']:.4f}); "
+                f"KITTI ego IoU {kit['score']['iou']:.4f}",
+                flush=True,
+            )
+            if args.overlays is not None:
+                args.overlays.mkdir(parents=True, exist_ok=True)
+                overlay_sheet(
+                    Path(tus["seg"]),
+                    Path(tus["pred"]),
+                    labels,
+                    [frames_src / n for n in LABELLED],
+                    args.overlays / f"real_frames_{backend}.png",
+                )
+                unl = unlabeled_chain(backend, args.data, work)
+                overlay_sheet(
+                    work / f"unl_seg_{backend}",
+                    unl,
+                    None,
+                    sorted((frames_src / "unlabeled").glob("*.jpg")),
+                    args.overlays / f"real_frames_unlabeled_{backend}.png",
+                )
+                kitti_overlay(args.data, kit, args.overlays / f"real_frames_kitti_{backend}.png")
+            kit.pop("mask")
+    if args.report is not None:
+        write_text_atomic(args.report, render_report(results, args.data))
+    if args.json is not None:
+        write_text_atomic(args.json, json.dumps(results, indent=1, default=float))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
