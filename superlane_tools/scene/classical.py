@@ -94,6 +94,8 @@ class ClassicalParams:
     road_margin_m: float = 3.5
     sky_max_gradient: float = 12.0
     surface_margin_m: float = 0.0
+    dot_diameter_m: float = 0.10
+    dot_size_tolerance: float = 2.0
 
 
 class RowGeometry(NamedTuple):
@@ -224,7 +226,7 @@ def marking_candidates(
         )
     mask = response >= params.contrast_min
     mask &= _runs_not_wider_than(mask, params.max_run_factor * np.maximum(w_px, 1.0))
-    return _elongated_components(mask, params)
+    return _elongated_components(mask, geometry, params)
 
 
 def _runs_not_wider_than(mask: BoolArray, max_width_px: FloatArray) -> BoolArray:
@@ -246,8 +248,15 @@ def _runs_not_wider_than(mask: BoolArray, max_width_px: FloatArray) -> BoolArray
     return kept
 
 
-def _elongated_components(mask: BoolArray, params: ClassicalParams) -> BoolArray:
-    """Return ``mask`` without components that are too small or not line-like."""
+def _elongated_components(
+    mask: BoolArray, geometry: RowGeometry, params: ClassicalParams
+) -> BoolArray:
+    """Return ``mask`` without components that are neither line-like nor dot-like.
+
+    Line-like: at least ``min_component_px`` pixels and ``min_elongation``. Dot-like (Botts'
+    dots, raised reflectors): the component's width and height fit a dot of ``dot_diameter_m``
+    seen at the component's mean row (within a factor ``dot_size_tolerance``).
+    """
     import cv2  # late: heavy import
 
     n, labels = cv2.connectedComponents(mask.astype(np.uint8), connectivity=8)
@@ -270,9 +279,48 @@ def _elongated_components(mask: BoolArray, params: ClassicalParams) -> BoolArray
     minor = np.maximum(half_tr - disc, 1.0 / 12.0)  # a one-pixel-wide line has variance 1/12
     elongation = np.sqrt(major / minor)
     keep = (count >= params.min_component_px) & (elongation >= params.min_elongation)
+    if params.dot_diameter_m > 0:
+        keep |= _dot_like(lab, rows, cols, count, my, geometry, params)
     keep[0] = False
     kept: BoolArray = keep[labels]
     return kept
+
+
+def _dot_like(
+    lab: IntArray,
+    rows: IntArray,
+    cols: IntArray,
+    count: FloatArray,
+    mean_row: FloatArray,
+    geometry: RowGeometry,
+    params: ClassicalParams,
+) -> BoolArray:
+    """Return per component whether its bounding box fits a road dot at its mean row."""
+    n = count.size
+    top = np.full(n, np.iinfo(np.int64).max)
+    bottom = np.zeros(n, dtype=np.int64)
+    left = np.full(n, np.iinfo(np.int64).max)
+    right = np.zeros(n, dtype=np.int64)
+    np.minimum.at(top, lab, rows)
+    np.maximum.at(bottom, lab, rows)
+    np.minimum.at(left, lab, cols)
+    np.maximum.at(right, lab, cols)
+    row = np.clip(np.rint(mean_row), 0, geometry.distance_m.size - 1).astype(np.int64)
+    dist = geometry.distance_m
+    # Image rows per forward metre: a dot of diameter d spans d * rows_per_m rows.
+    rows_per_m = 1.0 / np.maximum(np.abs(np.gradient(dist)), 1e-6)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        dot_w = params.dot_diameter_m / geometry.metres_per_px[row]
+        dot_h = params.dot_diameter_m * rows_per_m[row]
+    tol = params.dot_size_tolerance
+    box_w = (right - left + 1).astype(np.float64)
+    box_h = (bottom - top + 1).astype(np.float64)
+    ok = np.isfinite(dot_w) & np.isfinite(dot_h) & (dist[row] <= params.max_distance_m)
+    ok &= (box_w >= dot_w / tol) & (box_w <= dot_w * tol + 1)
+    ok &= box_h <= dot_h * tol + 2
+    ok &= count >= 2
+    out: BoolArray = np.where(ok, True, False)
+    return out
 
 
 def road_region(
