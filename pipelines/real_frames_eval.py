@@ -164,7 +164,14 @@ def kitti_chain(backend: str, data: Path, work: Path) -> dict[str, Any]:
 def ego_lane_mask(row: dict[str, Any], camera: Any, shape: tuple[int, int]) -> np.ndarray:
     """Rasterise the area between the fitted ego lines of a ``lanes.parquet`` row."""
     lanes, slope = lanes_from_row(row)
-    if not lanes or min(row["ego_left"] if row["ego_left"] is not None else -1, row["ego_right"] if row["ego_right"] is not None else -1) < 0:
+    if (
+        not lanes
+        or min(
+            row["ego_left"] if row["ego_left"] is not None else -1,
+            row["ego_right"] if row["ego_right"] is not None else -1,
+        )
+        < 0
+    ):
         return np.zeros(shape, dtype=bool)
     left, right = lanes[int(row["ego_left"])], lanes[int(row["ego_right"])]
     rows = np.arange(shape[0])
@@ -253,8 +260,7 @@ def render_report(results: dict[str, Any], data: Path) -> str:
     for name, res in results.items():
         t = res["tusimple"]
         cells = [
-            f"{f['raw_file']} {f['accuracy']:.3f} (FP {f['fp']:.2f}, FN {f['fn']:.2f}, "
-            f"{rt:.0f} ms)"
+            f"{f['raw_file']} {f['accuracy']:.3f} (FP {f['fp']:.2f}, FN {f['fn']:.2f}, {rt:.0f} ms)"
             for f, rt in zip(t["frames"], t["run_time_ms"], strict=True)
         ]
         lines.append(f"* **{name}**: " + "; ".join(cells))

@@ -2,9 +2,12 @@
 
 Steps, all seeded:
 
-1. Simulate a training set and a held-out set (``slt simulate dataset``; different seeds, so
+1. Simulate training sets and a held-out set (``slt simulate dataset``; different seeds, so
    different worlds). ``--toy`` uses the procedural toy dataset instead (no simulator needed).
 2. Train both networks on CPU (``slt train segmentation|corridor``), export ONNX + model cards.
+   v2 recipe: 600 frames (seeds 11, 21, 22), segmentation on 320x176 crops with a lane-marking
+   Dice term, corridor on full frames (position channel, input pooled by 2) with BCE + Dice,
+   one-cycle LR, one torch thread per network (``--task`` trains one, so both can run at once).
 3. Evaluate: held-out simulator metrics (mIoU per level, lane-marking IoU, corridor IoU), real
    frames (TuSimple: labelled lane points on predicted markings; KITTI: ego-lane IoU), and the
    onnxruntime milliseconds per frame; the numbers go into the model cards.
@@ -16,8 +19,8 @@ wired into the CLI).
 
 Usage:
     python pipelines/train_models.py [--quick] [--toy] [--work DIR] [--out DIR] [--ship]
-        [--train-frames N] [--test-frames N] [--seg-epochs N] [--corridor-epochs N]
-        [--realdata DIR] [--json results.json]
+        [--task segmentation|corridor|both] [--no-train] [--seg-epochs N] [--corridor-epochs N]
+        [--threads N] [--realdata DIR] [--json results.json]
 """
 
 from __future__ import annotations
@@ -28,20 +31,23 @@ import os
 import shutil
 import sys
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 REPO = Path(__file__).resolve().parents[1]
-TRAIN_SEED, TEST_SEED, MODEL_SEED = 11, 99, 0
-SEG_NAME, COR_NAME = "super_seg_v1", "ego_corridor_v1"
+TEST_SEED, MODEL_SEED = 99, 0
+SEG_NAME, COR_NAME = "super_seg_v2", "ego_corridor_v2"
 
 
 @dataclass(frozen=True)
 class Plan:
-    """Sizes of one pipeline run."""
+    """Sizes of one pipeline run.
 
-    train_frames: int
+    ``train_sets`` is one ``(frames, seed)`` per simulated training set (concatenated).
+    """
+
+    train_sets: tuple[tuple[int, int], ...]
     test_frames: int
     image_size: tuple[int, int]
     seg_size: tuple[int, int]
@@ -51,10 +57,23 @@ class Plan:
     seg_epochs: int
     cor_epochs: int
     batch: int
+    lr: float
 
 
-FULL = Plan(300, 40, (640, 360), (512, 288), (256, 144), (652, 360), (320, 192), 3, 3, 8)
-QUICK = Plan(4, 2, (256, 144), (128, 72), None, (163, 90), None, 1, 1, 2)
+FULL = Plan(
+    ((300, 11), (150, 21), (150, 22)),
+    40,
+    (640, 360),
+    (512, 288),
+    (320, 176),
+    (652, 360),
+    None,
+    10,
+    12,
+    8,
+    2e-3,
+)
+QUICK = Plan(((4, 11),), 2, (256, 144), (128, 72), None, (163, 90), None, 1, 1, 2, 2e-3)
 
 
 def _size(size: tuple[int, int]) -> str:
@@ -82,24 +101,27 @@ def make_dataset(folder: Path, frames: int, seed: int, size: tuple[int, int], to
 
 
 def train_one(
-    task: str, data: Path, out: Path, plan: Plan, threads: int
+    task: str, data: list[Path], out: Path, plan: Plan, threads: int
 ) -> tuple[float, dict[str, Any]]:
-    """Train one model; return (seconds, training summary)."""
+    """Train one model on the concatenated ``data`` folders; return (seconds, summary)."""
     from superlane_tools.training.train import TrainParams, train
 
     seg = task == "segmentation"
     size, crop = (plan.seg_size, plan.seg_crop) if seg else (plan.cor_size, plan.cor_crop)
     epochs = plan.seg_epochs if seg else plan.cor_epochs
     command = (
-        f"slt train {task} --data {data} --out {out} --epochs {epochs} --batch {plan.batch} "
-        f"--size {_size(size)} --seed {MODEL_SEED}" + (f" --crop {_size(crop)}" if crop else "")
+        f"slt train {task} {' '.join(f'--data {d}' for d in data)} --out {out} "
+        f"--epochs {epochs} --batch {plan.batch} --lr {plan.lr} --size {_size(size)} "
+        f"--seed {MODEL_SEED} --threads {threads}" + (f" --crop {_size(crop)}" if crop else "")
     )
     params = TrainParams(
         task,
-        data,
+        data[0],
         out,
+        extra_data=tuple(data[1:]),
         epochs=epochs,
         batch=plan.batch,
+        lr=plan.lr,
         size=size,
         crop=crop,
         seed=MODEL_SEED,
@@ -119,7 +141,9 @@ def train_one(
     return time.perf_counter() - start, {"epoch_losses": [round(v, 4) for v in result.epoch_losses]}
 
 
-def evaluate(seg: Path, cor: Path, test: Path, realdata: Path | None) -> dict[str, Any]:
+def evaluate(
+    seg: Path, cor: Path, test: Path, realdata: Path | None, threads: int
+) -> dict[str, Any]:
     """Evaluate both models; write metrics and timings into their cards; return them."""
     from superlane_tools.training.evaluate import (
         evaluate_corridor_on_dataset,
@@ -139,8 +163,12 @@ def evaluate(seg: Path, cor: Path, test: Path, realdata: Path | None) -> dict[st
         )
     if realdata is not None and (realdata / "kitti_road").is_dir():
         cor_metrics["kitti_road_um_000000"] = kitti_ego_lane_iou(cor, realdata / "kitti_road")
-    results["segmentation"] = update_card(seg, seg_metrics, time_model(seg, "segmentation"))
-    results["corridor"] = update_card(cor, cor_metrics, time_model(cor, "corridor"))
+    results["segmentation"] = update_card(
+        seg, seg_metrics, time_model(seg, "segmentation", threads=threads)
+    )
+    results["corridor"] = update_card(
+        cor, cor_metrics, time_model(cor, "corridor", threads=threads)
+    )
     return {k: {"metrics": v.metrics, "ms_per_frame": v.ms_per_frame} for k, v in results.items()}
 
 
@@ -152,11 +180,18 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--work", type=Path, default=Path("runs/train_models"), help="datasets")
     ap.add_argument("--out", type=Path, default=Path("runs/train_models/models"), help="models")
     ap.add_argument("--ship", action="store_true", help="copy models into superlane_tools/models")
-    ap.add_argument("--train-frames", type=int, help="override the training set size")
+    ap.add_argument(
+        "--task",
+        choices=("segmentation", "corridor", "both"),
+        default="both",
+        help="train only one network (run two processes to train both at once)",
+    )
+    ap.add_argument("--no-train", action="store_true", help="evaluate the models in --out only")
+    ap.add_argument("--no-eval", action="store_true", help="train only, skip evaluation")
     ap.add_argument("--test-frames", type=int, help="override the held-out set size")
     ap.add_argument("--seg-epochs", type=int, help="override segmentation epochs")
     ap.add_argument("--corridor-epochs", type=int, help="override corridor epochs")
-    ap.add_argument("--threads", type=int, default=2, help="torch / onnxruntime threads")
+    ap.add_argument("--threads", type=int, default=1, help="torch / onnxruntime threads")
     ap.add_argument(
         "--realdata",
         type=Path,
@@ -174,39 +209,38 @@ def main(argv: list[str] | None = None) -> int:
         print(f"train_models: {err}", file=sys.stderr)
         return 1
     plan = QUICK if args.quick else FULL
-    plan = Plan(
-        args.train_frames or plan.train_frames,
-        args.test_frames or plan.test_frames,
-        plan.image_size,
-        plan.seg_size,
-        plan.seg_crop,
-        plan.cor_size,
-        plan.cor_crop,
-        args.seg_epochs or plan.seg_epochs,
-        args.corridor_epochs or plan.cor_epochs,
-        plan.batch,
+    plan = replace(
+        plan,
+        test_frames=args.test_frames or plan.test_frames,
+        seg_epochs=args.seg_epochs or plan.seg_epochs,
+        cor_epochs=args.corridor_epochs or plan.cor_epochs,
     )
     kind = "toy" if args.toy else "sim"
-    train_dir = args.work / f"{kind}_train_{plan.train_frames}_{_size(plan.image_size)}"
-    test_dir = args.work / f"{kind}_test_{plan.test_frames}_{_size(plan.image_size)}"
-    print(f"datasets: {train_dir}, {test_dir}", flush=True)
+    size = _size(plan.image_size)
+    train_dirs = [args.work / f"{kind}_train_s{seed}_{n}_{size}" for n, seed in plan.train_sets]
+    test_dir = args.work / f"{kind}_test_s{TEST_SEED}_{plan.test_frames}_{size}"
+    print(f"datasets: {', '.join(map(str, train_dirs))}; held out {test_dir}", flush=True)
     commands = {
-        "train_dataset": make_dataset(
-            train_dir, plan.train_frames, TRAIN_SEED, plan.image_size, args.toy
-        ),
-        "test_dataset": make_dataset(
-            test_dir, plan.test_frames, TEST_SEED, plan.image_size, args.toy
-        ),
+        f"train_dataset_{i}": make_dataset(folder, n, seed, plan.image_size, args.toy)
+        for i, (folder, (n, seed)) in enumerate(zip(train_dirs, plan.train_sets, strict=True))
     }
+    commands["test_dataset"] = make_dataset(
+        test_dir, plan.test_frames, TEST_SEED, plan.image_size, args.toy
+    )
     args.out.mkdir(parents=True, exist_ok=True)
     seg, cor = args.out / f"{SEG_NAME}.onnx", args.out / f"{COR_NAME}.onnx"
-    timings = {}
-    for task, path in (("segmentation", seg), ("corridor", cor)):
-        seconds, summary = train_one(task, train_dir, path, plan, args.threads)
-        timings[task] = {"train_seconds": round(seconds, 1), **summary}
-        print(f"trained {task} in {seconds:.0f} s -> {path}", flush=True)
-    realdata = args.realdata if (args.realdata / "README.md").is_file() else None
-    results = {"commands": commands, "training": timings, **evaluate(seg, cor, test_dir, realdata)}
+    results: dict[str, Any] = {"commands": commands}
+    if not args.no_train:
+        timings = {}
+        for task, path in (("segmentation", seg), ("corridor", cor)):
+            if args.task in (task, "both"):
+                seconds, summary = train_one(task, train_dirs, path, plan, args.threads)
+                timings[task] = {"train_seconds": round(seconds, 1), **summary}
+                print(f"trained {task} in {seconds:.0f} s -> {path}", flush=True)
+        results["training"] = timings
+    if not args.no_eval:
+        realdata = args.realdata if (args.realdata / "README.md").is_file() else None
+        results.update(evaluate(seg, cor, test_dir, realdata, args.threads))
     print(json.dumps(results, indent=2, default=str))
     if args.json:
         args.json.write_text(json.dumps(results, indent=2, default=str), encoding="utf-8")

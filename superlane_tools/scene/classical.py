@@ -93,9 +93,9 @@ class ClassicalParams:
     road_max_z: float = 3.5
     road_margin_m: float = 3.5
     sky_max_gradient: float = 12.0
-    surface_margin_m: float = 0.0
     dot_diameter_m: float = 0.10
-    dot_size_tolerance: float = 2.0
+    dot_size_tolerance: float = 3.0
+    yellow_gain: float = 1.0
 
 
 class RowGeometry(NamedTuple):
@@ -167,8 +167,6 @@ class ClassicalExtractor:
         road = road_region(image, geometry, markings, self.params)
         margin_px = self.params.road_margin_m / geometry.metres_per_px
         markings &= _within_row_span(road, np.nan_to_num(margin_px, nan=0.0))
-        if self.params.surface_margin_m > 0:
-            markings &= _near_region(road, geometry, self.params.surface_margin_m)
         labels = np.zeros((height, width), dtype=np.uint8)
         labels[sky_region(image, geometry, self.params)] = SKY
         labels[road] = ROAD
@@ -203,6 +201,9 @@ def marking_candidates(
 
     height, width = image_bgr.shape[:2]
     raw = (image_bgr[:, :, 1].astype(np.float32) + image_bgr[:, :, 2]) * 0.5
+    if params.yellow_gain > 0:
+        # Yellow paint on grey asphalt barely out-shines it; its blue deficit does not.
+        raw += params.yellow_gain * np.maximum(raw - image_bgr[:, :, 0] - 10.0, 0.0)
     bright = np.asarray(cv2.GaussianBlur(raw, (3, 3), 0), dtype=np.float32)
     w_px = expected_marking_px(geometry, params)
     offsets = np.where(
@@ -358,16 +359,6 @@ def road_region(
     rows_ok = geometry.distance_m <= params.max_distance_m * 2
     out: BoolArray = full & rows_ok[:, None]
     return out
-
-
-def _near_region(region: BoolArray, geometry: RowGeometry, margin_m: float) -> BoolArray:
-    """Return the mask of pixels within ``margin_m`` (lateral ground metres) of ``region``."""
-    import cv2  # late: heavy import
-
-    dist = cv2.distanceTransform((~region).astype(np.uint8), cv2.DIST_L2, 3)
-    limit = np.nan_to_num(margin_m / geometry.metres_per_px, nan=0.0)
-    near: BoolArray = dist <= limit[:, None]
-    return near
 
 
 def _within_row_span(region: BoolArray, margin_px: FloatArray) -> BoolArray:

@@ -66,8 +66,11 @@ class EgoCorridorNet(nn.Module):
         """Return the ``(N, 1, H, W)`` pre-sigmoid logits (what the training loss uses)."""
         x = F.avg_pool2d(image, self.pool) if self.pool > 1 else image
         if self.coords:
-            xs = torch.linspace(-1.0, 1.0, x.shape[-1], dtype=x.dtype, device=x.device)
-            x = torch.cat([x, xs.view(1, 1, 1, -1).expand(x.shape[0], 1, x.shape[-2], -1)], 1)
+            # cumsum of ones keeps the graph float32 in ONNX (linspace exports as double)
+            width = x.shape[-1]
+            xs = torch.ones_like(x[:, :1, :1, :]).cumsum(-1)
+            xs = (xs - 1.0) * (2.0 / max(1, width - 1)) - 1.0
+            x = torch.cat([x, xs.expand(-1, -1, x.shape[-2], -1)], 1)
         s1 = self.stem(x)
         s2 = self.enc2(s1)
         s3 = self.enc3(s2)

@@ -1,4 +1,4 @@
-"""Training losses: per-head cross-entropy for heterogeneous labels, marking Dice, corridor BCE+Dice."""
+"""Training losses: per-head cross-entropy, lane-marking Dice, corridor BCE + Dice."""
 
 from __future__ import annotations
 

@@ -55,6 +55,8 @@ class TrainParams:
     Attributes:
         task: ``segmentation`` or ``corridor``.
         data_dir: Dataset folder (``index.parquet`` + images).
+        extra_data: More dataset folders, concatenated after ``data_dir`` (e.g. several
+            ``slt simulate dataset`` runs with different seeds).
         out: Target ``.onnx`` path; the card is written beside it.
         epochs: Passes over the data.
         batch: Frames per step.
@@ -77,6 +79,7 @@ class TrainParams:
     task: str
     data_dir: Path
     out: Path
+    extra_data: tuple[Path, ...] = ()
     epochs: int = 10
     batch: int = 8
     lr: float = 2e-3
@@ -146,6 +149,24 @@ def _class_weights(codes: np.ndarray[Any, Any]) -> list[torch.Tensor | None]:
     return weights
 
 
+def _load_all(params: TrainParams, size: tuple[int, int], adapter: Any) -> FrameSet:
+    """Load ``data_dir`` and every ``extra_data`` folder; ``max_frames`` caps the total."""
+    sets: list[FrameSet] = []
+    left = params.max_frames
+    for folder in (params.data_dir, *params.extra_data):
+        if left is not None and left <= 0:
+            break
+        sets.append(load_frames(folder, params.task, size, adapter, left))
+        left = None if left is None else left - len(sets[-1].names)
+    if len(sets) == 1:
+        return sets[0]
+    return FrameSet(
+        np.concatenate([s.images for s in sets]),
+        np.concatenate([s.targets for s in sets]),
+        tuple(n for s in sets for n in s.names),
+    )
+
+
 def _dataset_command(data_dir: Path) -> str:
     try:
         from superlane_tools.reporting.parquet import read_provenance
@@ -185,7 +206,7 @@ def train(params: TrainParams, progress: Progress | None = None) -> TrainResult:
     if width < 16 or height < 16:
         raise TrainingError(f"input size {width}x{height} is too small (min 16x16)")
     adapter = load_adapter(params.adapter) if params.task == "segmentation" else None
-    frames = load_frames(params.data_dir, params.task, (width, height), adapter, params.max_frames)
+    frames = _load_all(params, (width, height), adapter)
     torch.manual_seed(params.seed)
     gen = torch.Generator().manual_seed(params.seed)
     with _torch_threads(params.threads):
@@ -209,9 +230,12 @@ def train(params: TrainParams, progress: Progress | None = None) -> TrainResult:
         parameters=count_parameters(model),
         description=_DESCRIPTIONS[params.task],
         training={
-            "data": str(params.data_dir),
+            "data": [str(d) for d in (params.data_dir, *params.extra_data)],
             "frames": len(frames.names),
-            "dataset_command": _dataset_command(params.data_dir) or "unknown (no provenance)",
+            "dataset_command": " ; ".join(
+                _dataset_command(d) or f"unknown for {d} (no provenance)"
+                for d in (params.data_dir, *params.extra_data)
+            ),
             "training_command": params.command or "library call",
             "adapter": params.adapter if params.task == "segmentation" else "n/a",
             "seed": params.seed,

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import importlib.util
 import json
 from pathlib import Path
+from types import ModuleType
 
 import cv2
 import numpy as np
@@ -15,6 +17,7 @@ from superlane_tools.hierarchy import LEAF_IDS, leaf_ids_under
 from superlane_tools.scene import (
     BackendUnavailableError,
     ClassicalExtractor,
+    ClassicalParams,
     SceneError,
     SegmentationBackend,
     backend_from_name,
@@ -128,7 +131,85 @@ def test_real_tusimple_marking_recall_and_precision(realdata: Path) -> None:
         image = cv2.imread(str(folder / labels["raw_file"]))
         totals += _marking_scores(labels, backend.segment(image))
     recall, precision = totals[0] / totals[1], totals[2] / totals[3]
-    # Measured 0.255 recall and 0.668 precision; TuSimple labels run through dash gaps,
-    # Botts' dots and unpainted seams, which bounds the recall of any paint detector.
-    assert recall >= 0.21, recall
-    assert precision >= 0.58, precision
+    # Measured 0.280 recall and 0.631 precision (dots on); TuSimple labels run through dash
+    # gaps, faint Botts' dots and unpainted seams, which bounds the recall of a paint detector.
+    assert recall >= 0.24, recall
+    assert precision >= 0.56, precision
+
+
+def _dotted_road() -> tuple[np.ndarray, np.ndarray]:
+    """Render a grey road with a row of 0.10 m Botts' dots every 1.2 m at 1.8 m to the right."""
+    cam = load_camera("sim_default")
+    rng = np.random.default_rng(3)
+    img = np.clip(rng.normal(90, 3, (cam.height, cam.width, 3)), 0, 255).astype(np.uint8)
+    truth = np.zeros((cam.height, cam.width), dtype=bool)
+    for x in np.arange(6.0, 40.0, 1.2):
+        ring = [
+            (x + 0.05 * np.cos(t), -1.8 + 0.05 * np.sin(t), 0.0) for t in np.linspace(0, 6.3, 24)
+        ]
+        uv, _ = cam.project(np.array(ring))
+        mask = np.zeros(truth.shape, dtype=np.uint8)
+        cv2.fillPoly(mask, [uv.round().astype(np.int32)], 1)
+        img[mask > 0] = (230, 230, 230)
+        truth |= mask > 0
+    return img, truth
+
+
+def test_botts_dots_are_found_as_dots() -> None:
+    img, truth = _dotted_road()
+    cam = load_camera("sim_default")
+    on = np.isin(ClassicalExtractor(camera=cam).segment(img), MARKING_IDS)
+    off = np.isin(
+        ClassicalExtractor(camera=cam, params=ClassicalParams(dot_diameter_m=0.0)).segment(img),
+        MARKING_IDS,
+    )
+    near = cv2.dilate(truth.astype(np.uint8), np.ones((5, 5), np.uint8)) > 0
+    dots = cv2.connectedComponents(truth.astype(np.uint8))[0] - 1
+    found = cv2.connectedComponents((on & truth).astype(np.uint8))[0] - 1
+    assert found >= 0.7 * dots, (found, dots)
+    assert on[~near].sum() <= 0.05 * on.sum()
+    # Near dots are foreshortened into wide, flat blobs that pass as line pieces anyway; the far,
+    # small ones are only found as dots.
+    found_off = cv2.connectedComponents((off & truth).astype(np.uint8))[0] - 1
+    assert found_off <= found - 3, (found_off, found)
+
+
+def test_yellow_gain_lifts_faint_yellow_paint() -> None:
+    cam = load_camera("sim_default")
+    img = np.full((cam.height, cam.width, 3), (95, 95, 95), dtype=np.uint8)
+    xs = np.linspace(5.0, 40.0, 200)
+    left = np.stack([xs, np.full_like(xs, 1.875), np.zeros_like(xs)], 1)
+    right = np.stack([xs, np.full_like(xs, 1.725), np.zeros_like(xs)], 1)
+    poly = np.concatenate([cam.project(left)[0], cam.project(right)[0][::-1]])
+    mask = np.zeros((cam.height, cam.width), dtype=np.uint8)
+    cv2.fillPoly(mask, [poly.round().astype(np.int32)], 1)
+    img[mask > 0] = (40, 105, 115)  # BGR: worn yellow, only ~15 grey levels over the asphalt
+    plain = ClassicalExtractor(camera=cam, params=ClassicalParams(yellow_gain=0.0))
+    assert not np.isin(plain.segment(img), MARKING_IDS).any()
+    labels = ClassicalExtractor(camera=cam).segment(img)
+    assert np.mean(labels[mask > 0] == LEAF_IDS["dividing_yellow_solid"]) > 0.5
+
+
+def _load_pipeline() -> ModuleType:
+    spec = importlib.util.spec_from_file_location(
+        "real_frames_eval",
+        Path(__file__).resolve().parents[2] / "pipelines" / "real_frames_eval.py",
+    )
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_real_tusimple_end_to_end_chain(realdata: Path, tmp_path: Path) -> None:
+    """slt segment -> lanes fit -> export-tusimple -> eval tusimple on the 6 labelled frames."""
+    pipeline = _load_pipeline()
+    src = realdata / "tusimple" / "frames"
+    frames = pipeline._links([src / name for name in pipeline.LABELLED], tmp_path / "frames")
+    result = pipeline.tusimple_chain("classical", frames, src / "labels.json", tmp_path)
+    assert result["official"]["n_frames"] == 6
+    # Measured 0.850 with LaneEval's 200 ms run-time gate off (the first fit of a process also
+    # loads numba's compiled kernels, > 200 ms, so the official score loses that frame).
+    assert result["ungated"]["accuracy"] >= 0.82, result["frames"]
+    assert result["ungated"]["fn"] <= 0.45
+    assert result["official"]["accuracy"] <= result["ungated"]["accuracy"] + 1e-9
