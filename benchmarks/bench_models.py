@@ -66,8 +66,12 @@ def _baseline(shape: tuple[int, ...], path: Path) -> None:
 def _model_file(task: str, scratch: Path) -> tuple[Path, str, tuple[int, ...]]:
     from superlane_tools.models import MODELS_DIR
     from superlane_tools.scene.model_card import load_card
+    from superlane_tools.scene.onnx_backend import (
+        DEFAULT_CORRIDOR_MODEL,
+        DEFAULT_SEGMENTATION_MODEL,
+    )
 
-    name = "super_seg_v1" if task == "segmentation" else "ego_corridor_v1"
+    name = DEFAULT_SEGMENTATION_MODEL if task == "segmentation" else DEFAULT_CORRIDOR_MODEL
     shipped = MODELS_DIR / f"{name}.onnx"
     if shipped.is_file():
         card = load_card(MODELS_DIR / f"{name}.card.yaml")

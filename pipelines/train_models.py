@@ -138,7 +138,19 @@ def train_one(
             print(f"  {task}: step {step}/{total} loss {loss:.4f}", flush=True)
 
     result = train(params, progress)
+    _record_pipeline(result.card_path, task)
     return time.perf_counter() - start, {"epoch_losses": [round(v, 4) for v in result.epoch_losses]}
+
+
+def _record_pipeline(card_path: Path, task: str) -> None:
+    """Add the pipeline command that really ran to the card (``slt train`` takes one folder)."""
+    from superlane_tools.scene.model_card import load_card, write_card
+
+    card = load_card(card_path)
+    argv = " ".join(sys.argv[1:]) if Path(sys.argv[0]).name == "train_models.py" else ""
+    pipeline = f"python pipelines/train_models.py {argv}".strip()
+    training = {**dict(card.training), "pipeline_command": pipeline, "pipeline_task": task}
+    write_card(replace(card, training=training), card_path)
 
 
 def evaluate(

@@ -67,6 +67,24 @@ class Recording(Protocol):
     ) -> None: ...
 
 
+class ClosingRecording:
+    """Mixin for recording sources: ``with source:`` closes it on exit."""
+
+    def close(self) -> None:
+        """Release open files (subclasses override)."""
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()
+
+
 @runtime_checkable
 class SupportsStampPeek(Protocol):
     """A recording that can read a raw message's header stamp without a full decode."""

@@ -7,10 +7,9 @@ import re
 import struct
 from collections.abc import Collection, Iterator
 from pathlib import Path
-from types import TracebackType
-from typing import Any, NamedTuple, Self
+from typing import Any, NamedTuple
 
-from superlane_tools.recording.base import SkipLog, in_range
+from superlane_tools.recording.base import ClosingRecording, SkipLog, in_range
 from superlane_tools.recording.errors import RecordingError
 from superlane_tools.records import Message, RawMessage, Skipped, TopicInfo
 
@@ -113,7 +112,7 @@ def _frame_of(msg: Any) -> CanFrame:
     )
 
 
-class CanLogRecording:
+class CanLogRecording(ClosingRecording):
     """A CAN log file as a :class:`~superlane_tools.recording.base.Recording`.
 
     Each CAN channel (``can0``, ``vcan1``, ASC channel numbers) is one topic of type
@@ -214,14 +213,3 @@ class CanLogRecording:
 
     def close(self) -> None:
         """Nothing stays open between iterations; present for the protocol."""
-
-    def __enter__(self) -> Self:
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.close()

@@ -8,8 +8,7 @@ from collections import deque
 from collections.abc import Collection, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
-from types import TracebackType
-from typing import TYPE_CHECKING, Any, BinaryIO, NamedTuple, Self
+from typing import TYPE_CHECKING, Any, BinaryIO, NamedTuple
 
 from superlane_tools.recording._mcap_decode import (
     DecodeFailureError,
@@ -19,6 +18,7 @@ from superlane_tools.recording._mcap_decode import (
     msgtype_name,
 )
 from superlane_tools.recording.base import (
+    ClosingRecording,
     SkipLog,
     in_range,
     raw_header_stamp_ns,
@@ -49,7 +49,7 @@ class _ChunkRef(NamedTuple):
     channel_ids: frozenset[int] | None  # None: unknown without reading the chunk
 
 
-class McapRecording:
+class McapRecording(ClosingRecording):
     """An MCAP file opened for streaming (see :class:`~superlane_tools.recording.base.Recording`).
 
     Complete files are read through their chunk index. Files without a usable summary (cut
@@ -80,19 +80,6 @@ class McapRecording:
         except BaseException:
             self._file.close()
             raise
-
-    # -- context manager -------------------------------------------------------------------
-
-    def __enter__(self) -> Self:
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.close()
 
     def close(self) -> None:
         """Close the file."""

@@ -8,10 +8,9 @@ import re
 from collections.abc import Collection, Iterator
 from datetime import UTC, date, datetime
 from pathlib import Path
-from types import TracebackType
-from typing import NamedTuple, Self
+from typing import NamedTuple
 
-from superlane_tools.recording.base import SkipLog, in_range
+from superlane_tools.recording.base import ClosingRecording, SkipLog, in_range
 from superlane_tools.recording.errors import RecordingError
 from superlane_tools.records import Message, RawMessage, Skipped, TopicInfo
 
@@ -163,7 +162,7 @@ class _Parsed(NamedTuple):
     line: str
 
 
-class NmeaRecording:
+class NmeaRecording(ClosingRecording):
     """An NMEA 0183 log as a :class:`~superlane_tools.recording.base.Recording`.
 
     One topic, ``nmea``, of type ``sensor_msgs/msg/NavSatFix``: one message per GGA sentence
@@ -325,14 +324,3 @@ class NmeaRecording:
 
     def close(self) -> None:
         """Nothing stays open between iterations; present for the protocol."""
-
-    def __enter__(self) -> Self:
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.close()

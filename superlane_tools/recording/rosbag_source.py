@@ -6,10 +6,14 @@ import heapq
 from collections.abc import Collection, Iterator
 from contextlib import ExitStack
 from pathlib import Path
-from types import TracebackType
-from typing import TYPE_CHECKING, Any, Literal, Self
+from typing import TYPE_CHECKING, Any, Literal
 
-from superlane_tools.recording.base import SkipLog, raw_header_stamp_ns, stamp_ns_of
+from superlane_tools.recording.base import (
+    ClosingRecording,
+    SkipLog,
+    raw_header_stamp_ns,
+    stamp_ns_of,
+)
 from superlane_tools.recording.errors import RecordingError
 from superlane_tools.records import Message, RawMessage, Skipped, TopicInfo
 
@@ -36,7 +40,7 @@ def _read_ros2_metadata(folder: Path) -> dict[str, Any]:
     return info
 
 
-class RosbagRecording:
+class RosbagRecording(ClosingRecording):
     """A ROS 1 ``.bag`` file, a ROS 2 bag folder or a single ``.db3`` file, for streaming.
 
     Message types are registered from the definitions stored in the bag; types the bag does not
@@ -142,19 +146,6 @@ class RosbagRecording:
 
     def _connections(self) -> list[Connection]:
         return [conn for reader in self._readers for conn in reader.connections]
-
-    # -- context manager -------------------------------------------------------------------
-
-    def __enter__(self) -> Self:
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.close()
 
     def close(self) -> None:
         """Close every file of the bag."""

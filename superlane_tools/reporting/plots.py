@@ -15,7 +15,8 @@ from superlane_tools.reporting.atomic import atomic_path
 FloatArray = NDArray[np.float64]
 _SOURCES = (
     ("rtk", "RTK (truth)", "k"),
-    ("super", "SUPER 2*a2", "tab:blue"),
+    ("super", "SUPER 2*a2 (raw, road ahead)", "tab:blue"),
+    ("super_path", "SUPER path (at vehicle, + lateral)", "tab:green"),
     ("mobileye", "Mobileye 2*C2", "tab:orange"),
 )
 
@@ -98,6 +99,8 @@ def curvature_plots(curv: pd.DataFrame, out_dir: Path) -> list[Path]:
             continue
         fig, (ax, zoom) = plt.subplots(2, 1, figsize=(10, 6.5))
         for key, text, colour in _SOURCES:
+            if f"{key}_curvature" not in curv.columns:
+                continue
             y = curv[f"{key}_curvature"].to_numpy(dtype=float)
             if np.isfinite(y).any():
                 ax.plot(x, y, color=colour, lw=1.2, label=text)

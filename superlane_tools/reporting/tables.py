@@ -78,9 +78,12 @@ def availability_table(run_dirs: Sequence[Path], by: str = "run") -> pd.DataFram
 def _curvature_row(run: str, rec: Any) -> dict[str, object]:
     return {
         "run": run,
-        "source": {"super": "SUPER 2*a2", "mobileye": "Mobileye 2*C2"}.get(
-            str(rec.source), str(rec.source)
-        ),
+        "source": {
+            "super": "SUPER 2*a2 (raw)",
+            "super_road": "SUPER road at vehicle (aligned)",
+            "super_path": "SUPER path (aligned + lateral)",
+            "mobileye": "Mobileye 2*C2",
+        }.get(str(rec.source), str(rec.source)),
         "n": int(rec.n),
         "coverage": float(rec.coverage),
         "rmse_per_m": float(rec.rmse),

@@ -13,8 +13,11 @@ comparison. Every step is driven by the camera geometry of each image row:
    candidate when it is brighter by at least ``contrast_min`` than *both* pixels
    ``ridge_offset_factor`` expected widths to its left and to its right on the same row (paint is
    brighter than the asphalt on either side; edges of wide bright objects fail one side).
-   Horizontal runs wider than the plausible (slant-tolerant) width are dropped, then connected
-   components that are too small or not elongated. Markings must lie within the road's span.
+   Yellow pixels get their blue deficit added (``yellow_gain``), so worn yellow paint that is
+   barely brighter than the asphalt still stands out. Horizontal runs wider than the plausible
+   (slant-tolerant) width are dropped, then connected components that are neither line-like
+   (large and elongated) nor dot-like (the size of a Botts' dot or raised reflector of
+   ``dot_diameter_m`` at their row). Markings must lie within the road's span.
 3. **Colour.** Each marking component is yellow (leaf 15) when most of its pixels have a yellow
    hue and enough saturation in HSV, else white. White components whose ground length is
    shorter than ``dash_max_length_m`` are marked dashed (14), others solid (13); the final
@@ -76,6 +79,12 @@ class ClassicalParams:
         road_margin_m: Markings may lie this far (one lane, metres) beside the grown road,
             which often misses lanes paved in a different shade.
         sky_max_gradient: Largest Sobel gradient (grey levels per pixel, downscaled) in the sky.
+        dot_diameter_m: Diameter of round road dots (Botts' dots, raised reflectors: 0.10 m);
+            bright blobs of that size are markings. 0 disables dots.
+        dot_size_tolerance: A dot's bounding box may be this factor smaller or larger than
+            expected (blur, bloom and the camera's pitch error at far rows).
+        yellow_gain: Weight of the blue deficit ``(R + G) / 2 - B - 10`` added to the
+            brightness of the ridge filter (0: plain ``(R + G) / 2``).
     """
 
     marking_width_m: float = 0.15
@@ -264,7 +273,7 @@ def _elongated_components(
     if n <= 1:
         return mask
     rows, cols = np.nonzero(labels)
-    lab = labels[rows, cols]
+    lab = np.asarray(labels[rows, cols], dtype=np.int64)
     x = cols.astype(np.float64)
     y = rows.astype(np.float64)
     count = np.bincount(lab, minlength=n).astype(np.float64)

@@ -88,7 +88,7 @@ class ModelCard:
     """Everything a runtime and a reader need to know about one ONNX model.
 
     Attributes:
-        name: Model name (bundled models: the file stem, e.g. ``super_seg_v1``).
+        name: Model name (bundled models: the file stem, e.g. ``super_seg_v2``).
         task: ``segmentation`` or ``corridor``.
         input: The input spec.
         outputs: The outputs, heads in decoding order (parents before children).

@@ -1,7 +1,7 @@
 """ONNX segmentation backend: a carded ONNX model run with onnxruntime, decoded down the hierarchy.
 
 Models are named by path (``my_model.onnx`` with ``my_model.card.yaml`` beside it) or by the name
-of a bundled model in :mod:`superlane_tools.models` (e.g. ``super_seg_v1``). onnxruntime is
+of a bundled model in :mod:`superlane_tools.models` (e.g. ``super_seg_v2``). onnxruntime is
 imported only when a model is opened.
 """
 
@@ -135,7 +135,7 @@ class OnnxSegmentationBackend:
     image's resolution (decoded at the network's resolution, then resized nearest-neighbour).
 
     Args:
-        model: Model file path or bundled model name (default ``super_seg_v1``).
+        model: Model file path or bundled model name (default ``super_seg_v2``).
         threads: onnxruntime intra-op threads.
 
     Raises:

@@ -26,7 +26,8 @@ def test_decode_ground_truth_colours() -> None:
     gt = decode_ground_truth(_gt_image())
     assert gt.valid.sum() == 16
     assert gt.positive.sum() == 4
-    assert gt.positive[2, 3] and not gt.positive[0, 3]
+    assert gt.positive[2, 3]
+    assert not gt.positive[0, 3]
     assert not gt.valid[0, 0]
     with pytest.raises(EvaluationError, match="RGB"):
         decode_ground_truth(np.zeros((4, 6), dtype=np.uint8))

@@ -158,6 +158,15 @@ def test_oracle_backend_curvature(drive: Path, tmp_path: Path) -> None:
     sup = summ[(summ["scope"] == "overall") & (summ["source"] == "super")].iloc[0]
     assert sup["n"] > 20
     assert sup["rmse"] < 2.5e-3
+    assert set(summ["source"]) == {"super", "super_road", "super_path", "mobileye"}
+    curv = pd.read_parquet(tmp_path / "oracle" / "curvature.parquet")
+    path = curv["super_path_curvature"].to_numpy()
+    ok = np.isfinite(path) & curv["rtk_valid"].to_numpy()
+    assert ok.sum() > 5
+    # Like-for-like with RTK: the aligned estimate is no worse than the raw 2*a2.
+    rtk = curv["rtk_curvature"].to_numpy()
+    raw = curv["super_curvature"].to_numpy()
+    assert np.sqrt(np.mean((path[ok] - rtk[ok]) ** 2)) < np.sqrt(np.mean((raw[ok] - rtk[ok]) ** 2))
 
 
 def test_without_can_and_rtk_degrades_with_statements(drive: Path, tmp_path: Path) -> None:

@@ -13,6 +13,7 @@ from superlane_tools.can import LoadedDbc
 from superlane_tools.corridor import AvailabilityParams, Segment
 from superlane_tools.pipeline.reprocess import outputs as tables
 from superlane_tools.pipeline.reprocess.config import ReprocessConfig
+from superlane_tools.pipeline.reprocess.curvature_align import align_super_curvature
 from superlane_tools.pipeline.reprocess.signals import (
     CanFrames,
     at_frames,
@@ -91,7 +92,22 @@ def finalize(
             "mobileye_curvature": me_curv,
         }
     )
+    aligned = align_super_curvature(
+        rtk.frame_s_m,
+        scalars["super_curv"].astype(np.float64),
+        scalars["super_ahead"].astype(np.float64),
+        scalars["super_centre"].astype(np.float64),
+        scalars["super_lane_width"].astype(np.float64),
+        window_m=config.rtk.window_m,
+        ds_m=config.rtk.ds_m,
+    )
+    curv["super_lookahead_m"] = scalars["super_ahead"].astype(np.float64)
+    curv["super_lateral_m"] = aligned.lateral_m
+    curv["super_road_curvature"] = aligned.road_per_m
+    curv["super_lateral_curvature"] = aligned.lateral_per_m
+    curv["super_path_curvature"] = aligned.path_per_m
     curv["super_error"] = curv["super_curvature"] - curv["rtk_curvature"]
+    curv["super_path_error"] = curv["super_path_curvature"] - curv["rtk_curvature"]
     curv["mobileye_error"] = curv["mobileye_curvature"] - curv["rtk_curvature"]
     written.append(write_table(curv, out / "curvature.parquet", provenance))
     summary = tables.curvature_summary(curv, segments)
@@ -152,10 +168,19 @@ def _sections(
     curvature = Section(
         "Curvature against RTK (1/m, left positive)",
         [
-            "SUPER curvature is 2*a2 of the fit; Mobileye curvature is 2*C2 with its sign "
-            "flipped into the left-positive lane model convention. Truth: RTK path curvature "
-            f"(Savitzky-Golay over {config.rtk.window_m} m of arc length, degraded fixes "
-            "excluded).",
+            "Truth: RTK path curvature at the vehicle (Savitzky-Golay over "
+            f"{config.rtk.window_m} m of arc length, degraded fixes excluded). "
+            "`super` is the fit's raw 2*a2 at the frame time: the curvature of a quadratic over "
+            "the lines' supported range ahead, so it describes the road about half that range "
+            "ahead and leaves out the vehicle's own lateral manoeuvres. `super_path` is the "
+            "like-for-like estimate of the path curvature: 2*a2 placed at the middle of the "
+            "ego lines' supported range ahead and read back at the vehicle's arc length, "
+            "smoothed with the truth's filter, plus the second derivative along the path of "
+            "the vehicle's lateral position in its lane (from the same fit's ego offsets, "
+            "unwrapped at lane changes). Mobileye curvature is 2*C2 (defined at the vehicle) "
+            "with its sign flipped into the left-positive lane model convention. `super_road` "
+            "is `super_path` without the lateral term (robust to lane-fit offset errors, but "
+            "blind to the vehicle's manoeuvres).",
             f"- frames with RTK truth: {int(curv['rtk_curvature'].notna().sum())} of {n_frames}",
         ],
         [overall],

@@ -12,6 +12,10 @@ from typing import Any
 from superlane_tools.errors import ConfigError
 
 BACKENDS = ("auto", "classical", "onnx", "oracle")
+DEFAULT_FIT: Mapping[str, Any] = {"max_range_m": 60.0}
+"""Reprocess's overrides of the lane fit's defaults: points up to 60 m ahead only, the range of
+the lane-model ground truth (5-60 m). Farther points add vertical-curvature error on hills and
+move the curvature the quadratic describes farther ahead (see docs/reprocess.md)."""
 
 
 @dataclass(frozen=True)
@@ -167,7 +171,8 @@ class ReprocessConfig:
         rtk: RTK ground truth.
         kpi: Availability thresholds and sequences.
         output: Optional outputs.
-        fit: Overrides of :class:`superlane_tools.lanes.FitParams` fields.
+        fit: Overrides of :class:`superlane_tools.lanes.FitParams` fields (default
+            :data:`DEFAULT_FIT`; a ``[fit]`` table is merged over it).
         workers: Threads for decoding and per-frame image stages.
     """
 
@@ -179,7 +184,7 @@ class ReprocessConfig:
     rtk: RtkConfig = field(default_factory=RtkConfig)
     kpi: KpiConfig = field(default_factory=KpiConfig)
     output: OutputConfig = field(default_factory=OutputConfig)
-    fit: Mapping[str, Any] = field(default_factory=dict)
+    fit: Mapping[str, Any] = field(default_factory=lambda: dict(DEFAULT_FIT))
     workers: int = 2
 
     def __post_init__(self) -> None:
@@ -286,7 +291,7 @@ def config_from_mapping(data: Mapping[str, Any]) -> ReprocessConfig:
         elif key == "fit":
             if not isinstance(value, Mapping):
                 raise ConfigError("[fit] must be a mapping of FitParams fields")
-            kwargs[key] = dict(value)
+            kwargs[key] = {**DEFAULT_FIT, **value}
         elif key == "camera":
             if not isinstance(value, str):
                 raise ConfigError("camera must be 'auto', a profile name or a YAML path")

@@ -14,9 +14,10 @@ comparable, in three documented steps, all on the RTK arc length ``s`` (metres):
 2. **Same low-pass as the truth.** Both the road curvature and the vehicle's lateral position in
    its lane are resampled every ``ds_m`` and smoothed with the Savitzky-Golay filter the RTK
    truth uses (order 3, ``window_m``).
-3. **Lateral manoeuvres.** The vehicle's lateral position in the lane ``l(s)`` (minus the ego
-   lane centre offset, unwrapped by a lane width at ego-lane changes) is measured by the same
-   fit; for small angles the path curvature is ``kappa_road(s) + l''(s)``.
+3. **Lateral manoeuvres.** The vehicle's lateral position on the lane grid ``l(s)`` (minus the
+   lane-centre offset, which the pipeline takes as the circular mean of all fitted line offsets
+   with period one lane width, unwrapped at lane changes) is measured by the same fit; for
+   small angles the path curvature is ``kappa_road(s) + l''(s)``.
 
 Nothing here reads files: arrays in, arrays out.
 """
@@ -101,7 +102,7 @@ def _smooth_on_s(
     order = np.argsort(s_ok, kind="stable")
     s_ok, v_ok = s_ok[order], v_ok[order]
     grid = np.arange(s_ok[0], s_ok[-1] + 0.5 * ds_m, ds_m)
-    window = int(round(window_m / ds_m)) | 1
+    window = round(window_m / ds_m) | 1
     if grid.size < window or window <= 3:
         return out
     resampled = np.interp(grid, s_ok, v_ok)

@@ -190,6 +190,10 @@ def availability_tables(
     return frames, seqs, results
 
 
+CURVATURE_SOURCES = ("super", "super_road", "super_path", "mobileye")
+"""Curvature estimates compared with RTK (``<source>_curvature`` columns of curvature.parquet)."""
+
+
 def curvature_summary(curv: pd.DataFrame, segments: Sequence[Segment]) -> pd.DataFrame:
     """Errors of SUPER and Mobileye curvature against RTK, overall and per sequence."""
     rows = []
@@ -198,7 +202,7 @@ def curvature_summary(curv: pd.DataFrame, segments: Sequence[Segment]) -> pd.Dat
     ]
     truth = curv["rtk_curvature"].to_numpy(dtype=np.float64)
     for scope, start, stop, category in spans:
-        for source in ("super", "mobileye"):
+        for source in CURVATURE_SOURCES:
             est = curv[f"{source}_curvature"].to_numpy(dtype=np.float64)
             err = curvature_errors(est[start:stop], truth[start:stop])
             rows.append(

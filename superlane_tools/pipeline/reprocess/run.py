@@ -26,6 +26,7 @@ import pyarrow as pa
 
 from superlane_tools.can import LoadedDbc, load_dbc
 from superlane_tools.corridor import AvailabilityParams, Segment, windows
+from superlane_tools.lanes import LaneFit
 from superlane_tools.pipeline._gnss_sink import GnssSink
 from superlane_tools.pipeline.errors import PipelineError
 from superlane_tools.pipeline.reprocess import outputs as tables
@@ -110,6 +111,9 @@ class _Streamer:
                 "hough_w",
                 "hough_l",
                 "super_curv",
+                "super_centre",
+                "super_lane_width",
+                "super_ahead",
                 "ok",
             )
         }
@@ -129,6 +133,10 @@ class _Streamer:
         s["hough_w"].append(h.width_m if h is not None and h.ok else math.nan)
         s["hough_l"].append(h.range_m if h is not None and h.ok else math.nan)
         s["super_curv"].append(done.fit.curvature if done.fit.ok else math.nan)
+        centre, width, ahead = _ego_geometry(done.fit)
+        s["super_centre"].append(centre)
+        s["super_lane_width"].append(width)
+        s["super_ahead"].append(ahead)
         s["ok"].append(float(not prep.error))
 
     def flush(self) -> None:
@@ -136,6 +144,28 @@ class _Streamer:
             if rows:
                 self.writers[name].write(pa.Table.from_pylist(rows, self.writers[name].schema))
                 rows.clear()
+
+
+def _ego_geometry(fit: LaneFit) -> tuple[float, float, float]:
+    """Return the lane-grid centre offset and lane width (m) and the middle of the support (m).
+
+    The centre offset is the circular mean, with period one lane width, of every fitted line's
+    offset shifted by half a width (nearer lines weigh more): it needs no choice of ego pair,
+    so it stays continuous while the vehicle straddles a line during a lane change.
+    """
+    if not fit.ok or fit.ego_left < 0 or fit.ego_right < 0:
+        return math.nan, math.nan, math.nan
+    left, right = fit.lanes[fit.ego_left], fit.lanes[fit.ego_right]
+    width = left.offset_m - right.offset_m
+    near = max(left.range_min_m, right.range_min_m)
+    far = min(left.range_max_m, right.range_max_m)
+    ahead = 0.5 * (near + far) if far > near else math.nan
+    if width <= 1.0:
+        return math.nan, math.nan, ahead
+    offsets = np.array([lane.offset_m for lane in fit.lanes]) - 0.5 * width
+    weights = np.exp(-np.abs(offsets) / width)
+    phase = np.angle(np.sum(weights * np.exp(2j * np.pi * offsets / width)))
+    return float(width * phase / (2 * np.pi)), width, ahead
 
 
 def _load_dbcs(config: ReprocessConfig) -> tuple[dict[str, LoadedDbc], list[Path]]:
