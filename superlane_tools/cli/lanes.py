@@ -41,6 +41,13 @@ def fit_cmd(
     no_slope: Annotated[
         bool, typer.Option("--no-slope", help="Fit a flat road (no slope compensation).")
     ] = False,
+    images: Annotated[
+        Path | None,
+        typer.Option(
+            help="Folder of the camera images (same relative paths as the masks): lane colour "
+            "is read from the image when the masks have no level-4 marking classes."
+        ),
+    ] = None,
 ) -> None:
     """Fit lanes, heading, curvature and road slope to every mask under SEG_DIR."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeRemainingColumn
@@ -75,6 +82,7 @@ def fit_cmd(
                 sequential=sequential,
                 command=command_line(),
                 progress=on_progress,
+                images_dir=images,
             )
         err_console.print(
             f"fitted {result.n_fitted} of {result.n_frames} frames -> {result.out}", markup=False

@@ -1,4 +1,4 @@
-"""Per-lane marking attributes: colour and style from level-4 classes, else from pixel support."""
+"""Per-lane marking attributes: from level-4 classes, else from the image and pixel support."""
 
 from __future__ import annotations
 
@@ -27,6 +27,8 @@ MARKING_CODES: tuple[tuple[str, Marking], ...] = (
     ("dividing_yellow_dashed", Marking("yellow", "dashed")),
     ("double_yellow", Marking("yellow", "double")),
     ("double_white", Marking("white", "double")),
+    ("white_marking", Marking("white", "unknown")),
+    ("yellow_marking", Marking("yellow", "unknown")),
 )
 """Level-4 marking classes in code order: a point's attribute code indexes this table."""
 
@@ -58,8 +60,36 @@ def marking_from_codes(codes: IntArray) -> Marking:
         if count:
             mark = MARKING_CODES[code][1]
             colours[mark.colour] = colours.get(mark.colour, 0) + int(count)
-            styles[mark.style] = styles.get(mark.style, 0) + int(count)
-    return Marking(max(colours, key=lambda k: colours[k]), max(styles, key=lambda k: styles[k]))
+            if mark.style != "unknown":  # colour-only codes (from the image) do not vote on style
+                styles[mark.style] = styles.get(mark.style, 0) + int(count)
+    style = max(styles, key=lambda k: styles[k]) if styles else "unknown"
+    return Marking(max(colours, key=lambda k: colours[k]), style)
+
+
+YELLOW_MIN_CHROMA = 0.22
+"""``(min(R, G) - B) / max(R, G, B)`` above this is yellow paint; below, white (grey) paint."""
+
+
+def colour_codes_from_image(image_bgr: NDArray[np.uint8], lane_uv: NDArray[np.float64]) -> IntArray:
+    """Return colour-only marking codes of lane pixels from the camera image's colour there.
+
+    Used when the segmentation gives no level-4 classes: each lane pixel is looked up in the
+    image (nearest pixel, same size as the mask) and classified as yellow paint when its blue
+    channel falls well below red and green (:data:`YELLOW_MIN_CHROMA`), else white.
+
+    Args:
+        image_bgr: ``(H, W, 3)`` camera image, BGR.
+        lane_uv: ``(N, 2)`` lane pixel coordinates ``(u, v)`` in that image, pixels.
+    """
+    img = np.asarray(image_bgr)
+    uv = np.asarray(lane_uv, dtype=np.float64).reshape(-1, 2)
+    cols = np.clip(np.round(uv[:, 0]).astype(np.intp), 0, img.shape[1] - 1)
+    rows = np.clip(np.round(uv[:, 1]).astype(np.intp), 0, img.shape[0] - 1)
+    bgr = img[rows, cols].astype(np.float64)
+    b, g, r = bgr[:, 0], bgr[:, 1], bgr[:, 2]
+    chroma = (np.minimum(r, g) - b) / np.maximum(np.maximum(r, g), 1.0)
+    yellow = chroma > YELLOW_MIN_CHROMA
+    return np.where(yellow, CODE_OF["yellow_marking"], CODE_OF["white_marking"]).astype(np.intp)
 
 
 def style_from_support(rows_px: NDArray[np.float64]) -> str:

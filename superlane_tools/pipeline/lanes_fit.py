@@ -24,6 +24,7 @@ from numpy.typing import NDArray
 from superlane_tools.camera.model import CameraModel
 from superlane_tools.errors import ConfigError
 from superlane_tools.lanes import CODE_OF, FitParams, Lane, LaneFit, fit_frame, lanes_at_rows
+from superlane_tools.lanes.attributes import colour_codes_from_image
 from superlane_tools.pipeline.errors import PipelineError
 from superlane_tools.records import Skipped
 from superlane_tools.reporting import (
@@ -248,6 +249,26 @@ class LanesFitResult:
     skipped: tuple[Skipped, ...]
 
 
+IMAGE_EXTS = (".jpg", ".jpeg", ".png")
+"""Camera image extensions looked up beside a mask's relative path with ``images_dir``."""
+
+
+def _read_image(images_dir: Path, rel: Path, size: tuple[int, int]) -> NDArray[np.uint8] | str:
+    """Return the camera image for mask ``rel`` resized to the mask's ``size``, or why not."""
+    import cv2  # late: heavy import
+
+    for ext in IMAGE_EXTS:
+        candidate = images_dir / rel.with_suffix(ext)
+        if candidate.is_file():
+            image = cv2.imread(str(candidate), cv2.IMREAD_COLOR)
+            if image is None:
+                return f"unreadable image {candidate.name}"
+            if (image.shape[1], image.shape[0]) != size:
+                image = cv2.resize(image, size, interpolation=cv2.INTER_AREA)
+            return np.asarray(image, dtype=np.uint8)
+    return f"no camera image for it under {images_dir}"
+
+
 def fit_masks(
     seg_dir: str | os.PathLike[str],
     camera: CameraModel,
@@ -257,6 +278,7 @@ def fit_masks(
     sequential: bool = False,
     command: str = "",
     progress: Progress | None = None,
+    images_dir: str | os.PathLike[str] | None = None,
 ) -> LanesFitResult:
     """Fit every class-id PNG under ``seg_dir`` and write ``lanes.parquet``.
 
@@ -269,6 +291,9 @@ def fit_masks(
         sequential: Warm-start each frame from the previous frame's fit.
         command: Command line recorded in the provenance.
         progress: Called with ``(done, total)`` after each mask.
+        images_dir: Folder of the camera images (same relative paths as the masks, any of the
+            extensions in :data:`IMAGE_EXTS`): lane colour is read from the image along each
+            line when the masks carry no level-4 marking classes.
 
     Raises:
         PipelineError: If there is no PNG, or no mask could be read.
@@ -298,6 +323,12 @@ def fit_masks(
                 )
                 cameras[(width, height)] = cam
             pts = mask_points(mask, classes, p.seed)
+            if images_dir is not None and not np.any(pts.codes > 0):
+                image = _read_image(Path(images_dir), path.relative_to(root), (width, height))
+                if isinstance(image, str):
+                    skipped.append(Skipped("image", f"{name}: {image}", 1))
+                else:
+                    pts = pts._replace(codes=colour_codes_from_image(image, pts.lane_uv))
             init = previous if sequential and previous is not None and previous.ok else None
             fit = fit_frame(pts.lane_uv, pts.road_uv, cam, p, init=init, attributes=pts.codes)
             previous = fit
