@@ -35,7 +35,8 @@ SCENARIOS = (
     "hills",
 )
 CURVATURE = ("highway_curves", "hills")
-CONFIG = Path(__file__).resolve().parent / "reprocess_challenge.toml"
+_TOML = Path(__file__).resolve().parent / "reprocess_challenge.toml"
+CONFIG = Path(os.path.relpath(_TOML)) if _TOML.is_relative_to(Path.cwd()) else _TOML
 
 
 def _plan(args: argparse.Namespace) -> list[tuple[list[str], bool]]:

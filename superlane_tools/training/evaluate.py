@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from superlane_tools.hierarchy import leaf_ids_under, level_lut
+from superlane_tools.scene.backend import SegmentationBackend
 from superlane_tools.scene.model_card import ModelCard, card_path_for, load_card, write_card
 from superlane_tools.training.errors import TrainingError
 
@@ -133,12 +134,22 @@ def tusimple_marking_hit_rate(
     pixel, and the fraction of predicted marking pixels within ``tol_px`` of a labelled lane
     polyline (a precision proxy).
     """
-    import cv2
-
     from superlane_tools.scene.onnx_backend import OnnxSegmentationBackend
 
+    return backend_marking_hit_rate(OnnxSegmentationBackend(model), frames_dir, tol_px)
+
+
+def backend_marking_hit_rate(
+    backend: SegmentationBackend, frames_dir: str | os.PathLike[str], tol_px: float = 3.0
+) -> dict[str, float]:
+    """Score any segmentation backend's lane markings against TuSimple labels.
+
+    The same measure as :func:`tusimple_marking_hit_rate`, for a backend object (e.g. the
+    classical extractor, the point of comparison of the learned model).
+    """
+    import cv2
+
     root = Path(frames_dir)
-    backend = OnnxSegmentationBackend(model)
     marking_ids = list(leaf_ids_under("lane_marking"))
     hits = total = near = predicted = 0
     frames = 0

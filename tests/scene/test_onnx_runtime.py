@@ -14,7 +14,12 @@ from superlane_tools.scene import SegmentationBackend
 from superlane_tools.scene.corridor_runtime import CorridorSmoother, OnnxCorridorModel
 from superlane_tools.scene.model_card import card_path_for, load_card
 from superlane_tools.scene.model_errors import ModelError
-from superlane_tools.scene.onnx_backend import OnnxSegmentationBackend, resolve_model
+from superlane_tools.scene.onnx_backend import (
+    DEFAULT_CORRIDOR_MODEL,
+    DEFAULT_SEGMENTATION_MODEL,
+    OnnxSegmentationBackend,
+    resolve_model,
+)
 from superlane_tools.training.toy_dataset import toy_frame, write_toy_dataset
 from superlane_tools.training.train import TrainParams, train
 
@@ -110,12 +115,13 @@ def test_card_rejects_heads_off_the_hierarchy(models: dict[str, Path], tmp_path:
 
 
 def test_shipped_models_match_their_cards() -> None:
-    backend = OnnxSegmentationBackend()  # super_seg_v1, verified against its card
-    assert backend.card.name == "super_seg_v1"
+    backend = OnnxSegmentationBackend()  # the default model, verified against its card
+    assert backend.card.name == DEFAULT_SEGMENTATION_MODEL == "super_seg_v2"
     assert backend.card.input.shape == (1, 3, 288, 512)
     image, _, _ = toy_frame(np.random.default_rng(5), 320, 180)
     assert backend.segment(image).shape == (180, 320)
-    runtime = OnnxCorridorModel()  # ego_corridor_v1
+    runtime = OnnxCorridorModel()  # the default corridor model
+    assert runtime.card.name == DEFAULT_CORRIDOR_MODEL == "ego_corridor_v2"
     assert runtime.card.input.shape == (1, 1, 360, 652)
     assert runtime.card.parameters < 1_000_000
     assert runtime.probability(image).shape == (180, 320)
