@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import NamedTuple
 
 import numpy as np
@@ -90,20 +91,15 @@ def corridor_from_mask(
         else camera.resized(width, height)
     )
     mask = prob > p.threshold if prob.dtype != np.bool_ else prob
-    rows, cols = np.nonzero(mask)
-    if rows.size == 0:
+    ground_x, ground_y, valid = _ground_grid(cam)
+    mask = mask & valid
+    count = np.count_nonzero(mask, axis=1)
+    if not count.any():
         return NO_CORRIDOR
-    xy, valid = cam.ground_points(np.stack([cols, rows], axis=1).astype(np.float64))
-    rows, xy = rows[valid], xy[valid]
-    if rows.size == 0:
-        return NO_CORRIDOR
-    count = np.bincount(rows, minlength=height)
     safe = np.maximum(count, 1)
-    x_row = np.bincount(rows, xy[:, 0], height) / safe
-    y_min = np.full(height, np.inf)
-    y_max = np.full(height, -np.inf)
-    np.minimum.at(y_min, rows, xy[:, 1])
-    np.maximum.at(y_max, rows, xy[:, 1])
+    x_row = np.where(mask, ground_x, 0.0).sum(axis=1) / safe
+    y_min = np.where(mask, ground_y, np.inf).min(axis=1)
+    y_max = np.where(mask, ground_y, -np.inf).max(axis=1)
     support = count >= p.min_row_px
     if not support.any():
         return NO_CORRIDOR
@@ -112,6 +108,28 @@ def corridor_from_mask(
     in_window = support & (x_row >= p.width_near_m) & (x_row <= p.width_far_m)
     corridor_width = float(np.median((y_max - y_min)[in_window])) if in_window.any() else math.nan
     return CorridorGeometry(corridor_width, length, int(support.sum()))
+
+
+@lru_cache(maxsize=8)
+def _ground_grid(camera: CameraModel) -> tuple[FloatArray, FloatArray, NDArray[np.bool_]]:
+    """Return the flat-ground ``x`` and ``y`` (metres) of every pixel and where they are valid.
+
+    Computed once per camera (and image size) and reused for every frame: the per-pixel inverse
+    perspective mapping dominated the cost of measuring a mask. Invalid pixels (at or above the
+    horizon) hold 0.
+    """
+    height, width = camera.height, camera.width
+    rows, cols = np.mgrid[0:height, 0:width]
+    uv = np.stack([cols.ravel(), rows.ravel()], axis=1).astype(np.float64)
+    xy, valid = camera.ground_points(uv)
+    xy = np.where(valid[:, None], xy, 0.0)
+    ground_x = np.ascontiguousarray(xy[:, 0].reshape(height, width))
+    ground_y = np.ascontiguousarray(xy[:, 1].reshape(height, width))
+    for array in (ground_x, ground_y):
+        array.flags.writeable = False
+    ok = np.asarray(valid, dtype=bool).reshape(height, width)
+    ok.flags.writeable = False
+    return ground_x, ground_y, ok
 
 
 def corridor_from_lanes(

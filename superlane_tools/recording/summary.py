@@ -8,10 +8,13 @@ from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
+import numpy as np
+
 from superlane_tools.recording.base import Recording, SupportsStampPeek
 from superlane_tools.records import Skipped
 
 _NS = 1e9
+_RATE_WINDOW_NS = 10_000_000_000
 PROGRESS_EVERY = 2000
 """Messages between two progress callbacks."""
 
@@ -25,8 +28,10 @@ class TopicSummary:
         msgtype: Message type, ROS 2 form for ROS types.
         encoding: Message encoding (``cdr``, ``ros1``, ``protobuf``, ``json``, ...).
         count: Messages read.
-        median_rate_hz: 1 / median interval between consecutive log times, Hz (None if < 2
-            messages or all at one time).
+        median_rate_hz: Median message rate over the topic's whole 10 s windows, Hz (robust to
+            bursts such as CAN frames logged together, and to dropouts); ``(count - 1) /
+            duration`` for topics shorter than 20 s; None with fewer than 2 messages or all at
+            one time.
         largest_gap_s: Largest interval between consecutive log times, seconds.
         first_ns: First log time, ns since the epoch (None without messages).
         last_ns: Last log time, ns since the epoch.
@@ -100,14 +105,24 @@ class _TopicStats:
         if stamp_ns is not None:
             self.offsets.append(stamp_ns - log_time_ns)
 
+    def median_rate_hz(self) -> float | None:
+        """Return the median per-second message count (see :class:`TopicSummary`)."""
+        if self.first is None or self.last is None or self.last == self.first:
+            return None
+        duration_ns = self.last - self.first
+        if duration_ns < 2 * _RATE_WINDOW_NS:
+            return (self.count - 1) * _NS / duration_ns
+        offsets = np.concatenate([[0], np.cumsum(np.frombuffer(self.intervals, dtype=np.int64))])
+        per_window = np.bincount(offsets // _RATE_WINDOW_NS)[:-1]  # the last window is partial
+        return float(np.median(per_window)) * _NS / _RATE_WINDOW_NS
+
     def result(self, topic: str, msgtype: str, encoding: str) -> TopicSummary:
-        median_interval = statistics.median(self.intervals) if self.intervals else None
         return TopicSummary(
             topic=topic,
             msgtype=msgtype,
             encoding=encoding,
             count=self.count,
-            median_rate_hz=_NS / median_interval if median_interval else None,
+            median_rate_hz=self.median_rate_hz(),
             largest_gap_s=max(self.intervals) / _NS if self.intervals else None,
             first_ns=self.first,
             last_ns=self.last,

@@ -30,7 +30,7 @@ from superlane_tools.errors import SltError, UsageError
 from superlane_tools.hierarchy import LEAF_IDS
 from superlane_tools.lanes import CODE_OF, FitParams, LaneFit, fit_frame
 from superlane_tools.pipeline.reprocess.config import ReprocessConfig
-from superlane_tools.pipeline.reprocess.inputs import decode_frame
+from superlane_tools.pipeline.reprocess.inputs import decode_frame, decode_reduced
 from superlane_tools.records import Message
 
 FloatArray = NDArray[np.float64]
@@ -264,16 +264,20 @@ class FrameStages:
         out = Prepared(index, msg.log_time_ns, msg.stamp_ns)
         secs = out.seconds
         t0 = time.perf_counter()
-        try:
-            image = decode_frame(msg)
-        except ValueError as err:
-            out.error = str(err)
-            secs["decode"] = time.perf_counter() - t0
-            return out
-        height, width = image.shape[:2]
+        reduced = decode_reduced(msg, self.config.segmentation.process_width)
+        if reduced is not None:
+            image, (width, height) = reduced
+        else:
+            try:
+                image = decode_frame(msg)
+            except ValueError as err:
+                out.error = str(err)
+                secs["decode"] = time.perf_counter() - t0
+                return out
+            height, width = image.shape[:2]
         out.source_size = (width, height)
         pw, ph = self.process_size(width, height)
-        if (pw, ph) != (width, height):
+        if (pw, ph) != image.shape[1::-1]:
             image = np.asarray(cv2.resize(image, (pw, ph), interpolation=cv2.INTER_AREA))
         out.image = image
         cam = self.camera_for(pw, ph)
