@@ -27,7 +27,12 @@ def _size(text: str | None) -> tuple[int, int] | None:
 def train(
     task: Annotated[str, typer.Argument(metavar="TASK", help="segmentation or corridor.")],
     data: Annotated[
-        Path, typer.Option("--data", help="Dataset folder from `slt simulate dataset`.")
+        list[Path],
+        typer.Option(
+            "--data",
+            metavar="DIR",
+            help="Dataset folder from `slt simulate dataset`; repeat to concatenate several.",
+        ),
     ],
     out: Annotated[Path, typer.Option("--out", help="Output MODEL.onnx (card written beside).")],
     epochs: Annotated[int, typer.Option("--epochs", min=1, help="Passes over the data.")] = 10,
@@ -66,7 +71,8 @@ def train(
 
         params = TrainParams(
             task=task,
-            data_dir=data,
+            data_dir=data[0],
+            extra_data=tuple(data[1:]),
             out=out,
             epochs=epochs,
             batch=batch,

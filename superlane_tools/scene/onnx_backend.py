@@ -28,8 +28,8 @@ from superlane_tools.scene.model_card import (
 )
 from superlane_tools.scene.model_errors import ModelError
 
-DEFAULT_SEGMENTATION_MODEL = "super_seg_v1"
-DEFAULT_CORRIDOR_MODEL = "ego_corridor_v1"
+DEFAULT_SEGMENTATION_MODEL = "super_seg_v2"
+DEFAULT_CORRIDOR_MODEL = "ego_corridor_v2"
 
 
 class LoadedModel(NamedTuple):

@@ -12,6 +12,7 @@ import pytest
 from superlane_tools.pipeline.reprocess import ReprocessConfig, reprocess
 from superlane_tools.recording import open_recording
 from superlane_tools.reporting import read_provenance
+from superlane_tools.scene.onnx_backend import DEFAULT_SEGMENTATION_MODEL
 from superlane_tools.simulation.drive import simulate_drive
 
 PARQUETS = (
@@ -85,7 +86,7 @@ def test_every_output_exists_with_provenance(run_dir: Path) -> None:
         assert prov["inputs"][0]["name"] == "curves.mcap"
         assert prov["config"]["resolved"]["segmentation_backend"] in (
             "classical",
-            "onnx:super_seg_v1",
+            f"onnx:{DEFAULT_SEGMENTATION_MODEL}",
         )
     for name in ("report.md", "report.html", "annotations.mcap", "overlay.mp4"):
         assert (run_dir / name).stat().st_size > 0

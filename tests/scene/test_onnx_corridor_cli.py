@@ -34,11 +34,14 @@ def _app(module: object) -> typer.Typer:
 def corridor_model(tmp_path_factory: pytest.TempPathFactory) -> Path:
     root = tmp_path_factory.mktemp("cli")
     data = write_toy_dataset(root / "data", frames=2, width=96, height=48)
+    more = write_toy_dataset(root / "more", frames=2, width=96, height=48, seed=5)
     out = root / "cor.onnx"
-    args = ["train", "corridor", "--data", str(data), "--out", str(out), "--epochs", "1"]
-    result = runner.invoke(_app(train_cli), [*args, "--size", "64x32", "--batch", "2"])
+    args = ["train", "corridor", "--data", str(data), "--data", str(more), "--out", str(out)]
+    result = runner.invoke(_app(train_cli), [*args, "--epochs", "1", "--size", "64x32"])
     assert result.exit_code == 0, result.output
-    assert (root / "cor.card.yaml").is_file()
+    card = (root / "cor.card.yaml").read_text()
+    assert str(data) in card
+    assert str(more) in card  # repeated --data folders are concatenated
     return out
 
 

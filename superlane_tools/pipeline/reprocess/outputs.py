@@ -48,6 +48,7 @@ FRAMES_SCHEMA = pa.schema(
         ("ok", pa.bool_()),
         ("error", pa.string()),
         *[(f"{s}_ms", pa.float64()) for s in STAGES],
+        *[(f"{s}_cpu_ms", pa.float64()) for s in STAGES],
     ]
 )
 LANES_SCHEMA = pa.schema(
@@ -94,6 +95,7 @@ def frame_rows(done: Finished, corridor_status: str, mean_frames: int) -> dict[s
         "ok": not prep.error,
         "error": prep.error,
         **{f"{s}_ms": prep.seconds.get(s, 0.0) * 1e3 for s in STAGES},
+        **{f"{s}_cpu_ms": prep.cpu_seconds.get(s, 0.0) * 1e3 for s in STAGES},
     }
     lanes = {
         "frame_index": prep.index,

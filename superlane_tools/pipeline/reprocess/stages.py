@@ -111,6 +111,7 @@ class Prepared:
         corridor_prob: Corridor probability at the network's input size, or None.
         hough: The Hough baseline's result, or None.
         seconds: Wall time per stage, seconds.
+        cpu_seconds: CPU time of the running thread per stage, seconds.
     """
 
     index: int
@@ -126,6 +127,26 @@ class Prepared:
     corridor_prob: NDArray[np.float32] | None = None
     hough: HoughResult | None = None
     seconds: dict[str, float] = field(default_factory=dict)
+    cpu_seconds: dict[str, float] = field(default_factory=dict)
+
+    def clock(self) -> _StageClock:
+        """Return a clock that records stage times into this frame."""
+        return _StageClock(self.seconds, self.cpu_seconds)
+
+
+class _StageClock:
+    """Records wall and thread CPU time of consecutive stages (thread CPU excludes other jobs)."""
+
+    def __init__(self, wall: dict[str, float], cpu: dict[str, float]) -> None:
+        self._wall, self._cpu = wall, cpu
+        self._t, self._c = time.perf_counter(), time.thread_time()
+
+    def lap(self, stage: str) -> None:
+        """Charge the time since the previous lap (or creation) to ``stage``."""
+        t, c = time.perf_counter(), time.thread_time()
+        self._wall[stage] = self._wall.get(stage, 0.0) + t - self._t
+        self._cpu[stage] = self._cpu.get(stage, 0.0) + c - self._c
+        self._t, self._c = t, c
 
 
 @dataclass
@@ -262,8 +283,7 @@ class FrameStages:
         import cv2
 
         out = Prepared(index, msg.log_time_ns, msg.stamp_ns)
-        secs = out.seconds
-        t0 = time.perf_counter()
+        clock = out.clock()
         reduced = decode_reduced(msg, self.config.segmentation.process_width)
         if reduced is not None:
             image, (width, height) = reduced
@@ -272,7 +292,7 @@ class FrameStages:
                 image = decode_frame(msg)
             except ValueError as err:
                 out.error = str(err)
-                secs["decode"] = time.perf_counter() - t0
+                clock.lap("decode")
                 return out
             height, width = image.shape[:2]
         out.source_size = (width, height)
@@ -281,11 +301,9 @@ class FrameStages:
             image = np.asarray(cv2.resize(image, (pw, ph), interpolation=cv2.INTER_AREA))
         out.image = image
         cam = self.camera_for(pw, ph)
-        t1 = time.perf_counter()
-        secs["decode"] = t1 - t0
+        clock.lap("decode")
         out.labels = self._segment(index, image)
-        t2 = time.perf_counter()
-        secs["segmentation"] = t2 - t1
+        clock.lap("segmentation")
         seed = self.fit_params.seed
         out.lane_uv, out.codes = lane_points(out.labels, seed)
         p = self.fit_params
@@ -294,14 +312,12 @@ class FrameStages:
             or (p.road_term == "auto" and out.lane_uv.shape[0] < p.road_term_below)
         ):
             out.road_uv = road_points(out.labels, seed)
-        t3 = time.perf_counter()
-        secs["points"] = t3 - t2
+        clock.lap("points")
         if self._corridor is not None:
             out.corridor_prob = self._corridor.probability_at_input(image)
-        t4 = time.perf_counter()
-        secs["corridor_net"] = t4 - t3
+        clock.lap("corridor_net")
         out.hough = detect_ego_lane(image, cam)
-        secs["hough"] = time.perf_counter() - t4
+        clock.lap("hough")
         return out
 
     def _segment(self, index: int, image: NDArray[np.uint8]) -> NDArray[np.uint8]:
@@ -329,7 +345,7 @@ class FrameStages:
             return Finished(prep, LaneFit(reason="frame not decoded"), nan, nan, None, self.camera)
         height, width = prep.image.shape[:2]
         cam = self.camera_for(width, height)
-        t0 = time.perf_counter()
+        clock = prep.clock()
         prev = self._previous
         init = prev if prev is not None and prev.ok else None
         fit = fit_frame(
@@ -346,12 +362,11 @@ class FrameStages:
         super_corr = corridor_from_lanes(
             left.offset_m if left else None, right.offset_m if right else None, reach
         )
-        t1 = time.perf_counter()
-        prep.seconds["lane_fit"] = t1 - t0
+        clock.lap("lane_fit")
         mask = None
         net = CorridorGeometry(math.nan, math.nan, 0)
         if self._smoother is not None and prep.corridor_prob is not None:
             mask = self._smoother.update(prep.corridor_prob)
             net = corridor_from_mask(mask, cam, self._corridor_params)
-        prep.seconds["corridor_geometry"] = time.perf_counter() - t1
+        clock.lap("corridor_geometry")
         return Finished(prep, fit, super_corr, net, mask, cam)
