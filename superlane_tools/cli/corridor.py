@@ -22,7 +22,11 @@ from superlane_tools.records import Skipped
 def corridor(
     input_path: Annotated[
         Path,
-        typer.Argument(metavar="INPUT", help="Folder of PNG/JPEG images (searched recursively)."),
+        typer.Argument(
+            metavar="INPUT",
+            help="Folder of PNG/JPEG images (searched recursively), or a recording (its first "
+            "camera topic; maps go to OUT/<topic>/<index>.png).",
+        ),
     ],
     out: Annotated[
         Path, typer.Option("--out", help="Output folder for probability PNGs and corridor.parquet.")
@@ -74,41 +78,48 @@ def _run(
 
     from superlane_tools.camera.profiles import load_camera
     from superlane_tools.corridor.geometry import CorridorParams, corridor_from_mask
+    from superlane_tools.pipeline.frames import RecordingFrames, is_image_folder
     from superlane_tools.reporting import (
         Provenance,
         input_identity,
         write_bytes_atomic,
         write_table,
     )
-    from superlane_tools.scene import list_images
+    from superlane_tools.scene import folder_frames, list_images
     from superlane_tools.scene.corridor_runtime import CorridorSmoother, OnnxCorridorModel
 
-    if not input_path.is_dir():
-        raise UsageError(f"INPUT must be a folder of images: {input_path}")
+    if not input_path.exists():
+        raise UsageError(f"input not found: {input_path}")
     if out.resolve() == input_path.resolve():
         raise UsageError("--out must differ from INPUT")
     cam = load_camera(camera_name) if camera_name else None
     runtime = OnnxCorridorModel(model, threads=threads)
-    images = list_images(input_path, exclude=out)
-    if not images:
-        raise UsageError(f"no PNG or JPEG images under {input_path}")
+    recording: RecordingFrames | None = None
+    total: int | None
+    if is_image_folder(input_path):
+        images = list_images(input_path, exclude=out)
+        if not images:
+            raise UsageError(f"no PNG or JPEG images under {input_path}")
+        frames, total = folder_frames(input_path, images), len(images)
+    else:
+        recording = RecordingFrames(input_path)
+        frames, total = iter(recording), recording.total
     smoother = CorridorSmoother(smooth)
     params = CorridorParams(threshold=threshold)
     rows: list[dict[str, object]] = []
     skipped: list[Skipped] = []
     columns = (TextColumn("corridor"), BarColumn(), MofNCompleteColumn())
     with Progress(*columns, console=err_console, transient=True) as progress:
-        task = progress.add_task("corridor", total=len(images))
-        for path in images:
+        task = progress.add_task("corridor", total=total)
+        for frame in frames:
             progress.advance(task)
-            raw = cv2.imread(str(path), cv2.IMREAD_COLOR)
-            image = None if raw is None else np.asarray(raw, dtype=np.uint8)
+            image = frame.image
             if image is None or image.shape[0] < 8 or image.shape[1] < 8:
-                skipped.append(Skipped("unreadable image", str(path), 1))
+                skipped.append(Skipped("unreadable image", frame.problem or frame.name, 1))
                 smoother.reset()
                 continue
             prob = smoother.update(runtime.probability(image))
-            rel = path.relative_to(input_path).with_suffix(".png")
+            rel = Path(f"{frame.name}.png")
             ok, png = cv2.imencode(".png", np.round(prob * 255.0).astype(np.uint8))
             assert ok, "PNG encoding of a uint8 image cannot fail"
             write_bytes_atomic(out / rel, png.tobytes())
@@ -121,6 +132,8 @@ def _run(
                     "length_m": geometry.length_m if geometry else math.nan,
                 }
             )
+    if recording is not None:
+        skipped.extend(recording.skipped)
     if not rows:
         report_skipped(skipped)
         return ExitCode.ERROR

@@ -1,4 +1,4 @@
-"""`slt segment`: segment an image folder into leaf-id label PNGs (classical or ONNX backend)."""
+"""`slt segment`: segment images or a recording into leaf-id label PNGs (classical or ONNX)."""
 
 from __future__ import annotations
 
@@ -15,7 +15,11 @@ from superlane_tools.records import Skipped
 def segment(
     input_path: Annotated[
         Path,
-        typer.Argument(metavar="INPUT", help="Folder of PNG/JPEG images (searched recursively)."),
+        typer.Argument(
+            metavar="INPUT",
+            help="Folder of PNG/JPEG images (searched recursively), or a recording (its first "
+            "camera topic; labels go to OUT/<topic>/<index>.png).",
+        ),
     ],
     out: Annotated[
         Path, typer.Option("--out", help="Output folder for label PNGs and classes.yaml.")
@@ -60,38 +64,41 @@ def _run(
     )
 
     from superlane_tools.camera.profiles import load_camera
-    from superlane_tools.scene import backend_from_name, list_images, segment_folder
+    from superlane_tools.pipeline.frames import RecordingFrames, is_image_folder
+    from superlane_tools.scene import backend_from_name, folder_frames, list_images, segment_images
 
     if not input_path.exists():
         raise UsageError(f"input not found: {input_path}")
-    if not input_path.is_dir():
-        raise UsageError(
-            f"{input_path}: INPUT must be a folder of images (reading recordings is not "
-            "supported by slt segment yet)"
-        )
     if out.resolve() == input_path.resolve():
         raise UsageError("--out must differ from INPUT (label PNGs would overwrite the images)")
     cam = load_camera(camera_name) if camera_name else None
     seg_backend = backend_from_name(backend_name, model=model, camera=cam)
-    images = list_images(input_path, exclude=out)
-    if not images:
-        raise UsageError(f"no PNG or JPEG images under {input_path}")
+    recording: RecordingFrames | None = None
+    total: int | None
+    if is_image_folder(input_path):
+        images = list_images(input_path, exclude=out)
+        if not images:
+            raise UsageError(f"no PNG or JPEG images under {input_path}")
+        frames, total = folder_frames(input_path, images), len(images)
+    else:
+        recording = RecordingFrames(input_path)
+        frames, total = iter(recording), recording.total
     skipped: list[Skipped] = []
-    written = 0
+    written = seen = 0
     columns = (TextColumn("segment"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn())
     with Progress(*columns, console=err_console, transient=True) as progress:
-        task = progress.add_task("segment", total=len(images))
-        for result in segment_folder(
-            input_path, out, seg_backend, overlays=overlays, images=images
-        ):
+        task = progress.add_task("segment", total=total)
+        for result in segment_images(frames, out, seg_backend, overlays=overlays):
+            seen += 1
             if result.skipped is not None:
                 skipped.append(result.skipped)
             else:
                 written += 1
             progress.advance(task)
+    if recording is not None:
+        skipped.extend(recording.skipped)
     err_console.print(
-        f"slt: segmented {written} of {len(images)} images with the {seg_backend.name} backend "
-        f"into {out}",
+        f"slt: segmented {written} of {seen} images with the {seg_backend.name} backend into {out}",
         markup=False,
     )
     if written == 0:

@@ -15,17 +15,21 @@ from superlane_tools.scene.classical import (
 )
 from superlane_tools.scene.errors import BackendUnavailableError, SceneError
 from superlane_tools.scene.image_folder import (
+    InputFrame,
     SegmentedImage,
     classes_yaml,
+    folder_frames,
     list_images,
     overlay,
     segment_folder,
+    segment_images,
 )
 
 __all__ = [
     "BackendUnavailableError",
     "ClassicalExtractor",
     "ClassicalParams",
+    "InputFrame",
     "RowGeometry",
     "SceneError",
     "SegmentationBackend",
@@ -33,10 +37,12 @@ __all__ = [
     "backend_from_name",
     "check_image",
     "classes_yaml",
+    "folder_frames",
     "known_backends",
     "list_images",
     "nominal_camera",
     "overlay",
     "row_geometry",
     "segment_folder",
+    "segment_images",
 ]

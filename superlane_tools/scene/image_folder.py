@@ -1,4 +1,4 @@
-"""Segment a folder of images: label PNGs mirroring the input tree, overlays, ``classes.yaml``.
+"""Segment images (a folder, or frames from elsewhere): label PNGs, overlays, ``classes.yaml``.
 
 Output layout under ``out_dir``:
 
@@ -13,7 +13,7 @@ All files are written atomically.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import NamedTuple
 
@@ -29,6 +29,21 @@ from superlane_tools.scene.errors import SceneError
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg")
 OVERLAY_DIR = "overlays"
 CLASSES_FILE = "classes.yaml"
+
+
+class InputFrame(NamedTuple):
+    """One image to process, from a folder or a recording.
+
+    Attributes:
+        name: Output name relative to the output folder, without suffix (``sub/img`` for
+            ``sub/img.jpg``; ``<topic>/<index:06d>`` for recording frames).
+        image: ``(H, W, 3)`` uint8 BGR image, or None when it could not be read.
+        problem: Why the image could not be read (empty when it could).
+    """
+
+    name: str
+    image: NDArray[np.uint8] | None
+    problem: str = ""
 
 
 class SegmentedImage(NamedTuple):
@@ -111,28 +126,50 @@ def segment_folder(
         overlays: Also write ``overlays/<relative path>.jpg``.
         images: The images to process (default: :func:`list_images` of ``folder``).
     """
+    todo = images if images is not None else list_images(folder, exclude=out_dir)
+    yield from segment_images(folder_frames(folder, todo), out_dir, backend, overlays=overlays)
+
+
+def folder_frames(folder: Path, images: Iterable[Path]) -> Iterator[InputFrame]:
+    """Read ``images`` (paths under ``folder``) as :class:`InputFrame` records, in order."""
     import cv2  # late: heavy import
 
-    write_text_atomic(out_dir / CLASSES_FILE, classes_yaml(backend.name))
-    todo = images if images is not None else list_images(folder, exclude=out_dir)
-    for path in todo:
-        rel = path.relative_to(folder)
+    for path in images:
+        name = path.relative_to(folder).with_suffix("").as_posix()
         try:
             data = np.fromfile(path, dtype=np.uint8)
         except OSError as err:
-            yield SegmentedImage(path, None, Skipped("unreadable image", f"{path}: {err.strerror}"))
+            yield InputFrame(name, None, f"{path}: {err.strerror}")
             continue
         decoded = cv2.imdecode(data, cv2.IMREAD_COLOR) if data.size else None
         if decoded is None:
-            yield SegmentedImage(path, None, Skipped("unreadable image", f"{path}: not an image"))
+            yield InputFrame(name, None, f"{path}: not an image")
             continue
-        image = np.asarray(decoded, dtype=np.uint8)
-        labels = backend.segment(image)
-        target = (out_dir / rel).with_suffix(".png")
+        yield InputFrame(name, np.asarray(decoded, dtype=np.uint8))
+
+
+def segment_images(
+    frames: Iterable[InputFrame],
+    out_dir: Path,
+    backend: SegmentationBackend,
+    *,
+    overlays: bool = False,
+) -> Iterator[SegmentedImage]:
+    """Segment ``frames`` into ``out_dir`` (``<name>.png``); yield one record per frame.
+
+    ``classes.yaml`` is written first; frames that could not be read yield a :class:`Skipped`
+    record and produce no output.
+    """
+    write_text_atomic(out_dir / CLASSES_FILE, classes_yaml(backend.name))
+    for frame in frames:
+        source = Path(frame.name)
+        if frame.image is None:
+            yield SegmentedImage(source, None, Skipped("unreadable image", frame.problem))
+            continue
+        labels = backend.segment(frame.image)
+        target = out_dir / f"{frame.name}.png"
         write_bytes_atomic(target, _encode(".png", labels))
         if overlays:
-            view = overlay(image, labels)
-            write_bytes_atomic(
-                (out_dir / OVERLAY_DIR / rel).with_suffix(".jpg"), _encode(".jpg", view)
-            )
-        yield SegmentedImage(path, target, None)
+            view = overlay(frame.image, labels)
+            write_bytes_atomic(out_dir / OVERLAY_DIR / f"{frame.name}.jpg", _encode(".jpg", view))
+        yield SegmentedImage(source, target, None)
