@@ -15,7 +15,7 @@ from superlane_tools.cli._common import (
     err_console,
     report_skipped,
 )
-from superlane_tools.errors import ExitCode, UsageError
+from superlane_tools.errors import ExitCode
 from superlane_tools.records import Skipped
 
 
@@ -78,39 +78,25 @@ def _run(
 
     from superlane_tools.camera.profiles import load_camera
     from superlane_tools.corridor.geometry import CorridorParams, corridor_from_mask
-    from superlane_tools.pipeline.frames import RecordingFrames, is_image_folder
+    from superlane_tools.pipeline.frames import InputFrames
     from superlane_tools.reporting import (
         Provenance,
         input_identity,
         write_bytes_atomic,
         write_table,
     )
-    from superlane_tools.scene import folder_frames, list_images
     from superlane_tools.scene.corridor_runtime import CorridorSmoother, OnnxCorridorModel
 
-    if not input_path.exists():
-        raise UsageError(f"input not found: {input_path}")
-    if out.resolve() == input_path.resolve():
-        raise UsageError("--out must differ from INPUT")
     cam = load_camera(camera_name) if camera_name else None
     runtime = OnnxCorridorModel(model, threads=threads)
-    recording: RecordingFrames | None = None
-    total: int | None
-    if is_image_folder(input_path):
-        images = list_images(input_path, exclude=out)
-        if not images:
-            raise UsageError(f"no PNG or JPEG images under {input_path}")
-        frames, total = folder_frames(input_path, images), len(images)
-    else:
-        recording = RecordingFrames(input_path)
-        frames, total = iter(recording), recording.total
+    frames = InputFrames(input_path, out)
     smoother = CorridorSmoother(smooth)
     params = CorridorParams(threshold=threshold)
     rows: list[dict[str, object]] = []
     skipped: list[Skipped] = []
     columns = (TextColumn("corridor"), BarColumn(), MofNCompleteColumn())
     with Progress(*columns, console=err_console, transient=True) as progress:
-        task = progress.add_task("corridor", total=total)
+        task = progress.add_task("corridor", total=frames.total)
         for frame in frames:
             progress.advance(task)
             image = frame.image
@@ -132,8 +118,7 @@ def _run(
                     "length_m": geometry.length_m if geometry else math.nan,
                 }
             )
-    if recording is not None:
-        skipped.extend(recording.skipped)
+    skipped.extend(frames.skipped)
     if not rows:
         report_skipped(skipped)
         return ExitCode.ERROR

@@ -8,7 +8,7 @@ from typing import Annotated
 import typer
 
 from superlane_tools.cli._common import EXIT_CODES_HELP, cli_errors, err_console, report_skipped
-from superlane_tools.errors import ExitCode, UsageError
+from superlane_tools.errors import ExitCode
 from superlane_tools.records import Skipped
 
 
@@ -64,30 +64,17 @@ def _run(
     )
 
     from superlane_tools.camera.profiles import load_camera
-    from superlane_tools.pipeline.frames import RecordingFrames, is_image_folder
-    from superlane_tools.scene import backend_from_name, folder_frames, list_images, segment_images
+    from superlane_tools.pipeline.frames import InputFrames
+    from superlane_tools.scene import backend_from_name, segment_images
 
-    if not input_path.exists():
-        raise UsageError(f"input not found: {input_path}")
-    if out.resolve() == input_path.resolve():
-        raise UsageError("--out must differ from INPUT (label PNGs would overwrite the images)")
+    frames = InputFrames(input_path, out)
     cam = load_camera(camera_name) if camera_name else None
     seg_backend = backend_from_name(backend_name, model=model, camera=cam)
-    recording: RecordingFrames | None = None
-    total: int | None
-    if is_image_folder(input_path):
-        images = list_images(input_path, exclude=out)
-        if not images:
-            raise UsageError(f"no PNG or JPEG images under {input_path}")
-        frames, total = folder_frames(input_path, images), len(images)
-    else:
-        recording = RecordingFrames(input_path)
-        frames, total = iter(recording), recording.total
     skipped: list[Skipped] = []
     written = seen = 0
     columns = (TextColumn("segment"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn())
     with Progress(*columns, console=err_console, transient=True) as progress:
-        task = progress.add_task("segment", total=total)
+        task = progress.add_task("segment", total=frames.total)
         for result in segment_images(frames, out, seg_backend, overlays=overlays):
             seen += 1
             if result.skipped is not None:
@@ -95,8 +82,7 @@ def _run(
             else:
                 written += 1
             progress.advance(task)
-    if recording is not None:
-        skipped.extend(recording.skipped)
+    skipped.extend(frames.skipped)
     err_console.print(
         f"slt: segmented {written} of {seen} images with the {seg_backend.name} backend into {out}",
         markup=False,

@@ -14,7 +14,7 @@ from superlane_tools.errors import UsageError
 from superlane_tools.pipeline.reprocess.inputs import decode_frame
 from superlane_tools.recording import open_recording
 from superlane_tools.records import Skipped
-from superlane_tools.scene.image_folder import InputFrame
+from superlane_tools.scene.image_folder import InputFrame, folder_frames, list_images
 
 #: Message types holding camera images.
 IMAGE_MSGTYPES = frozenset(
@@ -70,3 +70,41 @@ class RecordingFrames:
                     continue
                 yield InputFrame(name, image)
             self.skipped.extend(rec.skipped)
+
+
+class InputFrames:
+    """The frames of ``slt segment`` / ``slt corridor`` INPUT: an image folder or a recording.
+
+    Attributes:
+        total: Number of frames when known up front (for progress bars), else None.
+        skipped: What the recording reader lost (filled while iterating; empty for folders).
+
+    Raises:
+        UsageError: If INPUT does not exist, equals ``out``, or is a folder without images.
+        RecordingError: If INPUT is a file that is not a recording.
+    """
+
+    def __init__(self, input_path: Path, out: Path) -> None:
+        if not input_path.exists():
+            raise UsageError(f"input not found: {input_path}")
+        if out.resolve() == input_path.resolve():
+            raise UsageError("--out must differ from INPUT (outputs would overwrite the inputs)")
+        self._recording: RecordingFrames | None = None
+        self._frames: Iterator[InputFrame]
+        self.total: int | None
+        if is_image_folder(input_path):
+            images = list_images(input_path, exclude=out)
+            if not images:
+                raise UsageError(f"no PNG or JPEG images under {input_path}")
+            self._frames, self.total = folder_frames(input_path, images), len(images)
+        else:
+            self._recording = RecordingFrames(input_path)
+            self._frames, self.total = iter(self._recording), self._recording.total
+
+    @property
+    def skipped(self) -> list[Skipped]:
+        """Return what the recording reader reported lost (empty for folders)."""
+        return self._recording.skipped if self._recording is not None else []
+
+    def __iter__(self) -> Iterator[InputFrame]:
+        return self._frames
