@@ -25,12 +25,28 @@ from superlane_tools.scene.adapters import (
 from superlane_tools.training.toy_dataset import toy_frame
 
 
-def _leaf_image() -> np.ndarray:
-    _, labels, _ = toy_frame(np.random.default_rng(3), 160, 96)
+def _sim_labels() -> np.ndarray:
+    """Leaf ids of a frame rendered by the drive simulator (a curve with traffic)."""
+    from superlane_tools.simulation.render import render
+    from superlane_tools.simulation.render.examples import DEFAULT_CAMERA, example_scene
+
+    labels = render(example_scene("curve", camera=DEFAULT_CAMERA.resized(320, 180))).labels
+    assert (labels == LEAF_IDS["dividing_white_dashed"]).any()
+    return np.asarray(labels, dtype=np.uint8)
+
+
+@pytest.fixture(params=["toy", "simulator"])
+def leaf(request: pytest.FixtureRequest) -> np.ndarray:
+    """A leaf-id label image: a toy frame, or a simulator frame exported in each style."""
+    if request.param == "simulator":
+        labels = _sim_labels()
+    else:
+        _, labels, _ = toy_frame(np.random.default_rng(3), 160, 96)
+    labels = labels.copy()
     labels[:4, :10] = LEAF_IDS["person"]
     labels[-6:, :20] = LEAF_IDS["sidewalk_curb"]
     labels[-6:, -20:] = LEAF_IDS["stop_line"]
-    return labels
+    return np.asarray(labels, dtype=np.uint8)
 
 
 def _roundtrip(tmp_path: Path, name: str, leaf: np.ndarray) -> np.ndarray:
@@ -45,14 +61,14 @@ def test_bundled_adapters_are_listed() -> None:
     assert {"apollo", "cityscapes", "mapillary_vistas", "superlane"} <= set(list_adapters())
 
 
-def test_identity_adapter_roundtrips_leaf_ids(tmp_path: Path) -> None:
-    leaf = _leaf_image()
+def test_identity_adapter_roundtrips_leaf_ids(tmp_path: Path, leaf: np.ndarray) -> None:
     codes = _roundtrip(tmp_path, "superlane", leaf)
     assert np.array_equal(codes_to_leaf(codes), leaf)
 
 
-def test_cityscapes_road_is_drivable_without_finer_targets(tmp_path: Path) -> None:
-    leaf = _leaf_image()
+def test_cityscapes_road_is_drivable_without_finer_targets(
+    tmp_path: Path, leaf: np.ndarray
+) -> None:
     codes = _roundtrip(tmp_path, "cityscapes", leaf)
     on_road = np.isin(leaf, [LEAF_IDS["road"], LEAF_IDS["dividing_white_dashed"]])
     assert (codes[on_road] == NODE_CODES["drivable"]).all()
@@ -65,8 +81,7 @@ def test_cityscapes_road_is_drivable_without_finer_targets(tmp_path: Path) -> No
     assert (marking == IGNORE).all()
 
 
-def test_vistas_keeps_markings_as_untyped_lane_marking(tmp_path: Path) -> None:
-    leaf = _leaf_image()
+def test_vistas_keeps_markings_as_untyped_lane_marking(tmp_path: Path, leaf: np.ndarray) -> None:
     codes = _roundtrip(tmp_path, "mapillary_vistas", leaf)
     lines = np.isin(leaf, [LEAF_IDS["dividing_white_dashed"], LEAF_IDS["dividing_yellow_solid"]])
     assert (codes[lines] == NODE_CODES["lane_marking"]).all()
@@ -76,8 +91,7 @@ def test_vistas_keeps_markings_as_untyped_lane_marking(tmp_path: Path) -> None:
     assert (marking == IGNORE).all()
 
 
-def test_apollo_preprocessing_expands_markings_into_road(tmp_path: Path) -> None:
-    leaf = _leaf_image()
+def test_apollo_preprocessing_expands_markings_into_road(tmp_path: Path, leaf: np.ndarray) -> None:
     adapter = load_adapter("apollo")
     exported = adapter.inverse(leaf)  # markings only; everything else void (0)
     exported[leaf == LEAF_IDS["vehicle"]] = 255  # Apollo's `ignored`: occluders
