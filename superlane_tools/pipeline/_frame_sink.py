@@ -14,7 +14,7 @@ import numpy as np
 import pyarrow as pa
 
 from superlane_tools.pipeline._images import header_size, raw_pixels, safe_topic, sniff_format
-from superlane_tools.recording.base import SkipLog
+from superlane_tools.recording.base import SkipLog, field_value
 from superlane_tools.records import Message
 from superlane_tools.reporting import OutputError, ParquetStreamWriter
 from superlane_tools.reporting.provenance import ProvenanceSource, resolve_provenance
@@ -55,14 +55,6 @@ WRITE_THREADS = 2
 MAX_PENDING_WRITES = 32
 """At most this many encoded frames wait in memory for their file write."""
 _OPEN_FLAGS = os.O_WRONLY | os.O_CREAT | os.O_TRUNC | getattr(os, "O_CLOEXEC", 0)
-
-
-def _field(data: Any, *names: str) -> Any:
-    for name in names:
-        value = getattr(data, name, None)
-        if value is not None:
-            return value
-    return None
 
 
 class FrameSink:
@@ -118,7 +110,7 @@ class FrameSink:
             ok, error = True, ""
         except ValueError as err:
             width = height = 0
-            encoding = str(_field(msg.data, "format", "encoding") or "")
+            encoding = str(field_value(msg.data, "format", "encoding") or "")
             rel_path, ok, error = "", False, str(err)
             self.failed += 1
             self.skips.add("corrupt image", f"{msg.topic}: {err}")
@@ -151,7 +143,7 @@ class FrameSink:
         else:
             payload = data.data if isinstance(data.data, bytes) else bytes(data.data)
             fmt = sniff_format(payload)
-            encoding = fmt or str(_field(data, "format") or "unknown")
+            encoding = fmt or str(field_value(data, "format") or "unknown")
             size = header_size(payload, fmt) if fmt else _decoded_size(payload)
             if size is None:
                 raise ValueError(f"corrupt {fmt} payload (bad header or truncated)")
@@ -191,16 +183,16 @@ class FrameSink:
     def add_camera_info(self, msg: Message) -> None:
         """Keep a camera calibration (one row per topic whenever it changes)."""
         data = msg.data
-        d, k = _floats(_field(data, "d", "D")), _floats(_field(data, "k", "K"))
-        r, p = _floats(_field(data, "r", "R")), _floats(_field(data, "p", "P"))
-        width, height = int(_field(data, "width") or 0), int(_field(data, "height") or 0)
-        model = str(_field(data, "distortion_model") or "")
+        d, k = _floats(field_value(data, "d", "D")), _floats(field_value(data, "k", "K"))
+        r, p = _floats(field_value(data, "r", "R")), _floats(field_value(data, "p", "P"))
+        width, height = int(field_value(data, "width") or 0), int(field_value(data, "height") or 0)
+        model = str(field_value(data, "distortion_model") or "")
         key = (width, height, model, tuple(d), tuple(k), tuple(r), tuple(p))
         if self._last_info.get(msg.topic) == key:
             return
         self._last_info[msg.topic] = key
-        header = _field(data, "header")
-        frame_id = str(_field(header, "frame_id") or _field(data, "frame_id") or "")
+        header = field_value(data, "header")
+        frame_id = str(field_value(header, "frame_id") or field_value(data, "frame_id") or "")
         self._info_rows.append(
             {
                 "topic": msg.topic,

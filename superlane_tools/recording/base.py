@@ -142,6 +142,19 @@ def _time_ns(stamp: Any) -> int | None:
     return None
 
 
+def field_value(data: Any, *names: str) -> Any:
+    """Return the first of ``names`` that ``data`` has and is not None (else None).
+
+    Decoded messages name the same field differently by source: ROS 1 ``K`` vs ROS 2 ``k``,
+    ROS ``format`` vs Foxglove protobuf ``format``/``encoding``.
+    """
+    for name in names:
+        value = getattr(data, name, None)
+        if value is not None:
+            return value
+    return None
+
+
 def stamp_ns_of(data: Any) -> int | None:
     """Return a decoded message's own time stamp in ns, or None.
 

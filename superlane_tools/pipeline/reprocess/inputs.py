@@ -14,7 +14,7 @@ from superlane_tools.errors import UsageError
 from superlane_tools.pipeline._images import jpeg_size, raw_pixels, sniff_format
 from superlane_tools.pipeline.extract import ExtractConfig, select_streams
 from superlane_tools.pipeline.reprocess.config import ReprocessConfig
-from superlane_tools.recording.base import Recording
+from superlane_tools.recording.base import Recording, field_value
 from superlane_tools.records import Message, TopicInfo
 
 TF_TYPES = frozenset({"tf2_msgs/msg/TFMessage"})
@@ -62,14 +62,6 @@ def select(topics: Sequence[TopicInfo], config: ReprocessConfig) -> Streams:
     return Streams(
         picked["frames"], picked["camera_info"], picked["can"], picked["gnss"], tf, tuple(notes)
     )
-
-
-def _field(data: Any, *names: str) -> Any:
-    for name in names:
-        value = getattr(data, name, None)
-        if value is not None:
-            return value
-    return None
 
 
 def _sequence(value: Any) -> list[Any]:
@@ -125,8 +117,8 @@ def _tf_extrinsics(rec: Recording, topic: str, frame_id: str) -> Extrinsics | No
     if not topic:
         return None
     for msg in rec.messages(topics=[topic]):
-        for tr in _sequence(_field(msg.data, "transforms")):
-            child = str(_field(tr, "child_frame_id") or "")
+        for tr in _sequence(field_value(msg.data, "transforms")):
+            child = str(field_value(tr, "child_frame_id") or "")
             if frame_id and child.strip("/") != frame_id.strip("/"):
                 continue
             t = tr.transform.translation
@@ -161,8 +153,8 @@ def resolve_camera(
     if info is None:
         raise UsageError(f"{path.name}: {streams.camera_info} has no messages; pass --camera")
     data = info.data
-    header = _field(data, "header")
-    frame_id = str(_field(header, "frame_id") or "")
+    header = field_value(data, "header")
+    frame_id = str(field_value(header, "frame_id") or "")
     extr = _mcap_extrinsics(path)
     source = "MCAP metadata slt_camera"
     if extr is None:
@@ -174,11 +166,11 @@ def resolve_camera(
             "slt_camera metadata record nor a /tf_static camera transform; pass --camera"
         )
     cam = from_camera_info(
-        int(_field(data, "width") or 0),
-        int(_field(data, "height") or 0),
-        list(_field(data, "k", "K")),
-        [float(c) for c in _sequence(_field(data, "d", "D"))],
-        str(_field(data, "distortion_model") or ""),
+        int(field_value(data, "width") or 0),
+        int(field_value(data, "height") or 0),
+        list(field_value(data, "k", "K")),
+        [float(c) for c in _sequence(field_value(data, "d", "D"))],
+        str(field_value(data, "distortion_model") or ""),
         extr,
         name="recording",
     )
