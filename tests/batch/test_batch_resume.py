@@ -12,7 +12,13 @@ from pathlib import Path
 
 import pandas as pd
 
-from superlane_tools.pipeline.batch import MARKER, read_status
+from superlane_tools.pipeline.batch import (
+    MARKER,
+    BatchParams,
+    expand_inputs,
+    read_status,
+    run_batch,
+)
 
 SLT = (
     "from superlane_tools.cli.app import app\n"
@@ -81,3 +87,23 @@ def test_sigkill_halfway_then_resume(
     assert not (root / ".tmp").exists()
     assert not list(root.rglob("*.tmp"))
     assert (root / "summary" / "report.md").is_file()
+
+
+def test_resume_removes_half_written_files_of_a_killed_driver(
+    tmp_path: Path, make_drives: Callable[..., list[Path]]
+) -> None:
+    make_drives(1)
+    root = tmp_path / "out"
+    params = BatchParams(root, "extract", workers=1, config={"frame_format": "none"})
+    run_batch(expand_inputs([tmp_path / "recs"]), params)
+    # what SIGKILL during the status or summary write leaves behind
+    leftovers = [
+        root / ".batch_status.parquet.k1ll3d.parquet.tmp",
+        root / "summary" / ".report.md.k1ll3d.tmp",
+    ]
+    for path in leftovers:
+        path.write_bytes(b"PAR1 half")
+    again = run_batch(expand_inputs([tmp_path / "recs"]), params)
+    assert again.counts["skipped"] == 1
+    assert not [p for p in leftovers if p.exists()]
+    assert not list(root.rglob("*.tmp"))

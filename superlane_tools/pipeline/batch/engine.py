@@ -20,7 +20,7 @@ TMP_DIR = ".tmp"
 class Job:
     """One recording to process: the unit of work every engine schedules.
 
-    Plain data only, so it pickles to process-pool workers and Ray actors alike.
+    Plain data only, so it pickles to process-pool workers and Ray tasks alike.
 
     Attributes:
         recording: The recording (file or ROS 2 bag folder); must be readable on the worker.

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import glob
 import multiprocessing
 import os
 from collections.abc import Mapping, Sequence
@@ -11,7 +12,13 @@ from types import TracebackType
 from typing import Any, Self
 
 from superlane_tools.errors import UsageError
-from superlane_tools.pipeline.batch.engine import Job, OnDone, error_line, failed_outcome
+from superlane_tools.pipeline.batch.engine import (
+    TMP_DIR,
+    Job,
+    OnDone,
+    error_line,
+    failed_outcome,
+)
 from superlane_tools.pipeline.batch.worker import execute, init_worker
 
 WORKER_MODULE = "superlane_tools.pipeline.batch.worker"
@@ -109,23 +116,62 @@ class LocalEngine:
                 os.environ[name] = value
 
     def run(self, jobs: Sequence[Job], on_done: OnDone) -> None:
-        """Run ``jobs`` on the pool; report each outcome as it completes."""
+        """Run ``jobs`` on the pool; report each outcome as it completes.
+
+        When a worker dies, the pool breaks and every job still on it gets no result. Jobs that
+        had not started yet are simply run again on a rebuilt pool; the jobs that were running
+        (the dead worker's and those of the workers the pool stopped with it) are run again one
+        at a time, each alone in its own pool, so a crash fails only the recording causing it.
+        """
         if self._pool is None:
             raise RuntimeError("LocalEngine.run outside its context")
+        interrupted = self._run_round(jobs, on_done)
+        while interrupted:
+            started = [job for job in interrupted if _has_started(job)]
+            waiting = [job for job in interrupted if not _has_started(job)]
+            for job in started:
+                self._run_alone(job, on_done)
+            interrupted = self._run_round(waiting, on_done) if waiting else []
+
+    def _run_round(self, jobs: Sequence[Job], on_done: OnDone) -> list[Job]:
+        """Run ``jobs`` on the pool; return those a broken pool left without an outcome."""
+        assert self._pool is not None
         futures: dict[Future[Any], Job] = {
             self._pool.submit(execute, job, self._config): job for job in jobs
         }
-        broken = False
+        interrupted: list[Job] = []
         for future in as_completed(futures):
             job = futures[future]
             try:
                 outcome = future.result()
             except BrokenProcessPool:
-                broken = True
-                outcome = failed_outcome(job, "worker process died (crash or out of memory)")
+                interrupted.append(job)
+                continue
             except Exception as err:  # e.g. an unpicklable result: fail this job only
                 outcome = failed_outcome(job, error_line(err))
             on_done(outcome)
-        if broken:
-            self._pool.shutdown(wait=False, cancel_futures=True)
-            self._pool = self._start()
+        if interrupted:
+            self._restart()
+        return interrupted
+
+    def _run_alone(self, job: Job, on_done: OnDone) -> None:
+        """Run one job by itself on the pool: a broken pool now is this job's own crash."""
+        assert self._pool is not None
+        try:
+            outcome = self._pool.submit(execute, job, self._config).result()
+        except BrokenProcessPool:
+            outcome = failed_outcome(job, "worker process died (crash or out of memory)")
+            self._restart()
+        except Exception as err:  # e.g. an unpicklable result: fail this job only
+            outcome = failed_outcome(job, error_line(err))
+        on_done(outcome)
+
+    def _restart(self) -> None:
+        assert self._pool is not None
+        self._pool.shutdown(wait=False, cancel_futures=True)
+        self._pool = self._start()
+
+
+def _has_started(job: Job) -> bool:
+    """Whether a worker began ``job``: its temporary folder ``.tmp/<id>.<host>.<pid>`` exists."""
+    return any((job.root / TMP_DIR).glob(f"{glob.escape(job.recording_id)}.*"))

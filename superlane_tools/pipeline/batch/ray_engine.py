@@ -1,10 +1,18 @@
-"""The ``ray`` engine: one actor per worker slot, models loaded once per actor.
+"""The ``ray`` engine: Ray tasks, one recording per task, models loaded once per worker.
 
 Ray is an optional extra and is imported only inside these functions. With no address, a
 private local Ray instance is started (and stopped afterwards); ``address="auto"`` joins the
 cluster started on this machine with ``ray start``; ``ray://host:10001`` or ``host:6379``
 join a remote one. Every node reads the recordings and writes into the output root by the same
 paths, so the root must be shared storage (NFS, a mounted object store).
+
+Jobs run as plain Ray tasks (``num_cpus=1``, no Ray-level retries: the batch retries failed
+recordings itself). Ray keeps its worker processes between tasks, and each worker loads the
+job kind's models on its first task and keeps them (:func:`~.worker.init_worker` caches them
+per process), so models are loaded once per worker, as with actors, but a batch does not pay
+for starting a new process per worker slot: workers Ray pre-started, or kept from an earlier
+batch of the same driver, are reused. A worker process that dies fails only its recording;
+Ray starts a new one for the next task.
 """
 
 from __future__ import annotations
@@ -36,25 +44,19 @@ def import_ray() -> Any:
     return ray
 
 
-class RayWorker:
-    """Actor body: loads the job kind's models in ``__init__``, then runs one job per call."""
-
-    def __init__(self, kind: str, config: Mapping[str, Any]) -> None:
-        self._config = dict(config)
-        init_worker(kind, self._config, threads=1)
-
-    def run(self, job: Job) -> JobOutcome:
-        """Run one job on this actor (never raises for the job)."""
-        return execute(job, self._config)
+def run_on_worker(kind: str, config: Mapping[str, Any], job: Job) -> JobOutcome:
+    """Task body: load the kind's models once in this worker process, then run one job."""
+    init_worker(kind, config, threads=1)
+    return execute(job, config)
 
 
 class RayEngine:
-    """Run jobs as calls on a pool of Ray actors, one recording per call.
+    """Run jobs as Ray tasks, one recording per task, at most ``workers`` at a time.
 
     Args:
         kind: Job kind name.
-        config: Batch configuration the actors load models with.
-        workers: Actors (default: the cluster's CPUs).
+        config: Batch configuration the workers load models with.
+        workers: Concurrent tasks (default: the cluster's CPUs).
         address: Ray address to join (``auto``, ``ray://host:10001``); None: start a local one.
         num_cpus: CPUs of a locally started instance (default: Ray's own detection).
     """
@@ -78,13 +80,14 @@ class RayEngine:
         self._num_cpus = num_cpus
         self._ray: Any = None
         self._owns_ray = False
-        self._actor_cls: Any = None
-        self._actors: list[Any] = []
+        self._task: Any = None
+        self._config_ref: Any = None
+        self._workers = 0
 
     @property
     def workers(self) -> int:
-        """Number of actors (known once the engine is entered)."""
-        return len(self._actors) or (self._requested or 0)
+        """Number of concurrent tasks (known once the engine is entered)."""
+        return self._workers or (self._requested or 0)
 
     def __enter__(self) -> Self:
         ray = import_ray()
@@ -104,9 +107,9 @@ class RayEngine:
                 raise BatchError(f"cannot start or join Ray at {where}: {err}") from err
             self._owns_ray = True
         cpus = int(ray.cluster_resources().get("CPU", 1))
-        count = self._requested or max(1, cpus)
-        self._actor_cls = ray.remote(num_cpus=1)(RayWorker)
-        self._actors = [self._actor_cls.remote(self._kind, self._config) for _ in range(count)]
+        self._workers = self._requested or max(1, cpus)
+        self._task = ray.remote(num_cpus=1, max_retries=0)(run_on_worker)
+        self._config_ref = ray.put(self._config)
         return self
 
     def __exit__(
@@ -118,37 +121,28 @@ class RayEngine:
         ray = self._ray
         if ray is None:
             return
-        for actor in self._actors:
-            ray.kill(actor)
-        self._actors = []
+        self._task = self._config_ref = None
         if self._owns_ray:
             ray.shutdown()
             self._owns_ray = False
 
     def run(self, jobs: Sequence[Job], on_done: OnDone) -> None:
-        """Schedule ``jobs`` on idle actors; replace an actor that dies and fail its job."""
+        """Run ``jobs`` as tasks, ``workers`` in flight; a task whose worker died fails its job."""
         ray = self._ray
-        if ray is None:
+        if ray is None or self._task is None:
             raise RuntimeError("RayEngine.run outside its context")
         queue = list(reversed(jobs))
-        idle = list(self._actors)
-        running: dict[Any, tuple[Job, Any]] = {}
+        running: dict[Any, Job] = {}
         while queue or running:
-            while queue and idle:
+            while queue and len(running) < self._workers:
                 job = queue.pop()
-                actor = idle.pop()
-                running[actor.run.remote(job)] = (job, actor)
+                running[self._task.remote(self._kind, self._config_ref, job)] = job
             ready, _ = ray.wait(list(running), num_returns=1)
-            ref = ready[0]
-            job, actor = running.pop(ref)
+            job = running.pop(ready[0])
             try:
-                outcome: JobOutcome = ray.get(ref)
-            except ray.exceptions.RayActorError as err:
+                outcome: JobOutcome = ray.get(ready[0])
+            except ray.exceptions.WorkerCrashedError as err:
                 outcome = failed_outcome(job, f"Ray worker died: {type(err).__name__}")
-                self._actors.remove(actor)
-                actor = self._actor_cls.remote(self._kind, self._config)
-                self._actors.append(actor)
             except ray.exceptions.RayError as err:
                 outcome = failed_outcome(job, f"Ray error: {err}")
-            idle.append(actor)
             on_done(outcome)

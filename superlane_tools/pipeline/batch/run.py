@@ -175,17 +175,24 @@ def _pid_alive(pid: int) -> bool:
 
 
 def clean_stale_tmp(root: Path) -> list[Path]:
-    """Remove temporary folders of killed runs from ``root/.tmp``; return what was removed.
+    """Remove what killed runs left: ``root/.tmp`` folders and half-written ``.*.tmp`` files.
 
     A folder named ``<id>.<host>.<pid>[.old]`` is kept only while that process on this host
     is alive (an orphaned worker of a killed run may still finish it); with the root lock held
     no other batch is writing here.
     """
+    from superlane_tools.pipeline.batch.summary import SUMMARY_DIR
+
+    # the driver's own atomic writes (status table, summary) killed mid-write: with the lock
+    # held, no process is writing them now
+    removed = [p for p in root.glob(".*.tmp") if p.is_file()]
+    removed += [p for p in (root / SUMMARY_DIR).glob(".*.tmp") if p.is_file()]
+    for leftover in removed:
+        leftover.unlink(missing_ok=True)
     tmp_root = root / TMP_DIR
     if not tmp_root.is_dir():
-        return []
+        return removed
     host = socket.gethostname()
-    removed = []
     for entry in sorted(tmp_root.iterdir()):
         _, _, owner = entry.name.removesuffix(".old").partition(".")
         owner_host, _, pid_text = owner.rpartition(".")
