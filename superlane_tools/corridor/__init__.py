@@ -23,6 +23,7 @@ from superlane_tools.corridor.hough import (
     HoughTracker,
     LineSegment,
     detect_ego_lane,
+    edges_and_segments,
 )
 
 __all__ = [
@@ -40,6 +41,7 @@ __all__ = [
     "corridor_from_lanes",
     "corridor_from_mask",
     "detect_ego_lane",
+    "edges_and_segments",
     "frame_availability",
     "longest_run",
     "sequence_availability",

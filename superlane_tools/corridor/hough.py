@@ -1,20 +1,34 @@
 """Classical Hough-transform ego-lane detector, the baseline of the corridor paper (IV-B).
 
-Pipeline: grey image -> Gaussian blur -> Canny edges -> trapezoidal region of interest below the
-horizon -> probabilistic Hough transform (``cv2.HoughLinesP``) -> left / right boundary
-selection -> robust averaging -> corridor width and range in metres through the camera model.
+The usual OpenCV lane-finding pipeline, made to report an ego-corridor width and range in metres:
 
-Boundary selection: a segment is a left-boundary candidate when it rises to the right in the
-image (``du/dv < 0``), meets the bottom row left of the principal column and crosses the horizon
-row near the principal column (lanes run roughly along the heading); right candidates mirror
-that. On each side the candidate meeting the bottom row nearest to the principal column
-is taken, together with every candidate of that side whose bottom crossing lies within
-``cluster_m`` of it (lateral ground distance at the bottom row); the boundary is the
-length-weighted median of their lines ``u = a * v + b``.
+1. grey image -> Gaussian blur -> Canny edges;
+2. trapezoidal region of interest from the bottom corners to ``roi_top_below_horizon_px`` below
+   the horizon;
+3. probabilistic Hough transform (``cv2.HoughLinesP``) with a short ``minLineLength`` so that the
+   far dashes of dashed lines (a few pixels tall at 30 m) still give segments;
+4. split into left / right candidates by slope sign (a left boundary rises to the right,
+   ``du/dv < 0``) and by side of the principal column at the bottom row; near-horizontal
+   segments and segments that do not run towards the vanishing point are dropped;
+5. per side, the innermost lane line: candidates are grouped by their lateral ground offset at
+   ``near_distance_m`` (flat-ground inverse perspective mapping); the group nearest to the car
+   whose segments total at least ``min_support`` of the image height is the ego boundary;
+6. fit ``u = a * v + b`` by length-weighted least squares on the group's segment end points, then
+   gather every side candidate lying within ``support_tol_px`` of the line and refit once.
 
-Width (m) is the lateral gap between the two boundaries at ``near_distance_m`` ahead (flat-ground
-inverse perspective mapping); range (m) is the forward distance of the farther end of the
-shorter-reaching side's supporting segments.
+Width (m) is the lateral gap between the two fitted lines at ``near_distance_m``.
+
+Range (m) is where the fitted line is still *supported*: the supporting segments are projected to
+the ground and chained from the nearest one outwards while the gap to the next is at most
+``max_gap_m`` (longer than the 9-12 m gap of dashed lines); the range is the far end of the chain.
+The shorter side's range is the corridor range. The line is *not* credited up to the region of
+interest's far edge: that extrapolated range would be a constant set by a parameter (so the
+time-gap test of the availability KPI would mean nothing), and on a curve the straight
+extrapolation leaves the lane long before the region's edge.
+
+A pair is rejected when the lines cross before ``near_distance_m`` or when they do not meet
+near the horizon (their crossing row must lie within ``vanishing_tolerance`` of the image height
+of the horizon row): two lane boundaries of a flat road meet at the horizon.
 
 Temporal smoothing is optional: :class:`HoughTracker` blends each boundary's ``(a, b)`` with the
 previous frame's (exponential, factor ``alpha``) when both frames found it.
@@ -47,11 +61,11 @@ class HoughResult(NamedTuple):
     """Ego-lane boundaries found by the Hough baseline.
 
     Attributes:
-        left_line: Left boundary in the image, or None.
+        left_line: Left boundary in the image, bottom row to its supported top, or None.
         right_line: Right boundary in the image, or None.
         width_m: Corridor width at the near distance, metres (NaN if not measured).
-        range_m: Forward extent of the supported boundaries, metres (NaN if not measured).
-        ok: True when both boundaries were found and the width is positive.
+        range_m: Supported forward extent of the shorter boundary, metres (NaN if not measured).
+        ok: True when both boundaries were found and form a plausible lane.
         reason: Why not ok (``""`` when ok).
     """
 
@@ -65,36 +79,54 @@ class HoughResult(NamedTuple):
 
 @dataclass(frozen=True)
 class HoughParams:
-    """Parameters of the Hough baseline (pixels refer to the input image).
+    """Parameters of the Hough baseline (pixel sizes are fractions of the image height).
+
+    Defaults were tuned on simulated ``highway_straight`` drives (seeds 1 and 2) and a
+    ``highway_curves`` drive of another seed than the challenge set's, and checked on the six
+    real TuSimple train frames; see ``docs/reprocess.md`` (Availability).
 
     Attributes:
         blur_ksize: Gaussian blur kernel size, pixels (odd).
         canny_low: Canny lower hysteresis threshold, grey levels.
         canny_high: Canny upper hysteresis threshold, grey levels.
-        roi_top_below_horizon_px: The ROI starts this many pixels below the horizon.
+        roi_top_below_horizon_px: The ROI's top edge lies this many pixels below the horizon.
         roi_top_half_width: Half width of the ROI's top edge, fraction of the image width.
         hough_threshold: Accumulator votes needed for a line.
-        min_line_length_px: Shortest segment, fraction of the image height.
-        max_line_gap_px: Largest gap joined within a segment, fraction of the image height.
+        min_line_length: Shortest segment, fraction of the image height.
+        max_line_gap: Largest gap joined within a segment, fraction of the image height.
         min_abs_slope: Smallest ``|dv/du|``: flatter segments are not lane boundaries.
-        vanishing_tolerance: A boundary must cross the horizon row within this fraction of the
-            image width from the principal column (lanes run roughly along the heading).
-        cluster_m: Candidates within this lateral distance (m) at the bottom row are averaged.
-        near_distance_m: Forward distance at which the width is measured, metres.
+        vanishing_tolerance: A candidate must cross the horizon row within this fraction of the
+            image width from the principal column; the two boundaries must meet within this
+            fraction of the image height from the horizon row.
+        near_distance_m: Forward distance (m) at which candidates are grouped and the width is
+            measured.
+        cluster_m: Candidates within this lateral distance (m) at ``near_distance_m`` form a group.
+        min_offset_m: Nearest lateral offset (m) of an ego boundary from the camera; keeps the
+            near-vertical side edges of a preceding vehicle out.
+        max_offset_m: Farthest lateral offset (m) of an ego boundary from the camera.
+        min_support: Smallest total segment length of a boundary group, fraction of the height.
+        support_tol_px: Largest distance of a supporting segment's end points from the fitted
+            line, fraction of the image height.
+        max_gap_m: Largest ground gap (m) between consecutive supporting segments in the range.
     """
 
     blur_ksize: int = 5
-    canny_low: int = 50
-    canny_high: int = 150
-    roi_top_below_horizon_px: float = 15.0
-    roi_top_half_width: float = 0.1
-    hough_threshold: int = 25
-    min_line_length_px: float = 0.04
-    max_line_gap_px: float = 0.03
+    canny_low: int = 40
+    canny_high: int = 120
+    roi_top_below_horizon_px: float = 6.0
+    roi_top_half_width: float = 0.12
+    hough_threshold: int = 10
+    min_line_length: float = 0.015
+    max_line_gap: float = 0.02
     min_abs_slope: float = 0.3
     vanishing_tolerance: float = 0.15
-    cluster_m: float = 0.6
     near_distance_m: float = 10.0
+    cluster_m: float = 0.5
+    min_offset_m: float = 0.8
+    max_offset_m: float = 3.5
+    min_support: float = 0.08
+    support_tol_px: float = 0.012
+    max_gap_m: float = 15.0
 
 
 def detect_ego_lane(
@@ -107,39 +139,62 @@ def detect_ego_lane(
         camera: Camera of the image (resized to the image if needed).
         params: Detector parameters.
     """
-    import cv2  # late: heavy import
-
     p = params or HoughParams()
-    grey = image_bgr if image_bgr.ndim == 2 else cv2.cvtColor(image_bgr, cv2.COLOR_BGR2GRAY)
-    height, width = grey.shape
+    height, width = image_bgr.shape[:2]
     cam = (
         camera
         if (camera.width, camera.height) == (width, height)
         else camera.resized(width, height)
     )
+    edges, segs = edges_and_segments(image_bgr, cam, p)
+    if segs.shape[0] == 0:
+        return HoughResult(None, None, math.nan, math.nan, False, "no lines")
+    left = _fit_side(segs, edges, cam, p, left=True)
+    right = _fit_side(segs, edges, cam, p, left=False)
+    return measure(left, right, cam, p)
+
+
+def edges_and_segments(
+    image_bgr: NDArray[np.uint8], camera: CameraModel, params: HoughParams | None = None
+) -> tuple[NDArray[np.uint8], FloatArray]:
+    """Return the Canny edges inside the ROI and the ``(N, 4)`` Hough segments.
+
+    Segments are ``u0, v0, u1, v1`` in pixels with ``v0 >= v1`` (bottom end first).
+
+    Args:
+        image_bgr: ``(H, W, 3)`` uint8 BGR image (or ``(H, W)`` grey) of the camera's size.
+        camera: Camera of the image, at the image's size.
+        params: Detector parameters.
+    """
+    import cv2  # late: heavy import
+
+    p = params or HoughParams()
+    grey = image_bgr if image_bgr.ndim == 2 else cv2.cvtColor(image_bgr, cv2.COLOR_BGR2GRAY)
+    height, width = grey.shape
     blurred = cv2.GaussianBlur(grey, (p.blur_ksize, p.blur_ksize), 0)
     edges = np.asarray(cv2.Canny(blurred, p.canny_low, p.canny_high), dtype=np.uint8)
-    edges &= _roi_mask(height, width, cam, p)
+    edges &= _roi_mask(height, width, camera, p)
     found = cv2.HoughLinesP(
         edges,
         rho=1,
         theta=np.pi / 180,
         threshold=p.hough_threshold,
-        minLineLength=max(2.0, p.min_line_length_px * height),
-        maxLineGap=max(1.0, p.max_line_gap_px * height),
+        minLineLength=max(2.0, p.min_line_length * height),
+        maxLineGap=max(1.0, p.max_line_gap * height),
     )
     if found is None:
-        return HoughResult(None, None, math.nan, math.nan, False, "no lines")
+        return edges, np.zeros((0, 4))
     segs = found.reshape(-1, 4).astype(np.float64)
-    left = _select_side(segs, cam, p, left=True)
-    right = _select_side(segs, cam, p, left=False)
-    return measure(left, right, cam, p)
+    flip = segs[:, 1] < segs[:, 3]
+    segs[flip] = segs[flip][:, [2, 3, 0, 1]]
+    return edges, segs
 
 
 class _Boundary(NamedTuple):
     a: float  # du/dv
     b: float  # u at v = 0
-    v_top: float  # highest (smallest v) supported row
+    v_top: float  # image row of the supported far end
+    range_m: float  # forward ground distance of the supported far end
 
 
 def _roi_mask(height: int, width: int, cam: CameraModel, p: HoughParams) -> NDArray[np.uint8]:
@@ -157,42 +212,104 @@ def _roi_mask(height: int, width: int, cam: CameraModel, p: HoughParams) -> NDAr
     return mask
 
 
-def _select_side(
-    segs: FloatArray, cam: CameraModel, p: HoughParams, *, left: bool
+def _row_at_distance(cam: CameraModel, x_m: float) -> float:
+    uv, _ = cam.project(np.array([[x_m, 0.0, 0.0]]))
+    return float(uv[0, 1])
+
+
+def _fit_side(
+    segs: FloatArray, edges: NDArray[np.uint8], cam: CameraModel, p: HoughParams, *, left: bool
 ) -> _Boundary | None:
+    """Select and fit one side's ego boundary, and measure how far it is supported."""
     u0, v0, u1, v1 = segs.T
     du, dv = u1 - u0, v1 - v0
-    steep = np.abs(dv) >= p.min_abs_slope * np.abs(du)
+    steep = (np.abs(dv) >= p.min_abs_slope * np.abs(du)) & (dv != 0)
     a = np.divide(du, dv, out=np.zeros_like(du), where=dv != 0)
     b = u0 - a * v0
-    bottom = float(cam.height - 1)
-    u_bottom = a * bottom + b
     cx = cam.intrinsics.cx
+    u_bottom = a * (cam.height - 1.0) + b
     side = (a < 0) & (u_bottom < cx) if left else (a > 0) & (u_bottom > cx)
     u_horizon = a * cam.horizon_row() + b
     converging = np.abs(u_horizon - cx) <= p.vanishing_tolerance * cam.width
-    sel = steep & side & converging & (dv != 0)
-    if not sel.any():
+    cand = np.flatnonzero(steep & side & converging)
+    if cand.size == 0:
         return None
-    a, b, u_bottom = a[sel], b[sel], u_bottom[sel]
-    length = np.hypot(du[sel], dv[sel])
-    v_top = np.minimum(v0[sel], v1[sel])
-    nearest = int(np.argmin(np.abs(u_bottom - cx)))
-    xy, _ = cam.ground_points(np.array([[cx, bottom], [cx + 1.0, bottom]]))
-    m_per_px = float(np.hypot(*(xy[1] - xy[0]))) if np.isfinite(xy).all() else 0.01
-    cluster = np.abs(u_bottom - u_bottom[nearest]) <= p.cluster_m / max(m_per_px, 1e-6)
-    w = length[cluster]
-    return _Boundary(
-        a=_weighted_median(a[cluster], w),
-        b=_weighted_median(b[cluster], w),
-        v_top=float(v_top[cluster].min()),
+    v_near = _row_at_distance(cam, p.near_distance_m)
+    xy, valid = cam.ground_points(
+        np.stack([a[cand] * v_near + b[cand], np.full(cand.size, v_near)], 1)
     )
+    offset = np.where(valid, xy[:, 1], np.nan)
+    keep = (
+        np.isfinite(offset)
+        & (np.abs(offset) >= p.min_offset_m)
+        & (np.abs(offset) <= p.max_offset_m)
+    )
+    cand, offset = cand[keep], offset[keep]
+    length = np.hypot(du, dv)
+    need = p.min_support * cam.height
+    for i in np.argsort(np.abs(offset)):
+        group = cand[np.abs(offset - offset[i]) <= p.cluster_m]
+        if length[group].sum() >= need:
+            break
+    else:
+        return None
+    side_idx = np.flatnonzero(steep & side)
+    tol = p.support_tol_px * cam.height
+    line = _fit_line(segs[group], length[group])
+    support = group
+    for _ in range(2):
+        dist = np.maximum(
+            np.abs(line[0] * v0[side_idx] + line[1] - u0[side_idx]),
+            np.abs(line[0] * v1[side_idx] + line[1] - u1[side_idx]),
+        )
+        support = side_idx[dist <= tol]
+        if support.size == 0:
+            support = group
+        line = _fit_line(segs[support], length[support])
+    return _supported_range(line, edges, cam, p)
 
 
-def _weighted_median(values: FloatArray, weights: FloatArray) -> float:
-    order = np.argsort(values)
-    cum = np.cumsum(weights[order])
-    return float(values[order][np.searchsorted(cum, 0.5 * cum[-1])])
+def _fit_line(segs: FloatArray, weights: FloatArray) -> tuple[float, float]:
+    """Length-weighted least-squares fit of ``u = a * v + b`` through segment end points."""
+    v = np.concatenate([segs[:, 1], segs[:, 3]])
+    u = np.concatenate([segs[:, 0], segs[:, 2]])
+    w = np.concatenate([weights, weights])
+    design = np.stack([v, np.ones_like(v)], 1) * np.sqrt(w)[:, None]
+    (a, b), *_ = np.linalg.lstsq(design, u * np.sqrt(w), rcond=None)
+    return float(a), float(b)
+
+
+def _supported_range(
+    line: tuple[float, float], edges: NDArray[np.uint8], cam: CameraModel, p: HoughParams
+) -> _Boundary | None:
+    """Walk up the fitted line row by row and return how far edge pixels support it.
+
+    A row supports the line when a Canny edge pixel lies within ``support_tol_px`` of it; the
+    supported rows are chained from the bottom while the ground gap between consecutive ones is
+    at most ``max_gap_m``.
+    """
+    a, b = line
+    height, width = edges.shape
+    top = int(np.clip(math.ceil(cam.horizon_row() + p.roi_top_below_horizon_px), 0, height - 1))
+    rows = np.arange(height - 1, top - 1, -1)
+    u = np.rint(a * rows + b).astype(np.intp)
+    tol = max(1, round(p.support_tol_px * height))
+    cols = u[:, None] + np.arange(-tol, tol + 1)[None, :]
+    inside = (cols >= 0) & (cols < width)
+    hit = (edges[rows[:, None], np.clip(cols, 0, width - 1)] > 0) & inside
+    supported = rows[hit.any(axis=1)]
+    if supported.size == 0:
+        return None
+    xy, valid = cam.ground_points(
+        np.stack([a * supported + b, supported.astype(np.float64)], axis=1)
+    )
+    x = xy[valid, 0]
+    v_ok = supported[valid]
+    if x.size == 0:
+        return None
+    gaps = np.flatnonzero(np.diff(x) > p.max_gap_m)
+    last = int(gaps[0]) if gaps.size else x.size - 1
+    return _Boundary(a, b, float(v_ok[last]), float(x[last]))
 
 
 def _segment(bound: _Boundary, bottom: float) -> LineSegment:
@@ -201,17 +318,10 @@ def _segment(bound: _Boundary, bottom: float) -> LineSegment:
     )
 
 
-def _ground_track(bound: _Boundary, cam: CameraModel) -> tuple[FloatArray, FloatArray]:
-    """Return forward and lateral ground coordinates (m) along a boundary, bottom to top."""
-    v = np.linspace(cam.height - 1.0, bound.v_top, 64)
-    xy, valid = cam.ground_points(np.stack([bound.a * v + bound.b, v], axis=1))
-    return xy[valid, 0], xy[valid, 1]
-
-
 def measure(
     left: _Boundary | None, right: _Boundary | None, cam: CameraModel, p: HoughParams
 ) -> HoughResult:
-    """Turn the selected boundaries into a :class:`HoughResult` with width and range in metres."""
+    """Turn the fitted boundaries into a :class:`HoughResult` with width and range in metres."""
     bottom = cam.height - 1.0
     left_seg = _segment(left, bottom) if left else None
     right_seg = _segment(right, bottom) if right else None
@@ -220,18 +330,21 @@ def measure(
         if left is None and right is None:
             missing = "no boundaries"
         return HoughResult(left_seg, right_seg, math.nan, math.nan, False, missing)
-    xl, yl = _ground_track(left, cam)
-    xr, yr = _ground_track(right, cam)
-    if xl.size < 2 or xr.size < 2:
+    v_near = _row_at_distance(cam, p.near_distance_m)
+    uv = np.array([[left.a * v_near + left.b, v_near], [right.a * v_near + right.b, v_near]])
+    xy, valid = cam.ground_points(uv)
+    if not valid.all():
         return HoughResult(left_seg, right_seg, math.nan, math.nan, False, "above the horizon")
-    near = p.near_distance_m
-    # Boundaries that start beyond the near distance are measured at their nearest point.
-    y_left = float(np.interp(near, xl, yl))
-    y_right = float(np.interp(near, xr, yr))
-    width = y_left - y_right
-    reach = float(min(xl.max(), xr.max()))
+    width = float(xy[0, 1] - xy[1, 1])
+    reach = min(left.range_m, right.range_m)
     if not width > 0:
         return HoughResult(left_seg, right_seg, width, reach, False, "boundaries cross")
+    if left.a != right.a:
+        v_meet = (right.b - left.b) / (left.a - right.a)
+        if abs(v_meet - cam.horizon_row()) > p.vanishing_tolerance * cam.height:
+            return HoughResult(
+                left_seg, right_seg, width, reach, False, "no common vanishing point"
+            )
     return HoughResult(left_seg, right_seg, width, reach, True, "")
 
 
@@ -257,22 +370,20 @@ class HoughTracker:
         cam = self.camera
         if (cam.width, cam.height) != (width, height):
             cam = cam.resized(width, height)
-        raw = detect_ego_lane(image_bgr, cam, self.params)
-        self._left = self._blend(self._left, _from_segment(raw.left_line))
-        self._right = self._blend(self._right, _from_segment(raw.right_line))
-        if raw.left_line is None or raw.right_line is None:
-            return raw
-        return measure(self._left, self._right, cam, self.params)
+        p = self.params
+        edges, segs = edges_and_segments(image_bgr, cam, p)
+        left = _fit_side(segs, edges, cam, p, left=True) if segs.shape[0] else None
+        right = _fit_side(segs, edges, cam, p, left=False) if segs.shape[0] else None
+        self._left = self._blend(self._left, left)
+        self._right = self._blend(self._right, right)
+        if left is None or right is None:
+            return measure(left, right, cam, p)
+        return measure(self._left, self._right, cam, p)
 
     def _blend(self, old: _Boundary | None, new: _Boundary | None) -> _Boundary | None:
         if new is None or old is None or self.alpha >= 1.0:
             return new
         k = self.alpha
-        return _Boundary(k * new.a + (1 - k) * old.a, k * new.b + (1 - k) * old.b, new.v_top)
-
-
-def _from_segment(seg: LineSegment | None) -> _Boundary | None:
-    if seg is None or seg.v0 == seg.v1:
-        return None
-    a = (seg.u1 - seg.u0) / (seg.v1 - seg.v0)
-    return _Boundary(a, seg.u0 - a * seg.v0, seg.v1)
+        return _Boundary(
+            k * new.a + (1 - k) * old.a, k * new.b + (1 - k) * old.b, new.v_top, new.range_m
+        )

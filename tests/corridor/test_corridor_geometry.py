@@ -63,3 +63,38 @@ def test_corridor_from_lanes(left: float, right: float, range_m: float) -> None:
     assert geo.width_m == pytest.approx(left - right)
     assert geo.length_m == range_m
     assert math.isnan(corridor_from_lanes(None, right, range_m).width_m)
+
+
+def _project_polygon(cam: object, pts_m: list[tuple[float, float]]) -> np.ndarray:
+    xyz = np.array([[x, y, 0.0] for x, y in pts_m])
+    uv, _ = cam.project(xyz)  # type: ignore[attr-defined]
+    return np.asarray(uv.round().astype(np.int32))
+
+
+def test_length_ignores_a_tapering_tip_and_stray_far_blobs() -> None:
+    # A network mask that stays lane-wide to 30 m and then tapers to a point at 80 m, plus a
+    # stray blob at 100 m: the corridor ends where it narrows below 80 % of its width, at
+    # 30 + 0.2 * 50 = 40 m (the farthest mask row would say about 100 m).
+    cam = load_camera("sim_default")
+    mask = _corridor_mask(1.85, 30.0)
+    tip = _project_polygon(cam, [(30.0, 1.85), (80.0, 0.0), (30.0, -1.85)])
+    cv2.fillPoly(mask, [tip], 1)
+    u, v = _project_polygon(cam, [(100.0, 0.0)])[0]
+    mask[v - 1 : v + 2, u - 6 : u + 6] = 1
+    geo = corridor_from_mask(mask > 0, cam)
+    assert abs(geo.width_m - 3.7) < 0.1
+    assert 37.0 < geo.length_m < 43.0
+
+
+def test_length_bridges_short_holes_but_not_long_ones() -> None:
+    cam = load_camera("sim_default")
+    base = _corridor_mask(1.85, 40.0)
+    holed = base.copy()
+    v_hole = int(_project_polygon(cam, [(20.0, 0.0)])[0, 1])
+    holed[v_hole : v_hole + 2] = 0  # two rows lost (a wiper, a tar seam): bridged
+    assert corridor_from_mask(holed, cam).length_m == pytest.approx(
+        corridor_from_mask(base, cam).length_m
+    )
+    cut = base.copy()
+    cut[v_hole - 10 : v_hole + 2] = 0  # a long cut: the corridor ends before it
+    assert corridor_from_mask(cut, cam).length_m < 21.0

@@ -82,10 +82,16 @@ def _per_pixel_reference(prob: np.ndarray, camera: object, p: CorridorParams) ->
     support = count >= p.min_row_px
     if not support.any():
         return math.nan, math.nan, 0
-    far = np.sort(x_row[support])[::-1]
-    length = float(far[min(p.far_rows_ignored, far.size - 1)])
+    row_width = np.where(support, y_max - y_min, 0.0)
     win = support & (x_row >= p.width_near_m) & (x_row <= p.width_far_m)
-    width = float(np.median((y_max - y_min)[win])) if win.any() else math.nan
+    width = float(np.median(row_width[win])) if win.any() else math.nan
+    ref = width if win.any() else float(np.median(row_width[support]))
+    full = np.flatnonzero(support & (row_width >= p.full_width_fraction * ref))[::-1]
+    if full.size == 0:
+        length = float(x_row[np.flatnonzero(support)[-1]])
+    else:
+        cut = np.flatnonzero(full[:-1] - full[1:] > p.max_gap_rows + 1)
+        length = float(x_row[full[cut[0]] if cut.size else full[-1]])
     return width, length, int(support.sum())
 
 
