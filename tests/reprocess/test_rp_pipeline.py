@@ -159,7 +159,14 @@ def test_oracle_backend_curvature(drive: Path, tmp_path: Path) -> None:
     sup = summ[(summ["scope"] == "overall") & (summ["source"] == "super")].iloc[0]
     assert sup["n"] > 20
     assert sup["rmse"] < 2.5e-3
-    assert set(summ["source"]) == {"super", "super_road", "super_path", "mobileye"}
+    assert set(summ["source"]) == {
+        "super",
+        "super_road",
+        "super_path",
+        "super_road_sg",
+        "super_path_sg",
+        "mobileye",
+    }
     curv = pd.read_parquet(tmp_path / "oracle" / "curvature.parquet")
     path = curv["super_path_curvature"].to_numpy()
     ok = np.isfinite(path) & curv["rtk_valid"].to_numpy()
@@ -168,6 +175,23 @@ def test_oracle_backend_curvature(drive: Path, tmp_path: Path) -> None:
     rtk = curv["rtk_curvature"].to_numpy()
     raw = curv["super_curvature"].to_numpy()
     assert np.sqrt(np.mean((path[ok] - rtk[ok]) ** 2)) < np.sqrt(np.mean((raw[ok] - rtk[ok]) ** 2))
+
+
+def test_lane_tracker_outputs_and_accuracy(run_dir: Path) -> None:
+    curv = pd.read_parquet(run_dir / "curvature.parquet")
+    used = curv["super_track_used"].to_numpy()
+    assert used.sum() > 0.5 * len(curv)
+    assert np.isfinite(curv["super_track_road_curvature"]).sum() > 0.9 * len(curv)
+    # The per-frame raw value stays; the tracked path estimate is closer to RTK than it.
+    rtk = curv["rtk_curvature"].to_numpy()
+    path = curv["super_path_curvature"].to_numpy()
+    ok = np.isfinite(path) & np.isfinite(rtk)
+    assert ok.sum() > 5
+    raw = curv["super_curvature"].to_numpy()
+    track_rmse = np.sqrt(np.mean((path[ok] - rtk[ok]) ** 2))
+    assert track_rmse < np.sqrt(np.mean((raw[ok] - rtk[ok]) ** 2))
+    assert track_rmse < 8e-4
+    assert any("lane tracker" in line for line in (run_dir / "report.md").read_text().splitlines())
 
 
 def test_without_can_and_rtk_degrades_with_statements(drive: Path, tmp_path: Path) -> None:

@@ -13,7 +13,15 @@ from superlane_tools.can import LoadedDbc
 from superlane_tools.corridor import AvailabilityParams, Segment
 from superlane_tools.pipeline.reprocess import outputs as tables
 from superlane_tools.pipeline.reprocess.config import ReprocessConfig
-from superlane_tools.pipeline.reprocess.curvature_align import align_super_curvature
+from superlane_tools.pipeline.reprocess.curvature_align import (
+    align_super_curvature,
+    smooth_like_truth,
+)
+from superlane_tools.pipeline.reprocess.lane_tracker import (
+    TrackerParams,
+    track_lanes,
+    travelled_m,
+)
 from superlane_tools.pipeline.reprocess.signals import (
     CanFrames,
     at_frames,
@@ -103,9 +111,10 @@ def finalize(
     )
     curv["super_lookahead_m"] = scalars["super_ahead"].astype(np.float64)
     curv["super_lateral_m"] = aligned.lateral_m
-    curv["super_road_curvature"] = aligned.road_per_m
-    curv["super_lateral_curvature"] = aligned.lateral_per_m
-    curv["super_path_curvature"] = aligned.path_per_m
+    curv["super_road_sg_curvature"] = aligned.road_per_m
+    curv["super_lateral_sg_curvature"] = aligned.lateral_per_m
+    curv["super_path_sg_curvature"] = aligned.path_per_m
+    _add_track(curv, scalars, config, notes)
     curv["super_error"] = curv["super_curvature"] - curv["rtk_curvature"]
     curv["super_path_error"] = curv["super_path_curvature"] - curv["rtk_curvature"]
     curv["mobileye_error"] = curv["mobileye_curvature"] - curv["rtk_curvature"]
@@ -138,6 +147,68 @@ def finalize(
         _sections(config, stages, notes, skipped, summary, av_seqs, curv, images, len(t_ns)),
     )
     return written
+
+
+def _add_track(
+    curv: pd.DataFrame,
+    scalars: Mapping[str, np.ndarray],
+    config: ReprocessConfig,
+    notes: list[str],
+) -> None:
+    """Add the tracked SUPER curvature; set ``super_road`` / ``super_path`` from it (or SG)."""
+    trk = config.tracking
+    s_trk = travelled_m(curv["log_time_ns"].to_numpy(), curv["speed_mps"].to_numpy())
+    if trk.enabled and not np.isfinite(s_trk).any():
+        s_trk = curv["s_m"].to_numpy(dtype=np.float64)
+        notes.append("lane tracker: no CAN speed, travelled distance from the RTK track")
+    curv["super_travelled_m"] = s_trk
+    chosen = "sg"
+    if trk.enabled and np.isfinite(s_trk).sum() >= 2:
+        params = TrackerParams(
+            curvature_sigma_per_m=trk.curvature_sigma_per_m,
+            heading_sigma_rad=trk.heading_sigma_rad,
+            manoeuvre_psd=trk.manoeuvre_psd,
+            curvature_rate_psd=trk.curvature_rate_psd,
+            slope_sigma=trk.slope_sigma,
+            slope_psd=trk.slope_psd,
+            gate_chi2=trk.gate_chi2,
+            max_rejections=trk.max_rejections,
+            max_slope_fraction=trk.max_slope_fraction,
+            max_step_m=trk.max_step_m,
+            smooth=trk.smooth,
+        )
+        track = track_lanes(
+            s_trk,
+            scalars["super_a1"].astype(np.float64),
+            scalars["super_curv"].astype(np.float64),
+            scalars["super_b"].astype(np.float64),
+            scalars["super_near"].astype(np.float64),
+            scalars["super_far"].astype(np.float64),
+            scalars["super_track_ok"].astype(bool),
+            params,
+        )
+        curv["super_heading_rad"] = track.heading_rad
+        curv["super_track_used"] = track.used
+        curv["super_track_gated"] = track.gated
+        curv["super_track_road_curvature"] = track.road_per_m
+        curv["super_track_lateral_curvature"] = track.manoeuvre_per_m
+        # The truth is RTK smoothed over window_m of arc length: compare like with like.
+        s_rtk = curv["s_m"].to_numpy(dtype=np.float64)
+        for name, values in (("road", track.road_per_m), ("lateral", track.manoeuvre_per_m)):
+            curv[f"super_{name}_curvature"] = smooth_like_truth(
+                s_rtk, values, config.rtk.window_m, config.rtk.ds_m
+            )
+        curv["super_path_curvature"] = (
+            curv["super_road_curvature"] + curv["super_lateral_curvature"]
+        )
+        chosen = "track"
+        notes.append(
+            f"lane tracker: {int(track.used.sum())} of {len(curv)} frame fits used, "
+            f"{int(track.gated.sum())} rejected by the innovation gate"
+        )
+    if chosen == "sg":
+        for name in ("road", "lateral", "path"):
+            curv[f"super_{name}_curvature"] = curv[f"super_{name}_sg_curvature"]
 
 
 def _sections(

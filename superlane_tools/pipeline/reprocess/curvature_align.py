@@ -160,3 +160,34 @@ def align_super_curvature(
         lat_term[block] = _smooth_on_s(sb, lateral[block], ds_m, window_m, 2)
         lat_term[block[~np.isfinite(lateral[block])]] = np.nan
     return AlignedCurvature(road, lat_term, road + lat_term, lateral)
+
+
+def smooth_like_truth(
+    s_m: FloatArray,
+    value: FloatArray,
+    window_m: float = 30.0,
+    ds_m: float = 0.5,
+    max_gap_m: float = 15.0,
+) -> FloatArray:
+    """Low-pass a per-frame curvature with the RTK truth's filter along its arc length.
+
+    Args:
+        s_m: RTK arc length at each frame, metres (NaN without truth).
+        value: Per-frame values (1/m), NaN where unknown.
+        window_m: Savitzky-Golay window, metres (the RTK truth's).
+        ds_m: Resampling step, metres.
+        max_gap_m: Frames more than this apart along ``s`` are not bridged, metres.
+
+    Returns:
+        The smoothed values where they and the truth's arc length exist (NaN near the ends of
+        each run, as for the truth); ``value`` unchanged when there is no arc length at all.
+    """
+    s = np.asarray(s_m, dtype=np.float64)
+    v = np.asarray(value, dtype=np.float64)
+    if not np.isfinite(s).any():
+        return v.copy()
+    out = np.full(s.shape, np.nan)
+    for block in _blocks(s, max_gap_m):
+        out[block] = _smooth_on_s(s[block], v[block], ds_m, window_m, 0)
+        out[block[~np.isfinite(v[block])]] = np.nan
+    return out

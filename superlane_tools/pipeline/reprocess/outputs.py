@@ -192,8 +192,19 @@ def availability_tables(
     return frames, seqs, results
 
 
-CURVATURE_SOURCES = ("super", "super_road", "super_path", "mobileye")
-"""Curvature estimates compared with RTK (``<source>_curvature`` columns of curvature.parquet)."""
+CURVATURE_SOURCES = (
+    "super",
+    "super_road",
+    "super_path",
+    "super_road_sg",
+    "super_path_sg",
+    "mobileye",
+)
+"""Curvature estimates compared with RTK (``<source>_curvature`` columns of curvature.parquet).
+
+``super_road`` / ``super_path`` come from the lane tracker when it is enabled; ``*_sg`` are the
+same without it (look-ahead alignment and the truth's filter only).
+"""
 
 
 def curvature_summary(curv: pd.DataFrame, segments: Sequence[Segment]) -> pd.DataFrame:

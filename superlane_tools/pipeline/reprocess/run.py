@@ -117,11 +117,16 @@ class _Streamer:
                 "super_centre",
                 "super_lane_width",
                 "super_ahead",
+                "super_a1",
+                "super_b",
+                "super_near",
+                "super_far",
+                "super_track_ok",
                 "ok",
             )
         }
 
-    def add(self, done: Finished, corridor_status: str, mean_frames: int) -> None:
+    def add(self, done: Finished, corridor_status: str, mean_frames: int, max_slope: float) -> None:
         for name, row in tables.frame_rows(done, corridor_status, mean_frames).items():
             self.rows[name].append(row)
         if len(self.rows["frames"]) >= FLUSH_ROWS:
@@ -140,6 +145,12 @@ class _Streamer:
         s["super_centre"].append(centre)
         s["super_lane_width"].append(width)
         s["super_ahead"].append(ahead)
+        near, far, usable = _track_input(done.fit, max_slope)
+        s["super_a1"].append(done.fit.a1 if done.fit.ok else math.nan)
+        s["super_b"].append(done.fit.b if done.fit.ok else math.nan)
+        s["super_near"].append(near)
+        s["super_far"].append(far)
+        s["super_track_ok"].append(float(usable))
         s["ok"].append(float(not prep.error))
 
     def flush(self) -> None:
@@ -169,6 +180,21 @@ def _ego_geometry(fit: LaneFit) -> tuple[float, float, float]:
     weights = np.exp(-np.abs(offsets) / width)
     phase = np.angle(np.sum(weights * np.exp(2j * np.pi * offsets / width)))
     return float(width * phase / (2 * np.pi)), width, ahead
+
+
+def _track_input(fit: LaneFit, max_slope: float) -> tuple[float, float, bool]:
+    """Return the ego lines' common supported range (m) and whether the tracker may use the fit.
+
+    A fit is a tracker measurement when it has both ego lines with a common range and its slope
+    ``|b|`` is below ``max_slope`` (at the optimiser's bound the view has collapsed).
+    """
+    if not fit.ok or fit.ego_left < 0 or fit.ego_right < 0:
+        return math.nan, math.nan, False
+    left, right = fit.lanes[fit.ego_left], fit.lanes[fit.ego_right]
+    near = max(left.range_min_m, right.range_min_m)
+    far = min(left.range_max_m, right.range_max_m)
+    usable = far > near and abs(fit.b) < max_slope and math.isfinite(fit.curvature)
+    return near, far, usable
 
 
 def _load_dbcs(config: ReprocessConfig) -> tuple[dict[str, LoadedDbc], list[Path]]:
@@ -275,7 +301,12 @@ def reprocess(
             def handle(prep: Prepared) -> None:
                 nonlocal done_count
                 done = stages.finish(prep)
-                streamer.add(done, stages.corridor_unavailable, cfg.corridor.mean_frames)
+                streamer.add(
+                    done,
+                    stages.corridor_unavailable,
+                    cfg.corridor.mean_frames,
+                    stages.max_slope,
+                )
                 live.add(done)
                 if prep.error:
                     failed.append(f"frame {prep.index}: {prep.error}")

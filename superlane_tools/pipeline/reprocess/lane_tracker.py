@@ -1,0 +1,274 @@
+"""Lane tracker over travelled distance: a Kalman filter and RTS smoother on SUPER's fits.
+
+One frame's fit is noisy (the pixels of a learned or classical segmentation carry outliers:
+vehicles, kerbs, the noisy far range) and sometimes wrong altogether (a collapsed fit with its
+slope at the bound, a single line). Production lane trackers therefore filter the lane model
+over the distance driven. The state, along the arc length ``s`` (metres) from CAN speed, is
+
+* ``psi``: the vehicle's heading relative to the road, radians (left positive);
+* ``d = dpsi/ds``: the lateral-manoeuvre curvature ``l''(s)``, 1/m (random walk);
+* ``k``: the road curvature at the vehicle, 1/m;
+* ``k1 = dk/ds``: its rate (clothoid), 1/m^2 (random walk);
+* ``b``: the road slope ahead relative to the vehicle (Eq. 10, rise over run; random walk).
+
+The vehicle's path curvature is ``k + d``. No yaw rate enters: it would make the path estimate
+the IMU's, not the camera's. Each frame measures, from the fit's quadratic over the supported
+range ``[x0, x1]`` ahead (midpoint ``m``, half-length ``h``), ``-a1`` and ``2*a2``. A least-squares
+quadratic over that range turns the clothoid's cubic ``k1 x^3 / 6`` into
+``x^3 ~ (0.6 h^2 - 3 m^2) x + 3 m x^2 + const``, so::
+
+    -a1  = psi - k1 (0.6 h^2 - 3 m^2) / 6
+    2 a2 = k + k1 m
+    b    = b
+
+which places the curvature measurement at the look-ahead ``m`` and removes the heading bias a
+curvature ramp causes. The slope is tracked because a wrong fit usually bends the view: its
+slope jumps, and the slope of a road changes slowly along it. The heading measurement does not
+wrap at lane changes (all lines are parallel), unlike the lateral offset. Frames are gated
+twice: a fit with fewer than two ego lines or its slope at the bound is not a measurement, and
+a measurement whose normalised innovation exceeds a chi-square bound is rejected (after
+``max_rejections`` in a row the covariance is inflated and the next one accepted, so a real
+change cannot lock the track out).
+A Rauch-Tung-Striebel pass then smooths the track (reprocessing is offline).
+
+Nothing here reads files: arrays in, arrays out.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+FloatArray = NDArray[np.float64]
+BoolArray = NDArray[np.bool_]
+N_STATE = 5
+
+
+@dataclass(frozen=True)
+class TrackerParams:
+    """Noise model and gates of :func:`track_lanes`.
+
+    Attributes:
+        curvature_sigma_per_m: Standard deviation of one frame's ``2*a2``, 1/m.
+        heading_sigma_rad: Standard deviation of one frame's heading ``a1``, radians.
+        manoeuvre_psd: Random-walk density of the lateral-manoeuvre curvature ``d``,
+            (1/m)^2 per metre travelled.
+        curvature_rate_psd: Random-walk density of the road curvature rate ``k1``,
+            (1/m^2)^2 per metre travelled.
+        slope_sigma: Standard deviation of one frame's slope ``b`` (rise over run).
+        slope_psd: Random-walk density of the slope ``b``, (rise over run)^2 per metre.
+        gate_chi2: Largest normalised innovation squared (3 degrees of freedom) accepted.
+        max_rejections: After this many rejected measurements in a row the covariance is
+            inflated so that the track can follow a real change.
+        max_slope_fraction: Fits with ``|b| >= max_slope_fraction * slope_bound`` are not used
+            (the optimiser ran into the slope bound: a collapsed view).
+        max_step_m: A larger distance between two frames restarts the track, metres.
+        smooth: Run the Rauch-Tung-Striebel smoother after the forward filter.
+    """
+
+    curvature_sigma_per_m: float = 5e-4
+    heading_sigma_rad: float = 5e-3
+    manoeuvre_psd: float = 1e-7
+    curvature_rate_psd: float = 2e-10
+    slope_sigma: float = 3e-3
+    slope_psd: float = 3e-7
+    gate_chi2: float = 16.3
+    max_rejections: int = 10
+    max_slope_fraction: float = 0.95
+    max_step_m: float = 15.0
+    smooth: bool = True
+
+
+class TrackedLanes(NamedTuple):
+    """The tracked lane state at each frame (NaN where there is no track).
+
+    Attributes:
+        road_per_m: Road curvature at the vehicle ``k``, 1/m, left positive.
+        manoeuvre_per_m: Lateral-manoeuvre curvature ``d = l''(s)``, 1/m.
+        path_per_m: Vehicle path curvature ``k + d``, 1/m.
+        heading_rad: Vehicle heading relative to the road ``psi``, radians.
+        used: Whether the frame's fit was accepted as a measurement.
+        gated: Whether the frame's fit was a candidate rejected by the innovation gate.
+    """
+
+    road_per_m: FloatArray
+    manoeuvre_per_m: FloatArray
+    path_per_m: FloatArray
+    heading_rad: FloatArray
+    used: BoolArray
+    gated: BoolArray
+
+
+def travelled_m(t_ns: NDArray[np.int64], speed_mps: FloatArray) -> FloatArray:
+    """Return the distance travelled at each frame from the speed, metres (NaN without speed).
+
+    Trapezoidal integration of the speed over the frame times; gaps in the speed are bridged by
+    linear interpolation, frames before the first or after the last speed sample get NaN.
+    """
+    t = (np.asarray(t_ns, dtype=np.int64) - (int(t_ns[0]) if len(t_ns) else 0)) / 1e9
+    v = np.asarray(speed_mps, dtype=np.float64)
+    out = np.full(t.shape, np.nan)
+    ok = np.isfinite(v)
+    if ok.sum() < 2:
+        return out
+    first, last = np.flatnonzero(ok)[[0, -1]]
+    span = slice(first, last + 1)
+    vv = np.interp(t[span], t[ok], v[ok])
+    steps = 0.5 * (vv[1:] + vv[:-1]) * np.diff(t[span])
+    out[span] = np.concatenate([[0.0], np.cumsum(steps)])
+    return out
+
+
+def _transition(step_m: float, p: TrackerParams) -> tuple[FloatArray, FloatArray]:
+    """Return ``F`` and ``Q`` of one step of ``step_m`` metres."""
+    f = np.eye(N_STATE)
+    f[0, 1] = step_m
+    f[2, 3] = step_m
+    q = np.zeros((N_STATE, N_STATE))
+    qd, qk = p.manoeuvre_psd, p.curvature_rate_psd
+    s2, s3 = step_m**2, step_m**3
+    q[np.ix_([0, 1], [0, 1])] = qd * np.array([[s3 / 3, s2 / 2], [s2 / 2, step_m]])
+    q[np.ix_([2, 3], [2, 3])] = qk * np.array([[s3 / 3, s2 / 2], [s2 / 2, step_m]])
+    q[4, 4] = p.slope_psd * step_m
+    return f, q
+
+
+def _initial(z: FloatArray, mid_m: float) -> tuple[FloatArray, FloatArray]:
+    x = np.array([z[0], 0.0, z[1], 0.0, z[2]])
+    p0 = np.diag([0.02**2, 2e-3**2, 3e-3**2, 1e-4**2, 0.01**2])
+    # 2*a2 describes the curvature at the look-ahead; its initial rate is unknown.
+    p0[2, 2] += (mid_m * 1e-4) ** 2
+    return x, p0
+
+
+def measurement_matrix(mid_m: float, half_m: float) -> FloatArray:
+    """Return ``H`` mapping the state to ``(-a1, 2*a2, b)`` for a fit over ``mid -+ half`` m."""
+    c1 = 0.6 * half_m**2 - 3.0 * mid_m**2
+    return np.array(
+        [
+            [1.0, 0.0, 0.0, -c1 / 6.0, 0.0],
+            [0.0, 0.0, 1.0, mid_m, 0.0],
+            [0.0, 0.0, 0.0, 0.0, 1.0],
+        ]
+    )
+
+
+def track_lanes(
+    s_m: FloatArray,
+    heading_rad: FloatArray,
+    curvature_per_m: FloatArray,
+    slope: FloatArray,
+    near_m: FloatArray,
+    far_m: FloatArray,
+    valid: BoolArray,
+    params: TrackerParams | None = None,
+) -> TrackedLanes:
+    """Filter and smooth the per-frame fits along the travelled distance.
+
+    Args:
+        s_m: Distance travelled at each frame, metres (NaN: no step known; the track restarts).
+        heading_rad: The fit's lane heading ``a1`` at the vehicle, radians.
+        curvature_per_m: The fit's ``2*a2``, 1/m.
+        slope: The fit's road slope ``b`` (rise over run).
+        near_m: Nearest forward distance of the fit's supported range, metres.
+        far_m: Farthest forward distance of the fit's supported range, metres.
+        valid: Frames whose fit may be used as a measurement (ego lines found, slope inside
+            its bound).
+        params: Noise model and gates.
+
+    Returns:
+        The tracked state per frame; frames before the first measurement have NaN.
+    """
+    p = params or TrackerParams()
+    s = np.asarray(s_m, dtype=np.float64)
+    n = s.size
+    a1 = np.asarray(heading_rad, dtype=np.float64)
+    curv = np.asarray(curvature_per_m, dtype=np.float64)
+    b = np.asarray(slope, dtype=np.float64)
+    near, far = np.asarray(near_m, np.float64), np.asarray(far_m, np.float64)
+    cand = (
+        np.asarray(valid, dtype=bool)
+        & np.isfinite(a1)
+        & np.isfinite(curv)
+        & np.isfinite(b)
+        & np.isfinite(near)
+        & np.isfinite(far)
+        & (far > near)
+    )
+    r = np.diag([p.heading_sigma_rad**2, p.curvature_sigma_per_m**2, p.slope_sigma**2])
+    xs_f = np.full((n, N_STATE), np.nan)
+    ps_f = np.full((n, N_STATE, N_STATE), np.nan)
+    xs_p = np.full((n, N_STATE), np.nan)
+    ps_p = np.full((n, N_STATE, N_STATE), np.nan)
+    fs = np.zeros((n, N_STATE, N_STATE))
+    used = np.zeros(n, dtype=bool)
+    gated = np.zeros(n, dtype=bool)
+    starts = np.zeros(n, dtype=bool)
+    x: FloatArray | None = None
+    cov = np.zeros((N_STATE, N_STATE))
+    rejections = 0
+    for k in range(n):
+        step = s[k] - s[k - 1] if k else np.nan
+        restart = x is None or not np.isfinite(step) or not 0 <= step <= p.max_step_m
+        if restart:
+            x = None
+        else:
+            assert x is not None
+            f, q = _transition(float(step), p)
+            x, cov = f @ x, f @ cov @ f.T + q
+            fs[k] = f
+        if x is not None:
+            xs_p[k], ps_p[k] = x, cov
+        if cand[k]:
+            mid, half = 0.5 * (near[k] + far[k]), 0.5 * (far[k] - near[k])
+            z = np.array([-a1[k], curv[k], b[k]])
+            if x is None:
+                x, cov = _initial(z, mid)
+                starts[k] = True
+                used[k] = True
+                rejections = 0
+            else:
+                h = measurement_matrix(mid, half)
+                nu = z - h @ x
+                s_cov = h @ cov @ h.T + r
+                d2 = float(nu @ np.linalg.solve(s_cov, nu))
+                if d2 > p.gate_chi2 and rejections < p.max_rejections:
+                    gated[k] = True
+                    rejections += 1
+                else:
+                    if d2 > p.gate_chi2:
+                        cov = cov * 10.0
+                        s_cov = h @ cov @ h.T + r
+                    gain = np.linalg.solve(s_cov, h @ cov).T
+                    x = x + gain @ nu
+                    cov = (np.eye(N_STATE) - gain @ h) @ cov
+                    cov = 0.5 * (cov + cov.T)
+                    used[k] = True
+                    rejections = 0
+        if x is not None:
+            xs_f[k], ps_f[k] = x, cov
+    xs = _rts(xs_f, ps_f, xs_p, ps_p, fs, starts) if p.smooth else xs_f
+    return TrackedLanes(xs[:, 2], xs[:, 1], xs[:, 2] + xs[:, 1], xs[:, 0], used, gated)
+
+
+def _rts(
+    xs_f: FloatArray,
+    ps_f: FloatArray,
+    xs_p: FloatArray,
+    ps_p: FloatArray,
+    fs: FloatArray,
+    starts: BoolArray,
+) -> FloatArray:
+    """Rauch-Tung-Striebel backward pass within each uninterrupted track segment."""
+    out = xs_f.copy()
+    n = xs_f.shape[0]
+    for k in range(n - 2, -1, -1):
+        nxt = k + 1
+        if starts[nxt] or not np.isfinite(xs_p[nxt, 0]) or not np.isfinite(xs_f[k, 0]):
+            continue
+        gain = ps_f[k] @ fs[nxt].T @ np.linalg.pinv(ps_p[nxt])
+        out[k] = xs_f[k] + gain @ (out[nxt] - xs_p[nxt])
+    return out
