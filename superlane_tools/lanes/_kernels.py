@@ -9,7 +9,9 @@ functions that run a fit import this module. ``cache=True`` keeps compiled code 
 file, or in numba's per-user cache when the install is read-only; where neither is writable the
 kernels are compiled in memory each process.
 
-The cost configuration travels as one float array ``cfg`` (see the ``CFG_*`` indices).
+The cost configuration travels as one float array ``cfg`` (see the ``CFG_*`` indices). The road
+is ``z = b x + c x^2`` ahead of the camera foot; ``c = 0`` (the paper's linear road) takes the
+exact flat-slope path of :func:`road_den`.
 """
 
 from __future__ import annotations
@@ -51,15 +53,38 @@ def _jit(func: F) -> F:
 
 
 @_jit
-def lane_cost(iq: Any, r: Any, a1: float, a2: float, b: float, cfg: Any, hist: Any) -> float:
+def road_den(iq: float, b_h: float, c_h: float) -> float:
+    """Return ``1 / x`` of a ray's nearer intersection with the road ``z = b x + c x^2`` (1/m).
+
+    ``b_h = b / h`` and ``c_h = c / h``; the ray ``(iq, .)`` meets the road where
+    ``c_h x^2 + (iq + b_h) x - 1 = 0``, whose nearer positive root is
+    ``x = 2 / (den + sqrt(den^2 + 4 c_h))`` with ``den = iq + b_h`` (no cancellation as
+    ``c -> 0``; ``c = 0`` returns ``den`` exactly). A ray that passes over a crest returns -1.
+    Callers treat values below ``1 / max_range`` as out of range.
+    """
+    den = iq + b_h
+    if c_h == 0.0:
+        return den
+    disc = den * den + 4.0 * c_h
+    if disc < 0.0:
+        return -1.0
+    return 0.5 * (den + math.sqrt(disc))
+
+
+@_jit
+def lane_cost(
+    iq: Any, r: Any, a1: float, a2: float, b: float, cv: float, cfg: Any, hist: Any
+) -> float:
     """Return J2 (Eq. 2): soft-binned entropy of the residuals + kappa * N_l / n_l.
 
+    ``cv`` is the vertical curvature term ``c`` (1/m) of the road ``z = b x + c x^2``.
     ``hist`` is scratch space of ``n_bins + 3`` floats (slot 0 and slots above ``n_bins``
     collect the out-of-range residuals).
     """
     n_bins = int(cfg[CFG_N_BINS])
     penalty: float = cfg[CFG_KAPPA] * iq.size
     c = b * cfg[CFG_INV_H]
+    c_h = cv * cfg[CFG_INV_H]
     min_den = cfg[CFG_MIN_DEN]
     scale = cfg[CFG_POS_SCALE]
     shift = cfg[CFG_POS_SHIFT]
@@ -67,7 +92,7 @@ def lane_cost(iq: Any, r: Any, a1: float, a2: float, b: float, cfg: Any, hist: A
     for k in range(n_bins + 3):
         hist[k] = 0.0
     for i in range(iq.size):
-        den = iq[i] + c
+        den = road_den(iq[i], c, c_h)
         if den < min_den:
             pos = 0.0
         else:
@@ -96,14 +121,17 @@ def lane_cost(iq: Any, r: Any, a1: float, a2: float, b: float, cfg: Any, hist: A
 
 
 @_jit
-def road_cost(riq: Any, rr: Any, a1: float, a2: float, b: float, a0c: float, cfg: Any) -> float:
+def road_cost(
+    riq: Any, rr: Any, a1: float, a2: float, b: float, a0c: float, cv: float, cfg: Any
+) -> float:
     """Return J1 (Eq. 1): minus the Gaussian closeness of road points to the centre line."""
     c = b * cfg[CFG_INV_H]
+    c_h = cv * cfg[CFG_INV_H]
     min_den = cfg[CFG_MIN_DEN]
     inv_sigma = cfg[CFG_INV_SIGMA]
     s = 0.0
     for i in range(riq.size):
-        den = riq[i] + c
+        den = road_den(riq[i], c, c_h)
         if den >= min_den:
             x = 1.0 / den
             d = (x * (rr[i] - a1 - a2 * x) - a0c) * inv_sigma
@@ -113,18 +141,21 @@ def road_cost(riq: Any, rr: Any, a1: float, a2: float, b: float, a0c: float, cfg
 
 @_jit
 def total_cost(iq: Any, r: Any, riq: Any, rr: Any, theta: Any, cfg: Any, hist: Any) -> float:
-    """Return J = lambda * J1 + J2 (Eq. 3) for ``theta = (a1, a2, b, a0c)``."""
+    """Return J = lambda * J1 + J2 (Eq. 3) for ``theta = (a1, a2, b, a0c[, c])``."""
+    cv = theta[4] if theta.size > 4 else 0.0
     cost = 0.0
     if iq.size:
-        cost = lane_cost(iq, r, theta[0], theta[1], theta[2], cfg, hist)
+        cost = lane_cost(iq, r, theta[0], theta[1], theta[2], cv, cfg, hist)
     if riq.size:
-        cost += cfg[CFG_LAMBDA] * road_cost(riq, rr, theta[0], theta[1], theta[2], theta[3], cfg)
+        cost += cfg[CFG_LAMBDA] * road_cost(
+            riq, rr, theta[0], theta[1], theta[2], theta[3], cv, cfg
+        )
     return cost
 
 
 @_jit
 def batch_cost(iq: Any, r: Any, riq: Any, rr: Any, thetas: Any, cfg: Any, hist: Any) -> Any:
-    """Return J for each row of ``(P, 4)`` parameter vectors (the initial grid)."""
+    """Return J for each row of ``(P, 4)`` or ``(P, 5)`` parameter vectors (the initial grid)."""
     out = np.empty(thetas.shape[0])
     for j in range(thetas.shape[0]):
         out[j] = total_cost(iq, r, riq, rr, thetas[j], cfg, hist)
@@ -292,7 +323,8 @@ def ray_slopes(
 
     ``iq = -dz / (h dx)`` (1/m) and ``r = dy / dx`` of the vehicle-frame ray
     ``rot @ (xn, yn, 1)``; a ray is usable when it points forward and meets the road within
-    ``[1 / max_den, 1 / min_den]`` metres for some slope within ``reach * h``.
+    ``[1 / max_den, 1 / min_den]`` metres for some slope within ``reach * h`` (with a vertical
+    curvature term, ``reach`` covers the slope ``b + c x`` at the farthest range).
     """
     n = xn.size
     iq = np.empty(n)
@@ -321,6 +353,7 @@ def assign_points(
     a1: float,
     a2: float,
     b: float,
+    cv: float,
     inv_h: float,
     min_den: float,
     offsets: Any,
@@ -329,15 +362,17 @@ def assign_points(
 ) -> tuple[Any, Any, Any]:
     """Return forward distance ``x`` (NaN: invalid), residual and nearest line of each point.
 
-    A point belongs to the nearest offset within ``radius_m + radius_per_m * x`` (else -1).
+    Points lie on the road ``z = b x + cv x^2``. A point belongs to the nearest offset within
+    ``radius_m + radius_per_m * x`` (else -1).
     """
     n = iq.size
     x_out = np.empty(n)
     res_out = np.empty(n)
     labels = np.full(n, -1, dtype=np.intp)
     c = b * inv_h
+    c_h = cv * inv_h
     for i in range(n):
-        den = iq[i] + c
+        den = road_den(iq[i], c, c_h)
         if den < min_den:
             x_out[i] = np.nan
             res_out[i] = np.nan
@@ -444,28 +479,32 @@ def refit_normal(
     a1: float,
     a2: float,
     b: float,
+    cv: float,
     inv_h: float,
     min_den: float,
     order: int,
     fit_slope: bool,
+    fit_vertical: bool,
     near_m: float,
 ) -> tuple[Any, Any]:
     """Return the weighted normal equations of one Gauss-Newton step of ``_refit.refit_shared``.
 
     Columns: one offset per line, ``x``, ``x^2`` (order 2), the slope derivative (when
-    ``fit_slope``); target ``y``; weights ``1 / max(x, near_m)^2``; unassigned points and points
-    beyond range are left out.
+    ``fit_slope``), the vertical-curvature derivative (when ``fit_vertical``); target ``y``;
+    weights ``1 / max(x, near_m)^2``; unassigned points and points beyond range are left out.
     """
     m = n_lines + 1 + (1 if order == 2 else 0) + (1 if fit_slope else 0)
+    m += 1 if fit_vertical else 0
     normal = np.zeros((m, m))
     rhs = np.zeros(m)
     col = np.zeros(m - n_lines)
     c = b * inv_h
+    c_h = cv * inv_h
     for i in range(iq.size):
         n = labels[i]
         if n < 0:
             continue
-        den = iq[i] + c
+        den = road_den(iq[i], c, c_h)
         if den < min_den:
             continue
         x = 1.0 / den
@@ -477,8 +516,17 @@ def refit_normal(
         if order == 2:
             col[1] = x * x
             k = 2
+        if c_h == 0.0:
+            g = (a1 + 2.0 * a2 * x) * (-x * x * inv_h) - (-x * y * inv_h)
+        else:
+            # dx/db = -x / (h s), s = sqrt(den^2 + 4 c / h) = 2 / x - (iq + b / h).
+            s = max(2.0 * den - (iq[i] + c), 1e-9)
+            g = (a1 + 2.0 * a2 * x - r[i]) * (-x * inv_h / s)
         if fit_slope:
-            col[k] = (a1 + 2.0 * a2 * x) * (-x * x * inv_h) - (-x * y * inv_h)
+            col[k] = g
+            k += 1
+        if fit_vertical:
+            col[k] = g * x  # dx/dc = x dx/db
         normal[n, n] += w
         rhs[n] += w * y
         for j in range(m - n_lines):
@@ -546,32 +594,44 @@ def refit_gauss_newton(
     a1: float,
     a2: float,
     b: float,
+    cv: float,
     inv_h: float,
     min_den: float,
     order: int,
     fit_slope: bool,
     slope_bound: float,
+    fit_vertical: bool,
+    vertical_bound: float,
     near_m: float,
     iterations: int,
-) -> tuple[float, float, float, Any]:
-    """Run the Gauss-Newton loop of ``_refit.refit_shared``; return ``a1, a2, b, offsets``."""
+) -> tuple[float, float, float, float, Any]:
+    """Run the Gauss-Newton loop of ``_refit.refit_shared``; return ``a1, a2, b, c, offsets``."""
     offsets = np.empty(n_lines)
-    for _ in range(iterations if fit_slope else 1):
+    for _ in range(iterations if fit_slope or fit_vertical else 1):
         normal, rhs = refit_normal(
-            iq, r, labels, n_lines, a1, a2, b, inv_h, min_den, order, fit_slope, near_m
-        )
+            iq, r, labels, n_lines, a1, a2, b, cv, inv_h, min_den, order, fit_slope,
+            fit_vertical, near_m,
+        )  # fmt: skip
         p = solve_ridged(normal, rhs)
         offsets[:] = p[:n_lines]
         a1 = p[n_lines]
         a2 = p[n_lines + 1] if order == 2 else 0.0
-        if not fit_slope:
+        if not (fit_slope or fit_vertical):
             break
-        b_new = min(max(b + p[p.size - 1], -slope_bound), slope_bound)
-        done = abs(b_new - b) < 1e-7
-        b = b_new
+        done = True
+        k = n_lines + (2 if order == 2 else 1)
+        if fit_slope:
+            b_new = min(max(b + p[k], -slope_bound), slope_bound)
+            done = abs(b_new - b) < 1e-7
+            b = b_new
+            k += 1
+        if fit_vertical:
+            c_new = min(max(cv + p[k], -vertical_bound), vertical_bound)
+            done = done and abs(c_new - cv) < 1e-9
+            cv = c_new
         if done:
             break
-    return a1, a2, b, offsets
+    return a1, a2, b, cv, offsets
 
 
 @_jit

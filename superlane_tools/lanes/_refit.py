@@ -1,9 +1,11 @@
 """Least-squares refinement after point-to-line assignment (a step beyond the paper).
 
 Once every lane point belongs to a line, the shared model ``y = o_n + a1 x + a2 x^2`` on the
-road ``z = b x`` is fitted by weighted Gauss-Newton: linear in ``(o_n, a1, a2)``, with the slope
-``b`` linearised through the ray form of Eq. 10, ``x = 1 / (iq + b / h)``, ``y = r x``
-(``dx/db = -x^2 / h``, ``dy/db = -x y / h``). Residuals are weighted by
+road ``z = b x + c x^2`` is fitted by weighted Gauss-Newton: linear in ``(o_n, a1, a2)``, with
+the slope ``b`` (and, when enabled, the vertical curvature term ``c``) linearised through the ray
+form of Eq. 10, ``x = 1 / (iq + b / h)``, ``y = r x`` (``dx/db = -x^2 / h``, ``dy/db = -x y / h``;
+on the curved road ``c x^2 / h + (iq + b / h) x = 1`` gives ``dx/db = -x / (h s)`` and
+``dx/dc = x dx/db`` with ``s = sqrt((iq + b / h)^2 + 4 c / h)``). Residuals are weighted by
 ``1 / x`` so that the fit minimises image-space (pixel) error, not metres at 100 m.
 """
 
@@ -14,6 +16,8 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from superlane_tools.lanes.cost import road_den
+
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.intp]
 
@@ -22,12 +26,17 @@ NEAR_WEIGHT_M = 5.0
 
 
 class SharedModel(NamedTuple):
-    """Shared lane parameters and per-line offsets (metres, radians, 1/m, rise over run)."""
+    """Shared lane parameters and per-line offsets (metres, radians, 1/m, rise over run).
+
+    ``c`` is the road's vertical curvature term (1/m) of ``z = b x + c x^2``; 0 on the linear
+    road of the paper.
+    """
 
     a1: float
     a2: float
     b: float
     offsets: FloatArray
+    c: float = 0.0
 
 
 def _solve(design: FloatArray, target: FloatArray, sqrt_w: FloatArray) -> FloatArray:
@@ -53,6 +62,7 @@ def refit_shared(
     max_range_m: float,
     iterations: int = 6,
     compiled: bool = False,
+    vertical_bound: float = 0.0,
 ) -> SharedModel:
     """Refit shared heading, curvature, slope and per-line offsets to assigned points.
 
@@ -70,6 +80,8 @@ def refit_shared(
         iterations: Gauss-Newton iterations at most.
         compiled: Accumulate the normal equations with a numba kernel (one pass, no design
             matrix) instead of numpy; same result to rounding.
+        vertical_bound: Bound on ``|c|`` (1/m); > 0 also estimates ``c`` (needs two lines or
+            more), 0 keeps ``start.c``.
     """
     if compiled:
         return _refit_compiled(
@@ -84,6 +96,7 @@ def refit_shared(
             slope_bound,
             max_range_m,
             iterations,
+            vertical_bound,
         )
     keep = labels >= 0
     iq, r, lab = iq[keep], r[keep], labels[keep]
@@ -91,11 +104,13 @@ def refit_shared(
         return start
     onehot = np.zeros((iq.size, n_lines))
     onehot[np.arange(iq.size), lab] = 1.0
-    a1, a2, b = start.a1, start.a2, start.b
+    a1, a2, b, c = start.a1, start.a2, start.b, start.c
     offsets = start.offsets
     fit_slope = fit_slope and n_lines >= 2
-    for _ in range(iterations if fit_slope else 1):
-        den = iq + b / height_m
+    fit_vertical = vertical_bound > 0 and n_lines >= 2
+    for _ in range(iterations if fit_slope or fit_vertical else 1):
+        den0 = iq + b / height_m
+        den = road_den(den0, c / height_m)
         ok = den >= 1.0 / max_range_m
         x = 1.0 / np.where(ok, den, 1.0)
         y = r * x
@@ -103,23 +118,37 @@ def refit_shared(
         cols = [onehot, x[:, None]]
         if order == 2:
             cols.append((x * x)[:, None])
-        if fit_slope:
+        if c == 0.0:
             dx = -x * x / height_m
             dy = -x * y / height_m
-            cols.append(((a1 + 2.0 * a2 * x) * dx - dy)[:, None])
+            g = (a1 + 2.0 * a2 * x) * dx - dy
+        else:
+            s = np.maximum(2.0 * den - den0, 1e-9)
+            g = (a1 + 2.0 * a2 * x - r) * (-x / (height_m * s))
+        if fit_slope:
+            cols.append(g[:, None])
+        if fit_vertical:
+            cols.append((g * x)[:, None])
         p = _solve(np.hstack(cols), y, sqrt_w)
         offsets = p[:n_lines]
         a1 = float(p[n_lines])
         a2 = float(p[n_lines + 1]) if order == 2 else 0.0
-        if not fit_slope:
+        if not (fit_slope or fit_vertical):
             break
-        step = float(p[-1])
-        b_new = float(np.clip(b + step, -slope_bound, slope_bound))
-        done = abs(b_new - b) < 1e-7
-        b = b_new
+        done = True
+        k = n_lines + (2 if order == 2 else 1)
+        if fit_slope:
+            b_new = float(np.clip(b + float(p[k]), -slope_bound, slope_bound))
+            done = abs(b_new - b) < 1e-7
+            b = b_new
+            k += 1
+        if fit_vertical:
+            c_new = float(np.clip(c + float(p[k]), -vertical_bound, vertical_bound))
+            done = done and abs(c_new - c) < 1e-9
+            c = c_new
         if done:
             break
-    return SharedModel(a1, a2, b, np.asarray(offsets, dtype=np.float64))
+    return SharedModel(a1, a2, b, np.asarray(offsets, dtype=np.float64), c)
 
 
 def _refit_compiled(
@@ -134,17 +163,21 @@ def _refit_compiled(
     slope_bound: float,
     max_range_m: float,
     iterations: int,
+    vertical_bound: float,
 ) -> SharedModel:
     """:func:`refit_shared` on normal equations accumulated by ``_kernels.refit_normal``."""
     from superlane_tools.lanes._kernels import refit_gauss_newton
 
     if int((labels >= 0).sum()) < n_lines + order + 1:
         return start
-    a1, a2, b, offsets = refit_gauss_newton(
-        iq, r, labels, n_lines, start.a1, start.a2, start.b, 1.0 / height_m, 1.0 / max_range_m,
-        order, fit_slope and n_lines >= 2, slope_bound, NEAR_WEIGHT_M, iterations,
+    a1, a2, b, c, offsets = refit_gauss_newton(
+        iq, r, labels, n_lines, start.a1, start.a2, start.b, start.c, 1.0 / height_m,
+        1.0 / max_range_m, order, fit_slope and n_lines >= 2, slope_bound,
+        vertical_bound > 0 and n_lines >= 2, vertical_bound, NEAR_WEIGHT_M, iterations,
     )  # fmt: skip
-    return SharedModel(float(a1), float(a2), float(b), np.asarray(offsets, dtype=np.float64))
+    return SharedModel(
+        float(a1), float(a2), float(b), np.asarray(offsets, dtype=np.float64), float(c)
+    )
 
 
 class LocalCorrection(NamedTuple):

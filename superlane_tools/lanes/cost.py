@@ -8,8 +8,15 @@ For a candidate slope ``b`` the ray meets the linear road ``z = b x`` of Eq. 10 
 flat horizon (``iq <= 0``), which meet an uphill road. Points whose intersection is behind the
 camera or beyond ``max_range_m`` count as out of range.
 
-Lane parameters are ``theta = (a1, a2, b, a0c)``: heading (rad), half curvature (1/m), slope
-(rise over run) and the road-centre offset (m) used by J1 only. The histogram of Eq. 2 is
+Beyond the paper, the road may bend vertically: ``z = b x + c x^2`` (``c``: vertical curvature
+term, 1/m, the road's vertical curvature is ``2 c``; positive in a sag, negative on a crest). The
+ray then meets the road where ``c x^2 / h + (iq + b / h) x = 1``, at the nearer positive root
+``x = 2 / (den + sqrt(den^2 + 4 c / h))``, ``den = iq + b / h`` (:func:`road_den`); ``c = 0`` is
+the linear road exactly.
+
+Lane parameters are ``theta = (a1, a2, b, a0c[, c])``: heading (rad), half curvature (1/m),
+slope (rise over run), the road-centre offset (m) used by J1 only and the optional vertical
+curvature term (1/m, 0 when absent). The histogram of Eq. 2 is
 *soft-binned*: each residual is split linearly between its two nearest bins, which makes the
 entropy continuous in ``theta`` (hard bins make it a staircase that Nelder-Mead cannot descend).
 
@@ -132,10 +139,33 @@ def compensate(
     return xf * inv, yf * inv, valid
 
 
+def road_den(den: FloatArray, c_h: float | FloatArray) -> FloatArray:
+    """Return ``1 / x`` of rays on the road ``z = b x + c x^2`` from their linear-road value.
+
+    Args:
+        den: ``iq + b / h`` of each ray (the inverse distance on the linear road), 1/m.
+        c_h: Vertical curvature term over camera height, ``c / h`` (1/m^2), broadcastable.
+
+    Returns:
+        ``(den + sqrt(den^2 + 4 c / h)) / 2``, the inverse distance of the nearer intersection;
+        ``den`` itself where ``c = 0``; -1 where the ray passes over a crest.
+    """
+    if np.ndim(c_h) == 0 and float(c_h) == 0.0:
+        return den
+    disc = den * den + 4.0 * np.asarray(c_h, dtype=np.float64)
+    out: FloatArray = np.where(disc >= 0.0, 0.5 * (den + np.sqrt(np.maximum(disc, 0.0))), -1.0)
+    return out
+
+
 def ray_points(
-    iq: FloatArray, r: FloatArray, slope: float, height_m: float, max_range_m: float
+    iq: FloatArray,
+    r: FloatArray,
+    slope: float,
+    height_m: float,
+    max_range_m: float,
+    vertical_curvature: float = 0.0,
 ) -> tuple[FloatArray, FloatArray, NDArray[np.bool_]]:
-    """Intersect rays ``(iq, r)`` with the road ``z = slope * x`` (Eq. 10 in ray form).
+    """Intersect rays ``(iq, r)`` with the road ``z = slope * x + c * x^2`` (Eq. 10 in ray form).
 
     Args:
         iq: Inverse flat-ground forward distance ``-dz / (h dx)`` of each ray, 1/m.
@@ -143,11 +173,13 @@ def ray_points(
         slope: Road slope ``b`` (rise over run).
         height_m: Camera height, metres.
         max_range_m: Farther intersections are invalid, metres.
+        vertical_curvature: Vertical curvature term ``c`` (1/m); 0 is the paper's linear road.
 
     Returns:
         ``x``, ``y`` in metres from the camera foot (NaN where invalid) and the validity mask.
     """
     den = np.asarray(iq, dtype=np.float64) + slope / height_m
+    den = road_den(den, vertical_curvature / height_m)
     valid = den >= 1.0 / max_range_m
     x = np.where(valid, 1.0 / np.where(valid, den, 1.0), np.nan)
     return x, r * x, valid
@@ -219,15 +251,15 @@ class CostFunction:
         """Return the lane and road rays ``(iq, r, road_iq, road_r)`` the kernels take."""
         return self._iq, self._r, self._riq, self._rr
 
-    def lane_term(self, a1: float, a2: float, b: float) -> float:
+    def lane_term(self, a1: float, a2: float, b: float, c: float = 0.0) -> float:
         """Return J2 (Eq. 2) for one parameter set: soft-binned entropy + kappa * N_l / n_l."""
-        c = b * self._inv_h
-        den = self._iq + c
+        bh = b * self._inv_h
+        den = road_den(self._iq + bh, c * self._inv_h)
         x = 1.0 / den
         pos = x * (self._r - a1 - a2 * x)
         pos *= self._pos_scale
         pos += self._pos_shift
-        if self._iq_min + c < self._min_den:
+        if c != 0.0 or self._iq_min + bh < self._min_den:
             pos[den < self._min_den] = 0.0
         np.maximum(pos, 0.0, out=pos)
         np.minimum(pos, self._top, out=pos)
@@ -247,18 +279,18 @@ class CostFunction:
         h = -float(np.dot(p, np.log(p)))
         return h + self._kappa * self.n_lane / n_in
 
-    def road_term(self, a1: float, a2: float, b: float, a0c: float) -> float:
+    def road_term(self, a1: float, a2: float, b: float, a0c: float, c: float = 0.0) -> float:
         """Return J1 (Eq. 1): minus the Gaussian closeness of road points to the centre line."""
         if self.n_road == 0:
             return 0.0
-        den = self._riq + b * self._inv_h
+        den = road_den(self._riq + b * self._inv_h, c * self._inv_h)
         ok = den >= self._min_den
         x = 1.0 / np.where(ok, den, 1.0)
         d = (x * (self._rr - a1 - a2 * x) - a0c) * self._inv_sigma
         return -float(np.exp(-(d * d))[ok].sum())
 
     def __call__(self, theta: FloatArray) -> float:
-        """Return J = lambda * J1 + J2 for ``theta = (a1, a2, b, a0c)``."""
+        """Return J = lambda * J1 + J2 for ``theta = (a1, a2, b, a0c[, c])``."""
         if self.backend == "numpy":
             return self.reference(theta)
         self.evaluations += 1
@@ -266,10 +298,10 @@ class CostFunction:
         return float(kernels().total_cost(*self.arrays, th, self.cfg, self.scratch))
 
     def batch(self, thetas: FloatArray) -> FloatArray:
-        """Return J for each row of ``(P, 4)`` parameter vectors in one evaluation."""
+        """Return J for each row of ``(P, 4)`` or ``(P, 5)`` parameter vectors at once."""
         if self.backend == "numpy":
             return self.reference_batch(thetas)
-        th = np.ascontiguousarray(thetas, dtype=np.float64).reshape(-1, 4)
+        th = _rows(thetas)
         self.evaluations += th.shape[0]
         out: FloatArray = kernels().batch_cost(*self.arrays, th, self.cfg, self.scratch)
         return out
@@ -277,18 +309,20 @@ class CostFunction:
     def reference(self, theta: FloatArray) -> float:
         """Return J for one ``theta`` with the pure-numpy reference implementation."""
         self.evaluations += 1
-        a1, a2, b, a0c = (float(v) for v in theta)
-        cost = self.lane_term(a1, a2, b) if self.n_lane else 0.0
+        a1, a2, b, a0c = (float(v) for v in theta[:4])
+        c = float(theta[4]) if len(theta) > 4 else 0.0
+        cost = self.lane_term(a1, a2, b, c) if self.n_lane else 0.0
         if self.n_road:
-            cost += self._lambda * self.road_term(a1, a2, b, a0c)
+            cost += self._lambda * self.road_term(a1, a2, b, a0c, c)
         return cost
 
     def reference_batch(self, thetas: FloatArray) -> FloatArray:
-        """Return J for each row of ``(P, 4)`` parameter vectors, vectorised numpy reference."""
-        th = np.asarray(thetas, dtype=np.float64).reshape(-1, 4)
+        """Return J for each row of ``(P, 4)`` or ``(P, 5)`` parameters, vectorised numpy."""
+        th = _rows(thetas)
         self.evaluations += th.shape[0]
         a1, a2, b, a0c = (th[:, k : k + 1] for k in range(4))
-        den = self._iq + b * self._inv_h
+        c_h = th[:, 4:5] * self._inv_h if th.shape[1] > 4 and np.any(th[:, 4]) else 0.0
+        den = road_den(self._iq + b * self._inv_h, c_h)
         ok = den >= self._min_den
         x = 1.0 / np.where(ok, den, 1.0)
         d = x * (self._r - a1 - a2 * x)
@@ -301,7 +335,7 @@ class CostFunction:
             np.log(self._hist.n_bins) + self._kappa * self.n_lane,
         )
         if self.n_road:
-            denr = self._riq + b * self._inv_h
+            denr = road_den(self._riq + b * self._inv_h, c_h)
             okr = denr >= self._min_den
             xr = 1.0 / np.where(okr, denr, 1.0)
             dr = (xr * (self._rr - a1 - a2 * xr) - a0c) * self._inv_sigma
@@ -310,8 +344,16 @@ class CostFunction:
         result: FloatArray = cost.astype(np.float64)
         return result
 
-    def residuals(self, a1: float, a2: float, b: float) -> FloatArray:
+    def residuals(self, a1: float, a2: float, b: float, c: float = 0.0) -> FloatArray:
         """Return the lane residuals ``y - f(0, a; x)`` on the sloped road (NaN if invalid)."""
-        x, y, _ = ray_points(self._iq, self._r, b, self._height, self._max_range)
+        x, y, _ = ray_points(self._iq, self._r, b, self._height, self._max_range, c)
         out: FloatArray = y - x * (a1 + a2 * x)
         return out
+
+
+def _rows(thetas: FloatArray) -> FloatArray:
+    """Return parameter vectors as a contiguous ``(P, 4)`` or ``(P, 5)`` float array."""
+    th = np.ascontiguousarray(thetas, dtype=np.float64)
+    width = th.shape[-1] if th.ndim and th.shape[-1] in (4, 5) else 4
+    out: FloatArray = th.reshape(-1, width)
+    return out

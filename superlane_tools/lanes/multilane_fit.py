@@ -2,9 +2,11 @@
 
 Stages: flat-ground IPM of the pixels; a coarse loss-curve search (III-C) batched into one
 vectorised cost evaluation, or the previous frame's solution; Nelder-Mead on J (Eq. 3) over
-heading ``a1``, half curvature ``a2``, slope ``b`` (Eq. 10) and, when J1 is used, the road-centre
-offset ``a0c``; lane offsets as histogram peaks (Eq. 4); point-to-line assignment; then, beyond
-the paper, a weighted least-squares refit of the shared model and a bounded per-line correction.
+heading ``a1``, half curvature ``a2``, slope ``b`` (Eq. 10), optionally the road's vertical
+curvature term ``c`` (``z = b x + c x^2``, beyond the paper) and, when J1 is used, the
+road-centre offset ``a0c``; lane offsets as histogram peaks (Eq. 4); point-to-line
+assignment; then, beyond the paper, a weighted least-squares refit of the shared model and a
+bounded per-line correction.
 """
 
 from __future__ import annotations
@@ -48,8 +50,8 @@ SCAN_POINTS = 300
 INIT_ROUNDS = 2
 """Coordinate-wise passes over the loss curves in the initial search."""
 """Lane points used by the batched loss-curve search."""
-_STEP = np.array([0.01, 0.0005, 0.01, 0.5])
-"""Nelder-Mead unit step of (a1 rad, a2 1/m, b, a0c m); tolerances are in these units."""
+_STEP = np.array([0.01, 0.0005, 0.01, 0.5, 0.0001])
+"""Nelder-Mead unit step of (a1 rad, a2 1/m, b, a0c m, c 1/m); tolerances are in these units."""
 
 
 class _Points:
@@ -65,8 +67,13 @@ class _Points:
             self.index = np.empty(0, dtype=np.intp)
             return
         height = camera.extrinsics.height_m
-        # Keep rays that meet the road within range for some admissible slope.
-        reach = params.slope_bound / height if params.slope else 0.0
+        # Keep rays that meet the road within range for some admissible slope; a vertical
+        # curvature term c acts as the extra slope c * x over the range.
+        reach = (
+            (params.slope_bound + params.vertical_curvature_bound * params.max_range_m) / height
+            if params.slope
+            else 0.0
+        )
         if params.backend == "numba":
             xn, yn = camera.normalized(pix)
             iq, r, keep = kernels().ray_slopes(
@@ -118,12 +125,15 @@ def _initial_guess(cost: CostFunction, params: FitParams, free: list[int]) -> Fl
         / 2.0,
         2: np.linspace(-params.slope_bound, params.slope_bound, params.grid_slope),
         3: np.linspace(-params.offset_range_m / 2, params.offset_range_m / 2, 13),
+        4: np.linspace(
+            -params.vertical_curvature_bound, params.vertical_curvature_bound, params.grid_vertical
+        ),
     }
-    best = np.zeros(4)
+    best = np.zeros(5)
     best_cost = np.inf
     if 1 in free and 2 in free:
         a2_grid, b_grid = np.meshgrid(grids[1], grids[2])
-        thetas = np.zeros((a2_grid.size, 4))
+        thetas = np.zeros((a2_grid.size, 5))
         thetas[:, 1], thetas[:, 2] = a2_grid.ravel(), b_grid.ravel()
         costs = cost.batch(thetas)
         i = int(np.argmin(costs))
@@ -145,13 +155,15 @@ def _initial_guess(cost: CostFunction, params: FitParams, free: list[int]) -> Fl
 
 def _theta_from_init(init: LaneFit | tuple[float, float, float], params: FitParams) -> FloatArray:
     if isinstance(init, LaneFit):
-        a1, a2, b, a0c = init.a1, init.a2, init.b, init.road_centre_m
+        a1, a2, b, a0c, c = init.a1, init.a2, init.b, init.road_centre_m, init.c
     else:
         a1, a2, b = init
-        a0c = 0.0
-    theta = np.array([a1, a2 if params.order == 2 else 0.0, b if params.slope else 0.0, a0c])
+        a0c = c = 0.0
+    theta = np.array([a1, a2 if params.order == 2 else 0.0, b if params.slope else 0.0, a0c, c])
     theta[~np.isfinite(theta)] = 0.0
     theta[2] = np.clip(theta[2], -params.slope_bound, params.slope_bound)
+    cb = params.vertical_curvature_bound
+    theta[4] = np.clip(theta[4], -cb, cb)
     return theta
 
 
@@ -166,6 +178,7 @@ def _nelder_mead(
         1: params.curvature_bound / 2.0,
         2: params.slope_bound,
         3: params.offset_range_m,
+        4: params.vertical_curvature_bound,
     }
     bounds = [(-bounds_abs[k] / _STEP[k], bounds_abs[k] / _STEP[k]) for k in free]
     x0 = np.clip(base[free] / scale, [lo for lo, _ in bounds], [hi for _, hi in bounds])
@@ -377,6 +390,8 @@ def fit_frame(
         free.append(2)
     if cost.n_road:
         free.append(3)
+    if p.vertical:
+        free.append(4)
 
     if init is not None:
         theta0 = _theta_from_init(init, p)
@@ -399,13 +414,15 @@ def fit_frame(
         cost.evaluations += scan.evaluations
     theta, nit, converged = _nelder_mead(cost, theta0, free, p)
     j_final = cost(theta)
-    a1, a2, b, a0c = (float(v) for v in theta)
+    a1, a2, b, a0c, cv = (float(v) for v in theta)
     extras = {"nm_a1": a1, "nm_a2": a2, "nm_b": b}
+    if p.vertical:
+        extras["nm_c"] = cv
 
     iqs, rs = lane.iq[sel], lane.r[sel]
-    x_s, y_s, _ok = ray_points(iqs, rs, b, height, p.max_range_m)
+    x_s, y_s, _ok = ray_points(iqs, rs, b, height, p.max_range_m, cv)
     offsets = find_offsets(y_s - x_s * (a1 + a2 * x_s), p)
-    model = SharedModel(a1, a2, b, offsets)
+    model = SharedModel(a1, a2, b, offsets, cv)
     if p.refit and offsets.size:
         for _ in range(2):
             if p.backend == "numba":
@@ -415,6 +432,7 @@ def fit_frame(
                     model.a1,
                     model.a2,
                     model.b,
+                    model.c,
                     1.0 / height,
                     1.0 / p.max_range_m,
                     np.ascontiguousarray(model.offsets),
@@ -422,7 +440,7 @@ def fit_frame(
                     ASSIGN_ANGLE_RAD,
                 )
             else:
-                x_c, y_c, _ok = ray_points(iqs, rs, model.b, height, p.max_range_m)
+                x_c, y_c, _ok = ray_points(iqs, rs, model.b, height, p.max_range_m, model.c)
                 resid = y_c - x_c * (model.a1 + model.a2 * x_c)
                 radius = p.assign_radius_m + ASSIGN_ANGLE_RAD * np.nan_to_num(x_c)
                 labels = assign(resid, model.offsets, radius)
@@ -438,18 +456,19 @@ def fit_frame(
                 p.slope_bound,
                 p.max_range_m,
                 compiled=p.backend == "numba",
+                vertical_bound=p.vertical_curvature_bound,
             )
             merged = merge_close(np.sort(model.offsets), 0.5 * p.min_peak_separation_m)
             model = model._replace(offsets=merged)
         # Keep the refit only if J agrees it is no worse: a wrong assignment can make least
         # squares run away. A single line (often short: a stripe, a curb) constrains nothing
         # across lines, so its refit must also stay inside the optimiser's bounds.
-        j_refit = cost(np.array([model.a1, model.a2, model.b, a0c]))
+        j_refit = cost(np.array([model.a1, model.a2, model.b, a0c, model.c]))
         inside = model.offsets.size >= 2 or (
             abs(model.a1) <= 2.0 * p.heading_bound_rad and abs(model.a2) <= p.curvature_bound / 2
         )
         if not (inside and np.isfinite(j_refit) and j_refit <= j_final + REFIT_COST_SLACK):
-            model = SharedModel(a1, a2, b, offsets)
+            model = SharedModel(a1, a2, b, offsets, cv)
         extras["refit_rejected"] = float(model.offsets is offsets)
 
     lanes, quality = _build_lanes(lane, model, codes, height, p)
@@ -461,6 +480,7 @@ def fit_frame(
         a1=model.a1,
         a2=model.a2,
         b=model.b,
+        c=model.c,
         lanes=tuple(lanes),
         ego_left=left[-1] if left else -1,
         ego_right=right[0] if right else -1,
@@ -485,7 +505,7 @@ def _build_lanes(
         return [], 0.0
     if p.backend == "numba":
         return _build_lanes_compiled(lane, model, codes, height, p)
-    x, y, ok = ray_points(lane.iq, lane.r, model.b, height, p.max_range_m)
+    x, y, ok = ray_points(lane.iq, lane.r, model.b, height, p.max_range_m, model.c)
     base = x * (model.a1 + model.a2 * x)
     resid = np.where(ok, y - base, np.nan)
     radius = p.assign_radius_m + ASSIGN_ANGLE_RAD * np.nan_to_num(x)
@@ -548,6 +568,7 @@ def _build_lanes_compiled(
         model.a1,
         model.a2,
         model.b,
+        model.c,
         1.0 / height,
         1.0 / p.max_range_m,
         offsets,

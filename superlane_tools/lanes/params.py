@@ -39,6 +39,12 @@ class FitParams:
         assign_radius_m: Largest lateral distance of a point from its line to be assigned to it.
         slope: Estimate the linear road slope ``b`` (Eq. 10); False fixes ``b = 0`` (flat road).
         slope_bound: Bound on ``|b|`` (rise over run); larger values collapse the view.
+        vertical_curvature_bound: Bound on ``|c|`` (1/m) of the vertical curvature term of the
+            road ``z = b x + c x^2`` (a step beyond the paper's linear road model, III-B);
+            0 (default) fixes ``c = 0``, the paper's model. A vertical curve of radius ``R``
+            metres has ``|c| = 1 / (2 R)``: 5e-4 admits crests and sags down to R = 1000 m,
+            below the minimum radii of highway vertical curves. Needs ``slope``.
+        grid_vertical: Points of the vertical-curvature loss curve in the initial search.
         max_points: Lane points used for peaks and the least-squares refit (deterministic
             subsample above it).
         nm_points: Lane points (a subset of those) that Nelder-Mead evaluates J on; the refit
@@ -83,6 +89,8 @@ class FitParams:
     assign_radius_m: float = 0.8
     slope: bool = True
     slope_bound: float = 0.04
+    vertical_curvature_bound: float = 0.0
+    grid_vertical: int = 5
     max_points: int = 2000
     nm_points: int = 500
     max_road_points: int = 1000
@@ -124,11 +132,18 @@ class FitParams:
             raise FitParamsError(f"road_term must be auto, always or never, got {self.road_term}")
         if not 0 <= self.slope_bound < 0.5:
             raise FitParamsError(f"slope_bound must be in [0, 0.5), got {self.slope_bound}")
+        if not 0 <= self.vertical_curvature_bound <= 0.01:
+            raise FitParamsError(
+                f"vertical_curvature_bound must be in [0, 0.01] 1/m, "
+                f"got {self.vertical_curvature_bound}"
+            )
+        if self.vertical_curvature_bound > 0 and not self.slope:
+            raise FitParamsError("vertical_curvature_bound > 0 needs slope = true")
         if self.offset_range_m / self.bin_width_m > 20000:
             raise FitParamsError("offset_range_m / bin_width_m exceeds 20000 bins")
         if self.min_range_m < 0 or self.min_range_m >= self.max_range_m:
             raise FitParamsError("need 0 <= min_range_m < max_range_m")
-        if min(self.grid_heading, self.grid_curvature, self.grid_slope) < 1:
+        if min(self.grid_heading, self.grid_curvature, self.grid_slope, self.grid_vertical) < 1:
             raise FitParamsError("loss-curve grids need at least one point each")
         if not 3 <= self.min_points <= min(self.max_points, self.nm_points):
             raise FitParamsError("need 3 <= min_points <= max_points and nm_points")
@@ -136,6 +151,11 @@ class FitParams:
             raise FitParamsError(f"backend must be numba or numpy, got {self.backend}")
         if self.kappa < 0 or self.lambda_road < 0 or self.local_bound_m < 0:
             raise FitParamsError("kappa, lambda_road and local_bound_m must be >= 0")
+
+    @property
+    def vertical(self) -> bool:
+        """Whether the fit estimates the vertical curvature term ``c``."""
+        return self.vertical_curvature_bound > 0
 
     @property
     def n_bins(self) -> int:

@@ -15,9 +15,10 @@ Style = str
 class Lane:
     """One lane line in the vehicle frame (x forward, y left, metres) on the sloped road.
 
-    The line is ``y(x) = offset_m + a1 * x + a2 * x**2`` on the road surface ``z = b * x``
-    (``b`` of the frame), measured from the camera foot. ``a1``/``a2`` are the frame's shared
-    values plus this line's bounded local correction (equal to them when there is none).
+    The line is ``y(x) = offset_m + a1 * x + a2 * x**2`` on the road surface
+    ``z = b * x + c * x**2`` (``b``, ``c`` of the frame), measured from the camera foot.
+    ``a1``/``a2`` are the frame's shared values plus this line's bounded local correction
+    (equal to them when there is none).
 
     Attributes:
         offset_m: Lateral offset at ``x = 0``, metres (left positive).
@@ -51,7 +52,11 @@ class LaneFit:
     Attributes:
         a1: Shared heading, radians (positive: lanes point to the left).
         a2: Shared half curvature, 1/m; the curvature is ``2 * a2`` (positive curving left).
-        b: Road slope (rise over run, positive uphill) of ``z = b * x`` from the camera foot.
+        b: Road slope (rise over run, positive uphill) of ``z = b * x + c * x**2`` from the
+            camera foot.
+        c: Vertical curvature term of the road (1/m; the road's vertical curvature is ``2 c``,
+            positive in a sag, negative on a crest); 0 when the fit uses the paper's linear
+            road (``FitParams.vertical_curvature_bound = 0``).
         lanes: Lines sorted by offset from left (largest offset) to right.
         ego_left: Index into ``lanes`` of the nearest line left of the camera, or -1.
         ego_right: Index into ``lanes`` of the nearest line right of the camera, or -1.
@@ -70,6 +75,7 @@ class LaneFit:
     a1: float = math.nan
     a2: float = math.nan
     b: float = math.nan
+    c: float = 0.0
     lanes: tuple[Lane, ...] = ()
     ego_left: int = -1
     ego_right: int = -1

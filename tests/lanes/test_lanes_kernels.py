@@ -176,7 +176,7 @@ def _check_read_only_install(root: Path) -> None:
         "from superlane_tools.lanes import _kernels as k\n"
         "hist = np.zeros(8)\n"
         "cfg = np.array([1 / 1.5, 1 / 200, 10.0, 3.0, 5.0, 2.0, 0.0, 1 / 3])\n"
-        "print(k.lane_cost(np.array([0.1, 0.2]), np.zeros(2), 0.0, 0.0, 0.0, cfg, hist))\n"
+        "print(k.lane_cost(np.array([0.1, 0.2]), np.zeros(2), 0.0, 0.0, 0.0, 0.0, cfg, hist))\n"
     )
     for path in [root, *root.rglob("*")]:
         path.chmod(0o755 if path.is_dir() else 0o644)

@@ -36,6 +36,7 @@ def test_toml_and_yaml_load_the_same(tmp_path: Path) -> None:
     ("text", "message"),
     [
         ("[fit]\nkappa_x = 1\n", "unknown fit parameters"),
+        ("[fit]\nvertical_curvature_bound = 0.02\n", "vertical_curvature_bound"),
         ("[kpi]\nwindow_s = 'x'\n", "must be a number"),
         ("[segmentation]\nbackend = 'oracle'\n", "oracle_labels"),
         ("nonsense = 1\n", "unknown config keys"),
@@ -46,6 +47,17 @@ def test_invalid_configs(tmp_path: Path, text: str, message: str) -> None:
     path.write_text(text, encoding="utf-8")
     with pytest.raises(ConfigError, match=message):
         load_config(path)
+
+
+def test_vertical_curvature_is_off_by_default_and_configurable(tmp_path: Path) -> None:
+    from superlane_tools.lanes import FitParams
+
+    assert not FitParams.from_dict(dict(ReprocessConfig().fit)).vertical
+    path = tmp_path / "c.toml"
+    path.write_text("[fit]\nvertical_curvature_bound = 5e-4\n", encoding="utf-8")
+    fit = FitParams.from_dict(dict(load_config(path).fit))
+    assert fit.vertical_curvature_bound == 5e-4
+    assert fit.max_range_m == 60.0  # merged over reprocess's defaults
 
 
 def test_overrides() -> None:

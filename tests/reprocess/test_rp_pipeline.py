@@ -93,7 +93,11 @@ def test_every_output_exists_with_provenance(run_dir: Path) -> None:
     plots = {p.name for p in (run_dir / "plots").glob("*.png")}
     assert {"curvature_time.png", "availability_timeline.png"} <= plots
     assert any(p.startswith("example_") for p in plots)
-    assert pd.read_parquet(run_dir / "lanes.parquet").shape[0] == 60
+    lanes = pd.read_parquet(run_dir / "lanes.parquet")
+    assert lanes.shape[0] == 60
+    fitted = lanes["reason"].isin(["", "one line"])
+    assert fitted.any()
+    assert (lanes.loc[fitted, "c"] == 0.0).all()  # vertical curvature off by default
     report = (run_dir / "report.md").read_text(encoding="utf-8")
     assert "corridor network" in report
     assert "no corridor model" in report or "available" in report

@@ -19,7 +19,7 @@ def lane_drawings(done: Finished) -> list[LineDrawing]:
     out = []
     slope = fit.b if np.isfinite(fit.b) else 0.0
     for k, lane in enumerate(fit.lanes):
-        uv = lane_polyline(lane, slope, done.camera, 64)
+        uv = lane_polyline(lane, slope, done.camera, 64, fit.c if np.isfinite(fit.c) else 0.0)
         ego = k in (fit.ego_left, fit.ego_right)
         out.append(LineDrawing(uv, lane.colour, lane.style, ego))
     return out

@@ -52,8 +52,15 @@ FRAMES_SCHEMA = pa.schema(
     ]
 )
 LANES_SCHEMA = pa.schema(
-    [("frame_index", pa.int32()), ("log_time_ns", pa.int64()), *LANES_FIT_SCHEMA]
+    [
+        ("frame_index", pa.int32()),
+        ("log_time_ns", pa.int64()),
+        *LANES_FIT_SCHEMA,
+        ("c", pa.float64()),
+    ]
 )
+"""``lanes.parquet`` of reprocess: ``slt lanes fit``'s columns plus the road's vertical
+curvature term ``c`` (1/m, ``z = b x + c x^2``; 0 with ``fit.vertical_curvature_bound = 0``)."""
 CORRIDOR_SCHEMA = pa.schema(
     [
         ("frame_index", pa.int32()),
@@ -101,6 +108,7 @@ def frame_rows(done: Finished, corridor_status: str, mean_frames: int) -> dict[s
         "frame_index": prep.index,
         "log_time_ns": prep.log_time_ns,
         **fit_row(f"{prep.index:06d}", pw, ph, done.fit),
+        "c": done.fit.c if done.fit.ok else math.nan,
     }
     net = done.net_corridor
     corridor = {
