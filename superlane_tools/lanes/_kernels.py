@@ -604,9 +604,13 @@ def refit_gauss_newton(
     vertical_bound: float,
     near_m: float,
     iterations: int,
-) -> tuple[float, float, float, float, Any]:
-    """Run the Gauss-Newton loop of ``_refit.refit_shared``; return ``a1, a2, b, c, offsets``."""
+) -> tuple[float, float, float, float, Any, Any]:
+    """Run the Gauss-Newton loop of ``_refit.refit_shared``.
+
+    Returns ``a1, a2, b, c, offsets`` and the last step's normal matrix (for the covariance).
+    """
     offsets = np.empty(n_lines)
+    normal = np.zeros((1, 1))
     for _ in range(iterations if fit_slope or fit_vertical else 1):
         normal, rhs = refit_normal(
             iq, r, labels, n_lines, a1, a2, b, cv, inv_h, min_den, order, fit_slope,
@@ -631,7 +635,40 @@ def refit_gauss_newton(
             cv = c_new
         if done:
             break
-    return a1, a2, b, cv, offsets
+    return a1, a2, b, cv, offsets, normal
+
+
+@_jit
+def refit_ssr(
+    iq: Any,
+    r: Any,
+    labels: Any,
+    offsets: Any,
+    a1: float,
+    a2: float,
+    b: float,
+    cv: float,
+    inv_h: float,
+    min_den: float,
+    near_m: float,
+) -> tuple[float, int]:
+    """Return ``_refit.weighted_ssr``: weighted squared lateral residuals and point count."""
+    ssr = 0.0
+    count = 0
+    b_h = b * inv_h
+    c_h = cv * inv_h
+    for i in range(iq.size):
+        n = labels[i]
+        if n < 0:
+            continue
+        den = road_den(iq[i], b_h, c_h)
+        if den < min_den:
+            continue
+        x = 1.0 / den
+        res = (r[i] * x - (offsets[n] + x * (a1 + a2 * x))) / max(x, near_m)
+        ssr += res * res
+        count += 1
+    return ssr, count
 
 
 @_jit

@@ -7,10 +7,17 @@ form of Eq. 10, ``x = 1 / (iq + b / h)``, ``y = r x`` (``dx/db = -x^2 / h``, ``d
 on the curved road ``c x^2 / h + (iq + b / h) x = 1`` gives ``dx/db = -x / (h s)`` and
 ``dx/dc = x dx/db`` with ``s = sqrt((iq + b / h)^2 + 4 c / h)``). Residuals are weighted by
 ``1 / x`` so that the fit minimises image-space (pixel) error, not metres at 100 m.
+
+The refit also returns the covariance of the shared ``(a1, a2, b)``: ``sigma^2 (J^T W J)^-1``
+with ``sigma^2`` the weighted sum of squared residuals over ``n - p`` (``p``: all fitted
+parameters), the block of the full inverse, so the per-line offsets (and ``c``) are nuisance
+parameters (the Schur complement). It assumes independent pixels; they are not (a marking's
+error is shared by its pixels), so a consumer should inflate it (see the lane tracker).
 """
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
@@ -37,6 +44,75 @@ class SharedModel(NamedTuple):
     b: float
     offsets: FloatArray
     c: float = 0.0
+    cov: FloatArray | None = None
+
+
+N_SHARED = 3
+"""Rows of the shared covariance: ``a1`` (radians), ``a2`` (1/m), ``b`` (rise over run)."""
+
+
+def shared_covariance(
+    normal: FloatArray,
+    ssr_w: float,
+    n_used: int,
+    n_lines: int,
+    order: int,
+    fit_slope: bool,
+) -> FloatArray:
+    """Return the 3x3 covariance of ``(a1, a2, b)`` of a weighted least-squares fit.
+
+    Args:
+        normal: ``J^T W J`` with columns ``offsets..., a1, [a2], [b], [c]``.
+        ssr_w: Weighted sum of squared residuals at the solution.
+        n_used: Points in the fit.
+        n_lines: Number of offset columns.
+        order: Polynomial order (1: no ``a2`` column).
+        fit_slope: Whether ``b`` has a column.
+
+    Returns:
+        The covariance; rows and columns of parameters not fitted (or all, when the fit has
+        no redundancy or a singular normal matrix) are NaN.
+    """
+    out = np.full((N_SHARED, N_SHARED), np.nan)
+    m = normal.shape[0]
+    if n_used <= m or not math.isfinite(float(normal.sum())):
+        return out
+    ridged = normal.copy()
+    ridged.flat[:: m + 1] += 1e-9 * (float(np.trace(normal)) / m + 1.0)
+    try:
+        inv = np.linalg.inv(ridged)
+    except np.linalg.LinAlgError:
+        return out
+    rows = [0, *([1] if order == 2 else []), *([2] if fit_slope else [])]
+    k = len(rows)
+    block = inv[n_lines : n_lines + k, n_lines : n_lines + k] * (ssr_w / (n_used - m))
+    if k == N_SHARED:
+        return np.asarray(block, dtype=np.float64)
+    out[np.ix_(rows, rows)] = block
+    return out
+
+
+def weighted_ssr(
+    iq: FloatArray,
+    r: FloatArray,
+    labels: IntArray,
+    model: SharedModel,
+    height_m: float,
+    max_range_m: float,
+) -> tuple[float, int]:
+    """Return the weighted squared residuals (metres^2 / metres^2) and point count of a model.
+
+    Residuals are lateral (metres) with the refit's weight ``1 / max(x, NEAR_WEIGHT_M)``;
+    unassigned points and points beyond ``max_range_m`` are left out, as in the refit.
+    """
+    keep = labels >= 0
+    iq, r, lab = iq[keep], r[keep], labels[keep]
+    den = road_den(iq + model.b / height_m, model.c / height_m)
+    ok = den >= 1.0 / max_range_m
+    x = 1.0 / den[ok]
+    resid = r[ok] * x - (model.offsets[lab[ok]] + x * (model.a1 + model.a2 * x))
+    w = 1.0 / np.maximum(x, NEAR_WEIGHT_M)
+    return float(np.sum((w * resid) ** 2)), int(ok.sum())
 
 
 def _solve(design: FloatArray, target: FloatArray, sqrt_w: FloatArray) -> FloatArray:
@@ -106,6 +182,7 @@ def refit_shared(
     onehot[np.arange(iq.size), lab] = 1.0
     a1, a2, b, c = start.a1, start.a2, start.b, start.c
     offsets = start.offsets
+    normal = np.zeros((1, 1))
     fit_slope = fit_slope and n_lines >= 2
     fit_vertical = vertical_bound > 0 and n_lines >= 2
     for _ in range(iterations if fit_slope or fit_vertical else 1):
@@ -129,7 +206,10 @@ def refit_shared(
             cols.append(g[:, None])
         if fit_vertical:
             cols.append((g * x)[:, None])
-        p = _solve(np.hstack(cols), y, sqrt_w)
+        design = np.hstack(cols)
+        p = _solve(design, y, sqrt_w)
+        weighted = design * sqrt_w[:, None]
+        normal = weighted.T @ weighted
         offsets = p[:n_lines]
         a1 = float(p[n_lines])
         a2 = float(p[n_lines + 1]) if order == 2 else 0.0
@@ -148,7 +228,35 @@ def refit_shared(
             c = c_new
         if done:
             break
-    return SharedModel(a1, a2, b, np.asarray(offsets, dtype=np.float64), c)
+    model = SharedModel(a1, a2, b, np.asarray(offsets, dtype=np.float64), c)
+    return _with_cov(model, normal, iq, r, lab, n_lines, order, fit_slope, height_m, max_range_m)
+
+
+def _with_cov(
+    model: SharedModel,
+    normal: FloatArray,
+    iq: FloatArray,
+    r: FloatArray,
+    labels: IntArray,
+    n_lines: int,
+    order: int,
+    fit_slope: bool,
+    height_m: float,
+    max_range_m: float,
+    compiled: bool = False,
+) -> SharedModel:
+    """Attach :func:`shared_covariance` (from the last Gauss-Newton step) to ``model``."""
+    if compiled:
+        from superlane_tools.lanes._kernels import refit_ssr
+
+        ssr, n_used = refit_ssr(
+            iq, r, labels, model.offsets, model.a1, model.a2, model.b, model.c,
+            1.0 / height_m, 1.0 / max_range_m, NEAR_WEIGHT_M,
+        )  # fmt: skip
+    else:
+        ssr, n_used = weighted_ssr(iq, r, labels, model, height_m, max_range_m)
+    cov = shared_covariance(normal, ssr, n_used, n_lines, order, fit_slope)
+    return model._replace(cov=cov)
 
 
 def _refit_compiled(
@@ -170,14 +278,19 @@ def _refit_compiled(
 
     if int((labels >= 0).sum()) < n_lines + order + 1:
         return start
-    a1, a2, b, c, offsets = refit_gauss_newton(
+    fit_slope = fit_slope and n_lines >= 2
+    a1, a2, b, c, offsets, normal = refit_gauss_newton(
         iq, r, labels, n_lines, start.a1, start.a2, start.b, start.c, 1.0 / height_m,
-        1.0 / max_range_m, order, fit_slope and n_lines >= 2, slope_bound,
+        1.0 / max_range_m, order, fit_slope, slope_bound,
         vertical_bound > 0 and n_lines >= 2, vertical_bound, NEAR_WEIGHT_M, iterations,
     )  # fmt: skip
-    return SharedModel(
+    model = SharedModel(
         float(a1), float(a2), float(b), np.asarray(offsets, dtype=np.float64), float(c)
     )
+    return _with_cov(
+        model, np.asarray(normal), iq, r, labels, n_lines, order, fit_slope, height_m,
+        max_range_m, compiled=True,
+    )  # fmt: skip
 
 
 class LocalCorrection(NamedTuple):

@@ -494,6 +494,7 @@ def fit_frame(
         reason=reason,
         n_points=lane.size,
         extras=extras,
+        shared_cov=model.cov if model.cov is not None else np.full((3, 3), math.nan),
     )
 
 

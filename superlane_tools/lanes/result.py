@@ -5,6 +5,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+import numpy as np
+from numpy.typing import NDArray
+
 Colour = str
 """Marking colour: ``white``, ``yellow`` or ``unknown``."""
 Style = str
@@ -70,6 +73,10 @@ class LaneFit:
         reason: Empty for a normal fit, else why the frame was not (fully) fitted:
             ``no lane pixels``, ``all road``, ``too few points``, ``no lines``, ``one line``.
         n_points: Usable lane points (flat-ground projection valid and within range).
+        shared_cov: 3x3 covariance of ``(a1, a2, b)`` (radians, 1/m, rise over run) from the
+            least-squares refit, the per-line offsets (and ``c``) as nuisance parameters and the
+            pixels assumed independent (so optimistic: inflate it before use); NaN where no
+            refit ran or was kept, or for a parameter the refit did not estimate.
     """
 
     a1: float = math.nan
@@ -89,6 +96,9 @@ class LaneFit:
     reason: str = ""
     n_points: int = 0
     extras: dict[str, float] = field(default_factory=dict, compare=False, repr=False)
+    shared_cov: NDArray[np.float64] = field(
+        default_factory=lambda: np.full((3, 3), math.nan), compare=False, repr=False
+    )
 
     @property
     def curvature(self) -> float:

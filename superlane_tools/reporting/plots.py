@@ -16,7 +16,7 @@ FloatArray = NDArray[np.float64]
 _SOURCES = (
     ("rtk", "RTK (truth)", "k"),
     ("super", "SUPER 2*a2 (raw, road ahead)", "tab:blue"),
-    ("super_path", "SUPER path (at vehicle, + lateral)", "tab:green"),
+    ("super_path", "SUPER path (tracked, at vehicle)", "tab:green"),
     ("mobileye", "Mobileye 2*C2", "tab:orange"),
 )
 

@@ -80,8 +80,10 @@ def _curvature_row(run: str, rec: Any) -> dict[str, object]:
         "run": run,
         "source": {
             "super": "SUPER 2*a2 (raw)",
-            "super_road": "SUPER road at vehicle (aligned)",
-            "super_path": "SUPER path (aligned + lateral)",
+            "super_road": "SUPER road at vehicle (tracked)",
+            "super_path": "SUPER path (tracked road + manoeuvre)",
+            "super_road_sg": "SUPER road at vehicle (untracked)",
+            "super_path_sg": "SUPER path (untracked)",
             "mobileye": "Mobileye 2*C2",
         }.get(str(rec.source), str(rec.source)),
         "n": int(rec.n),

@@ -18,7 +18,8 @@ from superlane_tools.pipeline.reprocess.curvature_align import (
     smooth_like_truth,
 )
 from superlane_tools.pipeline.reprocess.lane_tracker import (
-    TrackerParams,
+    COV_KEYS,
+    cov_from_columns,
     track_lanes,
     travelled_m,
 )
@@ -162,21 +163,20 @@ def _add_track(
         s_trk = curv["s_m"].to_numpy(dtype=np.float64)
         notes.append("lane tracker: no CAN speed, travelled distance from the RTK track")
     curv["super_travelled_m"] = s_trk
+    # The tracker's inputs, kept so that a track can be audited (or re-run) from the table.
+    inputs = {
+        "super_fit_a1": "super_a1",
+        "super_fit_b": "super_b",
+        "super_fit_near_m": "super_near",
+        "super_fit_far_m": "super_far",
+        "super_fit_trackable": "super_track_ok",
+        **{key: key for key in COV_KEYS},
+    }
+    for column, key in inputs.items():
+        curv[column] = scalars[key].astype(np.float64)
+    fit_cov = cov_from_columns([scalars[key].astype(np.float64) for key in COV_KEYS])
     chosen = "sg"
     if trk.enabled and np.isfinite(s_trk).sum() >= 2:
-        params = TrackerParams(
-            curvature_sigma_per_m=trk.curvature_sigma_per_m,
-            heading_sigma_rad=trk.heading_sigma_rad,
-            manoeuvre_psd=trk.manoeuvre_psd,
-            curvature_rate_psd=trk.curvature_rate_psd,
-            slope_sigma=trk.slope_sigma,
-            slope_psd=trk.slope_psd,
-            gate_chi2=trk.gate_chi2,
-            max_rejections=trk.max_rejections,
-            max_slope_fraction=trk.max_slope_fraction,
-            max_step_m=trk.max_step_m,
-            smooth=trk.smooth,
-        )
         track = track_lanes(
             s_trk,
             scalars["super_a1"].astype(np.float64),
@@ -185,7 +185,8 @@ def _add_track(
             scalars["super_near"].astype(np.float64),
             scalars["super_far"].astype(np.float64),
             scalars["super_track_ok"].astype(bool),
-            params,
+            trk,
+            fit_cov,
         )
         curv["super_heading_rad"] = track.heading_rad
         curv["super_track_used"] = track.used
@@ -244,14 +245,27 @@ def _sections(
             "`super` is the fit's raw 2*a2 at the frame time: the curvature of a quadratic over "
             "the lines' supported range ahead, so it describes the road about half that range "
             "ahead and leaves out the vehicle's own lateral manoeuvres. `super_path` is the "
-            "like-for-like estimate of the path curvature: 2*a2 placed at the middle of the "
-            "ego lines' supported range ahead and read back at the vehicle's arc length, "
-            "smoothed with the truth's filter, plus the second derivative along the path of "
-            "the vehicle's lateral position in its lane (from the same fit's ego offsets, "
-            "unwrapped at lane changes). Mobileye curvature is 2*C2 (defined at the vehicle) "
-            "with its sign flipped into the left-positive lane model convention. `super_road` "
-            "is `super_path` without the lateral term (robust to lane-fit offset errors, but "
-            "blind to the vehicle's manoeuvres).",
+            "like-for-like estimate of the path curvature at the vehicle: "
+            + (
+                "the lane tracker (Kalman filter and smoother over the distance travelled, "
+                "each frame's -a1, 2*a2 and slope with "
+                + (
+                    "the fit's own covariance"
+                    if config.tracking.measurement_noise == "fit"
+                    else "fixed noise levels"
+                )
+                + ", look-ahead in the measurement model) estimates the road curvature at the "
+                "vehicle `super_road` and the curvature of the vehicle's own lateral manoeuvres; "
+                "both are smoothed with the truth's filter and summed. `super_road_sg` / "
+                "`super_path_sg` are the untracked versions: "
+                if config.tracking.enabled
+                else ""
+            )
+            + "2*a2 placed at the middle of the ego lines' supported range ahead and read back "
+            "at the vehicle's arc length, smoothed with the truth's filter, plus the second "
+            "derivative along the path of the vehicle's lateral position in its lane. Mobileye "
+            "curvature is 2*C2 (defined at the vehicle) with its sign flipped into the "
+            "left-positive lane model convention.",
             f"- frames with RTK truth: {int(curv['rtk_curvature'].notna().sum())} of {n_frames}",
         ],
         [overall],

@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from superlane_tools.errors import ConfigError
+from superlane_tools.pipeline.reprocess.lane_tracker import TrackerParams
 
 BACKENDS = ("auto", "classical", "onnx", "oracle")
 DEFAULT_FIT: Mapping[str, Any] = {"max_range_m": 60.0}
@@ -140,64 +141,24 @@ class KpiConfig:
 
 
 @dataclass(frozen=True)
-class TrackingConfig:
+class TrackingConfig(TrackerParams):
     """Lane tracker over travelled distance (Kalman filter + RTS smoother on the SUPER fits).
 
-    See :mod:`superlane_tools.pipeline.reprocess.lane_tracker`. The per-frame raw ``2*a2``
-    stays in the outputs (``super_curvature``); ``super_road`` / ``super_path`` come from the
-    track when ``enabled``, else from the look-ahead alignment alone (``*_sg`` columns).
+    The tracker's own parameters (noise levels, gates, smoother, measurement noise) are those
+    of :class:`~superlane_tools.pipeline.reprocess.lane_tracker.TrackerParams`, which this
+    extends with the two switches below. The per-frame raw ``2*a2`` stays in the outputs
+    (``super_curvature``); ``super_road`` / ``super_path`` come from the track when
+    ``enabled``, else from the look-ahead alignment alone (``*_sg`` columns).
 
     Attributes:
         enabled: Track the lane model (False: ``super_road`` / ``super_path`` = ``*_sg``).
-        curvature_sigma_per_m: Standard deviation of one frame's ``2*a2``, 1/m.
-        heading_sigma_rad: Standard deviation of one frame's heading ``a1``, radians.
-        manoeuvre_psd: Random-walk density of the lateral-manoeuvre curvature, (1/m)^2 per m.
-        curvature_rate_psd: Random-walk density of the road curvature rate, (1/m^2)^2 per m.
-        slope_sigma: Standard deviation of one frame's slope ``b`` (rise over run).
-        slope_psd: Random-walk density of the slope, (rise over run)^2 per metre.
-        gate_chi2: Largest normalised innovation squared (3 degrees of freedom) accepted.
-        max_rejections: Rejections in a row after which the track re-opens its covariance.
-        max_slope_fraction: Fits with ``|b|`` at or above this fraction of ``fit.slope_bound``
-            are not measurements (collapsed view).
-        max_step_m: A larger distance between frames restarts the track, metres.
-        smooth: Run the RTS smoother after the forward filter (offline reprocessing).
         gate_warm_start: Seed the SUPER fit's warm start only from plausible fits (both ego
             lines, slope below the bound) and repeat a collapsed warm-started fit from the
             loss-curve search (False: always the previous frame's fit, as in the paper).
     """
 
     enabled: bool = True
-    curvature_sigma_per_m: float = 5e-4
-    heading_sigma_rad: float = 5e-3
-    manoeuvre_psd: float = 1e-7
-    curvature_rate_psd: float = 2e-10
-    slope_sigma: float = 3e-3
-    slope_psd: float = 3e-7
-    gate_chi2: float = 16.3
-    max_rejections: int = 10
-    max_slope_fraction: float = 0.95
-    max_step_m: float = 15.0
-    smooth: bool = True
     gate_warm_start: bool = True
-
-    def __post_init__(self) -> None:
-        positive = (
-            self.curvature_sigma_per_m,
-            self.heading_sigma_rad,
-            self.manoeuvre_psd,
-            self.curvature_rate_psd,
-            self.slope_sigma,
-            self.slope_psd,
-            self.gate_chi2,
-            self.max_step_m,
-        )
-        if not all(v > 0 for v in positive) or self.max_rejections < 0:
-            raise ConfigError(
-                "tracking noise levels, gate_chi2 and max_step_m must be positive, "
-                "max_rejections >= 0"
-            )
-        if not 0 < self.max_slope_fraction <= 1:
-            raise ConfigError("tracking.max_slope_fraction must be in (0, 1]")
 
 
 @dataclass(frozen=True)

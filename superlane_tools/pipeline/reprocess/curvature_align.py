@@ -142,24 +142,31 @@ def align_super_curvature(
     curv = np.asarray(curvature_per_m, dtype=np.float64)
     ahead = np.asarray(lookahead_m, dtype=np.float64)
     lateral = lateral_in_lane(centre_m, lane_width_m)
-    road = np.full(s.shape, np.nan)
-    lat_term = np.full(s.shape, np.nan)
+    road_at_vehicle = np.full(s.shape, np.nan)
     for block in _blocks(s, max_gap_m):
         sb = s[block]
         placed = sb + np.where(np.isfinite(ahead[block]), ahead[block], np.nan)
-        road_at_vehicle = np.full(sb.shape, np.nan)
         ok = np.isfinite(placed) & np.isfinite(curv[block])
         if ok.sum() >= 2:
             order = np.argsort(placed[ok], kind="stable")
             xp, fp = placed[ok][order], curv[block][ok][order]
             within = (sb >= xp[0]) & (sb <= xp[-1])
-            road_at_vehicle[within] = np.interp(sb[within], xp, fp)
-        road[block] = _smooth_on_s(sb, road_at_vehicle, ds_m, window_m, 0)
-        # The smoothed value is only trusted where the raw one existed (no filling of gaps).
-        road[block[~np.isfinite(road_at_vehicle)]] = np.nan
-        lat_term[block] = _smooth_on_s(sb, lateral[block], ds_m, window_m, 2)
-        lat_term[block[~np.isfinite(lateral[block])]] = np.nan
+            road_at_vehicle[block[within]] = np.interp(sb[within], xp, fp)
+    road = _smooth_blocks(s, road_at_vehicle, ds_m, window_m, max_gap_m, 0)
+    lat_term = _smooth_blocks(s, lateral, ds_m, window_m, max_gap_m, 2)
     return AlignedCurvature(road, lat_term, road + lat_term, lateral)
+
+
+def _smooth_blocks(
+    s: FloatArray, v: FloatArray, ds_m: float, window_m: float, max_gap_m: float, deriv: int
+) -> FloatArray:
+    """Smooth (or differentiate) ``v`` along ``s`` run by run, NaN where ``v`` was NaN."""
+    out = np.full(s.shape, np.nan)
+    for block in _blocks(s, max_gap_m):
+        out[block] = _smooth_on_s(s[block], v[block], ds_m, window_m, deriv)
+        # The smoothed value is only trusted where the raw one existed (no filling of gaps).
+        out[block[~np.isfinite(v[block])]] = np.nan
+    return out
 
 
 def smooth_like_truth(
@@ -186,8 +193,4 @@ def smooth_like_truth(
     v = np.asarray(value, dtype=np.float64)
     if not np.isfinite(s).any():
         return v.copy()
-    out = np.full(s.shape, np.nan)
-    for block in _blocks(s, max_gap_m):
-        out[block] = _smooth_on_s(s[block], v[block], ds_m, window_m, 0)
-        out[block[~np.isfinite(v[block])]] = np.nan
-    return out
+    return _smooth_blocks(s, v, ds_m, window_m, max_gap_m, 0)

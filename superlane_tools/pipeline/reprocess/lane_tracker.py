@@ -31,6 +31,17 @@ a measurement whose normalised innovation exceeds a chi-square bound is rejected
 change cannot lock the track out).
 A Rauch-Tung-Striebel pass then smooths the track (reprocessing is offline).
 
+Measurement noise (``TrackerParams.measurement_noise``): ``"fixed"`` uses the same diagonal
+``R`` for every frame; ``"fit"`` uses each frame's own covariance of ``(a1, a2, b)`` from the
+SUPER refit (``LaneFit.shared_cov``), mapped to ``(-a1, 2*a2, b)``, with its cross terms: a short
+or collapsed view gets a large ``R`` and the strong ``2*a2``/``b`` trade-off of one fit is not
+read as two independent measurements. That covariance assumes independent pixels, but a
+marking's pixels share their error (blur, a worn edge, the road not being exactly quadratic),
+so its variances are multiplied by ``fit_noise_inflation`` (about the number of pixels per
+independent error: the pixels of one dash or a few metres of line), and each standard deviation
+is kept at least ``fit_noise_floor`` times the fixed one, so that a dense but wrong fit cannot
+pin the track. The correlations are kept as the fit reports them.
+
 Nothing here reads files: arrays in, arrays out.
 """
 
@@ -41,6 +52,8 @@ from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
+
+from superlane_tools.errors import ConfigError
 
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
@@ -67,6 +80,10 @@ class TrackerParams:
             (the optimiser ran into the slope bound: a collapsed view).
         max_step_m: A larger distance between two frames restarts the track, metres.
         smooth: Run the Rauch-Tung-Striebel smoother after the forward filter.
+        measurement_noise: ``"fixed"`` (the sigmas above, no correlation) or ``"fit"`` (each
+            frame's fit covariance, inflated and floored; frames without one use fixed).
+        fit_noise_inflation: Factor on the fit's variances (pixels are not independent).
+        fit_noise_floor: Smallest standard deviation as a fraction of the fixed one.
     """
 
     curvature_sigma_per_m: float = 5e-4
@@ -80,6 +97,32 @@ class TrackerParams:
     max_slope_fraction: float = 0.95
     max_step_m: float = 15.0
     smooth: bool = True
+    measurement_noise: str = "fit"
+    fit_noise_inflation: float = 25.0
+    fit_noise_floor: float = 0.3
+
+    def __post_init__(self) -> None:
+        positive = (
+            self.curvature_sigma_per_m,
+            self.heading_sigma_rad,
+            self.manoeuvre_psd,
+            self.curvature_rate_psd,
+            self.slope_sigma,
+            self.slope_psd,
+            self.gate_chi2,
+            self.max_step_m,
+        )
+        if not all(v > 0 for v in positive) or self.max_rejections < 0:
+            raise ConfigError(
+                "tracking noise levels, gate_chi2 and max_step_m must be positive, "
+                "max_rejections >= 0"
+            )
+        if not 0 < self.max_slope_fraction <= 1:
+            raise ConfigError("tracking.max_slope_fraction must be in (0, 1]")
+        if self.measurement_noise not in ("fixed", "fit"):
+            raise ConfigError("tracking.measurement_noise must be 'fixed' or 'fit'")
+        if not (self.fit_noise_inflation > 0 and self.fit_noise_floor >= 0):
+            raise ConfigError("tracking.fit_noise_inflation must be positive, fit_noise_floor >= 0")
 
 
 class TrackedLanes(NamedTuple):
@@ -165,6 +208,7 @@ def track_lanes(
     far_m: FloatArray,
     valid: BoolArray,
     params: TrackerParams | None = None,
+    fit_cov: FloatArray | None = None,
 ) -> TrackedLanes:
     """Filter and smooth the per-frame fits along the travelled distance.
 
@@ -178,6 +222,8 @@ def track_lanes(
         valid: Frames whose fit may be used as a measurement (ego lines found, slope inside
             its bound).
         params: Noise model and gates.
+        fit_cov: Per-frame 3x3 covariance of the fit's ``(a1, a2, b)`` (shape ``(n, 3, 3)``);
+            used when ``params.measurement_noise == "fit"``.
 
     Returns:
         The tracked state per frame; frames before the first measurement have NaN.
@@ -198,7 +244,9 @@ def track_lanes(
         & np.isfinite(far)
         & (far > near)
     )
-    r = np.diag([p.heading_sigma_rad**2, p.curvature_sigma_per_m**2, p.slope_sigma**2])
+    sigmas = np.array([p.heading_sigma_rad, p.curvature_sigma_per_m, p.slope_sigma])
+    r_fixed = np.diag(sigmas**2)
+    use_fit = p.measurement_noise == "fit" and fit_cov is not None
     xs_f = np.full((n, N_STATE), np.nan)
     ps_f = np.full((n, N_STATE, N_STATE), np.nan)
     xs_p = np.full((n, N_STATE), np.nan)
@@ -232,6 +280,7 @@ def track_lanes(
                 rejections = 0
             else:
                 h = measurement_matrix(mid, half)
+                r = fit_noise(fit_cov[k], sigmas, p) if use_fit and fit_cov is not None else r_fixed
                 nu = z - h @ x
                 s_cov = h @ cov @ h.T + r
                 d2 = float(nu @ np.linalg.solve(s_cov, nu))
@@ -252,6 +301,43 @@ def track_lanes(
             xs_f[k], ps_f[k] = x, cov
     xs = _rts(xs_f, ps_f, xs_p, ps_p, fs, starts) if p.smooth else xs_f
     return TrackedLanes(xs[:, 2], xs[:, 1], xs[:, 2] + xs[:, 1], xs[:, 0], used, gated)
+
+
+COV_INDEX = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
+"""Upper-triangle entries of the fit covariance of ``(a1, a2, b)`` kept per frame."""
+COV_KEYS = tuple(f"super_fit_cov_{i}{j}" for i, j in COV_INDEX)
+"""Per-frame column names of those entries (``0``: a1, ``1``: a2, ``2``: b)."""
+
+
+def cov_from_columns(columns: list[FloatArray]) -> FloatArray:
+    """Return ``(n, 3, 3)`` covariances from the :data:`COV_KEYS` columns, in that order."""
+    n = len(columns[0])
+    out = np.empty((n, 3, 3))
+    for col, (i, j) in zip(columns, COV_INDEX, strict=True):
+        out[:, i, j] = out[:, j, i] = np.asarray(col, dtype=np.float64)
+    return out
+
+
+SIGN = np.array([-1.0, 2.0, 1.0])
+"""Map from the fit's ``(a1, a2, b)`` to the measurement ``(-a1, 2*a2, b)``."""
+
+
+def fit_noise(cov: FloatArray, fixed_sigmas: FloatArray, p: TrackerParams) -> FloatArray:
+    """Return the measurement covariance of ``(-a1, 2*a2, b)`` from a fit's ``(a1, a2, b)`` one.
+
+    The variances are inflated by ``p.fit_noise_inflation`` and each standard deviation kept at
+    least ``p.fit_noise_floor * fixed_sigmas``; the fit's correlations are kept. A covariance
+    that is not finite or not positive definite gives the fixed diagonal.
+    """
+    c = np.asarray(cov, dtype=np.float64) * np.outer(SIGN, SIGN)
+    var = np.diag(c)
+    if not (np.all(np.isfinite(c)) and np.all(var > 0)):
+        return np.diag(fixed_sigmas**2)
+    sd = np.sqrt(var)
+    corr = np.clip(c / np.outer(sd, sd), -0.999, 0.999)
+    np.fill_diagonal(corr, 1.0)
+    sigma = np.maximum(sd * np.sqrt(p.fit_noise_inflation), p.fit_noise_floor * fixed_sigmas)
+    return np.asarray(corr * np.outer(sigma, sigma), dtype=np.float64)
 
 
 def _rts(

@@ -34,6 +34,7 @@ from superlane_tools.pipeline.reprocess._examples import example_frame
 from superlane_tools.pipeline.reprocess._finalize import finalize
 from superlane_tools.pipeline.reprocess.config import ReprocessConfig
 from superlane_tools.pipeline.reprocess.inputs import resolve_camera, select
+from superlane_tools.pipeline.reprocess.lane_tracker import COV_INDEX, COV_KEYS
 from superlane_tools.pipeline.reprocess.signals import CanFrames
 from superlane_tools.pipeline.reprocess.stages import Finished, FrameStages, Prepared
 from superlane_tools.recording.open import open_recording
@@ -122,6 +123,7 @@ class _Streamer:
                 "super_near",
                 "super_far",
                 "super_track_ok",
+                *COV_KEYS,
                 "ok",
             )
         }
@@ -151,6 +153,9 @@ class _Streamer:
         s["super_near"].append(near)
         s["super_far"].append(far)
         s["super_track_ok"].append(float(usable))
+        cov = done.fit.shared_cov if done.fit.ok else None
+        for key, (i, j) in zip(COV_KEYS, COV_INDEX, strict=True):
+            s[key].append(float(cov[i, j]) if cov is not None else math.nan)
         s["ok"].append(float(not prep.error))
 
     def flush(self) -> None:
