@@ -32,6 +32,32 @@ def _batch(*args: str) -> list[str]:
     return [sys.executable, "-c", SLT, "batch", *args]
 
 
+def _descendants(pid: int) -> list[int]:
+    """Processes below ``pid`` (children, grandchildren, ...), from ``/proc``."""
+    parents: dict[int, int] = {}
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:  # the process ended meanwhile
+            continue
+        parents[int(stat.parent.name)] = int(fields[1])
+    found, frontier = [], [pid]
+    while frontier:
+        below = [child for child, parent in parents.items() if parent in frontier]
+        found += below
+        frontier = below
+    return found
+
+
+def _alive(pid: int) -> bool:
+    """Whether ``pid`` runs (a zombie, dead but not yet reaped by init, counts as ended)."""
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"
+
+
 def test_sigkill_halfway_then_resume(
     tmp_path: Path, make_drives: Callable[..., list[Path]]
 ) -> None:
@@ -56,10 +82,16 @@ def test_sigkill_halfway_then_resume(
         if len(done) >= 6:
             break
         time.sleep(0.01)
+    workers = _descendants(proc.pid)
     proc.send_signal(signal.SIGKILL)
     proc.wait()
     assert 6 <= len(done) < 18, "the kill did not land halfway"
-    time.sleep(0.5)  # let an orphaned worker finish or notice its parent is gone
+    # the killed driver's fork server and workers do not outlive it
+    assert workers, "no worker processes were seen"
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline and any(_alive(pid) for pid in workers):
+        time.sleep(0.05)
+    assert not [pid for pid in workers if _alive(pid)]
 
     result = subprocess.run(args, capture_output=True, text=True, timeout=120, check=False)
     assert result.returncode == 3, result.stderr  # 2 corrupt recordings: partial success

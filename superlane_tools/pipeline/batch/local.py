@@ -88,7 +88,7 @@ class LocalEngine:
             max_workers=self._workers,
             mp_context=context,
             initializer=init_worker,
-            initargs=(self._kind, self._config, self._threads()),
+            initargs=(self._kind, self._config, self._threads(), os.getpid()),
         )
 
     def __enter__(self) -> Self:

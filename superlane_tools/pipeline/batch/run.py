@@ -178,8 +178,8 @@ def clean_stale_tmp(root: Path) -> list[Path]:
     """Remove what killed runs left: ``root/.tmp`` folders and half-written ``.*.tmp`` files.
 
     A folder named ``<id>.<host>.<pid>[.old]`` is kept only while that process on this host
-    is alive (an orphaned worker of a killed run may still finish it); with the root lock held
-    no other batch is writing here.
+    is alive (a local worker of a killed run exits within a second of its driver, see
+    :func:`~.worker.init_worker`); with the root lock held no other batch is writing here.
     """
     from superlane_tools.pipeline.batch.summary import SUMMARY_DIR
 
@@ -397,6 +397,8 @@ def run_batch(
                     engine.run(pending, on_done)
                 pending = retry
             workers = engine.workers if planned else 0
+        # workers of a killed earlier run that were still alive at the start are gone by now
+        clean_stale_tmp(root)
         with contextlib.suppress(OSError):
             (root / TMP_DIR).rmdir()  # only when empty
         summary: tuple[Path, ...] = ()

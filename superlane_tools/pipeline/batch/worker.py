@@ -14,6 +14,7 @@ import json
 import os
 import shutil
 import socket
+import threading
 import time
 from collections.abc import Mapping
 from pathlib import Path
@@ -34,6 +35,9 @@ from superlane_tools.pipeline.batch.jobs import job_kind
 MARKER = ".slt_batch.json"
 """Marker file inside a finalised recording folder: key, status, timings (JSON)."""
 
+ORPHAN_CHECK_S = 1.0
+"""How often a local worker checks that its driver still lives, seconds."""
+
 _LOADED: dict[str, Any] = {}
 _WINDOW_KEYS = frozenset({"start_s", "end_s", "category", "segments"})
 _HOST = socket.gethostname()
@@ -43,14 +47,24 @@ def _cache_key(kind: str, config: Mapping[str, Any]) -> str:
     return kind + "\0" + json.dumps(config, sort_keys=True, default=str)
 
 
-def init_worker(kind: str, config: Mapping[str, Any], threads: int = 1) -> None:
+def init_worker(
+    kind: str, config: Mapping[str, Any], threads: int = 1, driver_pid: int | None = None
+) -> None:
     """Prepare this worker process: cap library threads, load the kind's models once.
 
     Args:
         kind: Job kind name.
         config: The batch configuration (without per-recording windows).
         threads: Threads each native library (cv2, BLAS) may use in this worker.
+        driver_pid: The batch driver's process; when given, this worker exits within
+            :data:`ORPHAN_CHECK_S` once the driver is gone (a killed ``slt batch`` must not leave
+            idle workers holding models in memory; their unfinished folders are then stale and
+            removed by the next run).
     """
+    if driver_pid is not None:
+        threading.Thread(
+            target=_exit_when_gone, args=(driver_pid,), name="slt-orphan-check", daemon=True
+        ).start()
     with contextlib.suppress(ImportError):
         import cv2
 
@@ -58,6 +72,18 @@ def init_worker(kind: str, config: Mapping[str, Any], threads: int = 1) -> None:
     key = _cache_key(kind, config)
     if key not in _LOADED:
         _LOADED[key] = job_kind(kind).load(config)
+
+
+def _exit_when_gone(pid: int) -> None:
+    """Exit this process as soon as process ``pid`` no longer exists (checked every second)."""
+    while True:
+        time.sleep(ORPHAN_CHECK_S)
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            os._exit(1)
+        except PermissionError:  # alive, owned by another user
+            continue
 
 
 def read_marker(folder: Path) -> dict[str, Any] | None:
