@@ -8,7 +8,10 @@ writer's threads only write files), a CPU-bound, single-threaded per-frame load 
 reprocess's decode and image stages. Throughput is recordings per second of wall time, median
 of ``--repeats`` interleaved runs, each into a fresh output root, pools started inside the
 timed region; the Ray instance is started once (``ray.init(num_cpus=2)``) and its start-up is
-reported apart, as a running cluster is what ``--ray-address auto`` joins. Then a
+reported apart, as a running cluster is what ``--ray-address auto`` joins. Both engines keep
+warm processes between the batches of one driver (the local engine its fork server, which has
+imported the package; Ray its worker processes, which have loaded the job kind), so only the
+first repeat of each pays for imports and model loading; ``wall_s`` lists every repeat. Then a
 20-recording batch with 2 corrupt recordings runs in a subprocess that is SIGKILLed halfway
 and started again. Writes
 ``benchmarks/results/batch.json``.
