@@ -18,6 +18,7 @@ if TYPE_CHECKING:
 
 WriterFormat = Literal["mcap", "mcap-ros1", "ros1", "ros2"]
 Ros2Storage = Literal["sqlite3", "mcap"]
+McapCompression = Literal["zstd", "lz4", "none"]
 
 LIBRARY = "superlane-tools"
 """Library string written into MCAP headers; a constant so output bytes never depend on versions."""
@@ -54,7 +55,14 @@ class _Backend(Protocol):
 class _McapBackend:
     """MCAP with ``ros2msg`` schemas and CDR payloads, or ``ros1msg`` schemas and ROS 1 payloads."""
 
-    def __init__(self, path: Path, ros1: bool, store: Typestore, chunk_size: int) -> None:
+    def __init__(
+        self,
+        path: Path,
+        ros1: bool,
+        store: Typestore,
+        chunk_size: int,
+        compression: McapCompression,
+    ) -> None:
         from mcap.writer import CompressionType
         from mcap.writer import Writer as McapWriter
 
@@ -62,7 +70,7 @@ class _McapBackend:
         self._ros1 = ros1
         self._file = path.open("wb")
         self._writer = McapWriter(
-            self._file, chunk_size=chunk_size, compression=CompressionType.ZSTD
+            self._file, chunk_size=chunk_size, compression=CompressionType[compression.upper()]
         )
         self._writer.start(profile="ros1" if ros1 else "ros2", library=LIBRARY)
         self._channels: dict[str, tuple[int, str]] = {}
@@ -156,9 +164,12 @@ class RecordingWriter:
         ros2_storage: Ros2Storage = "sqlite3",
         typestore: Typestore | None = None,
         chunk_size: int = MCAP_CHUNK_SIZE,
+        compression: McapCompression = "zstd",
     ) -> None:
         if fmt not in get_args(WriterFormat):
             raise RecordingError(f"unknown recording format {fmt!r}")
+        if compression not in get_args(McapCompression):
+            raise RecordingError(f"unknown MCAP chunk compression {compression!r}")
         self.path = Path(path)
         self.fmt = fmt
         self._store = typestore if typestore is not None else default_typestore()
@@ -174,7 +185,7 @@ class RecordingWriter:
         self._closed = False
         try:
             self._backend: _Backend = (
-                _McapBackend(self._work, fmt == "mcap-ros1", self._store, chunk_size)
+                _McapBackend(self._work, fmt == "mcap-ros1", self._store, chunk_size, compression)
                 if fmt in {"mcap", "mcap-ros1"}
                 else _RosbagBackend(self._work, fmt == "ros1", self._store, ros2_storage)
             )
@@ -271,6 +282,7 @@ def open_writer(
     ros2_storage: Ros2Storage = "sqlite3",
     typestore: Typestore | None = None,
     chunk_size: int = MCAP_CHUNK_SIZE,
+    compression: McapCompression = "zstd",
 ) -> RecordingWriter:
     """Open a writer for a new recording.
 
@@ -281,6 +293,8 @@ def open_writer(
         ros2_storage: Storage of a ``ros2`` bag: ``sqlite3`` or ``mcap``.
         typestore: Message types; by default ROS 2 Humble plus ``can_msgs/msg/Frame``.
         chunk_size: Uncompressed MCAP chunk size, bytes (MCAP formats only).
+        compression: MCAP chunk compression: ``zstd``, ``lz4`` or ``none`` (MCAP formats only;
+            ``none`` suits payloads that are compressed already, such as JPEG frames).
 
     Returns:
         The writer, to use as a context manager.
@@ -289,7 +303,12 @@ def open_writer(
         RecordingError: If the path exists or the writer cannot be created.
     """
     return RecordingWriter(
-        path, fmt, ros2_storage=ros2_storage, typestore=typestore, chunk_size=chunk_size
+        path,
+        fmt,
+        ros2_storage=ros2_storage,
+        typestore=typestore,
+        chunk_size=chunk_size,
+        compression=compression,
     )
 
 

@@ -155,3 +155,36 @@ def test_writer_refuses_existing_path_and_cleans_up_on_error(drive: SimpleNamesp
         w.write("/nope", 1, object())
     assert not broken.exists()
     assert not list(path.parent.glob(".broken*"))
+
+
+@pytest.mark.parametrize("compression", ["zstd", "lz4", "none"])
+def test_mcap_chunk_compression(tmp_path: Path, compression: str) -> None:
+    from mcap.reader import make_reader
+
+    from superlane_tools.recording.messages import compressed_image
+    from superlane_tools.recording.writers import open_writer
+
+    path = tmp_path / f"{compression}.mcap"
+    payloads = [bytes([k]) * 2000 for k in range(40)]
+    with open_writer(path, "mcap", chunk_size=8192, compression=compression) as w:  # type: ignore[arg-type]
+        w.add_topic("/cam", "sensor_msgs/msg/CompressedImage")
+        for k, payload in enumerate(payloads):
+            w.write("/cam", 1_000 + k, compressed_image(1_000 + k, "cam", "jpeg", payload))
+    with path.open("rb") as handle:
+        summary = make_reader(handle).get_summary()
+    assert summary is not None
+    assert len(summary.chunk_indexes) > 1
+    expected = "" if compression == "none" else compression  # MCAP spells none ""
+    assert {c.compression for c in summary.chunk_indexes} == {expected}
+    with open_recording(path) as rec:
+        assert [bytes(m.data.data) for m in rec.messages()] == payloads
+        assert rec.skipped == []
+
+
+def test_unknown_mcap_compression_is_refused(tmp_path: Path) -> None:
+    from superlane_tools.recording.errors import RecordingError
+    from superlane_tools.recording.writers import open_writer
+
+    with pytest.raises(RecordingError, match="unknown MCAP chunk compression"):
+        open_writer(tmp_path / "x.mcap", "mcap", compression="brotli")  # type: ignore[arg-type]
+    assert not list(tmp_path.iterdir())
