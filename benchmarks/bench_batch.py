@@ -1,6 +1,7 @@
 """Benchmark `slt batch`: 1 vs 2 local workers, Ray vs local, corrupt inputs, kill and resume.
 
-Run: ``python benchmarks/bench_batch.py [--recordings 8] [--frames 20] [--repeats 3]``.
+Run: ``python benchmarks/bench_batch.py [--recordings 8] [--frames 20] [--repeats 3]
+[--compression zstd|lz4|none] [--skip-kill]``.
 
 Job: ``extract`` with ``frame_format: png`` on 1280x720 JPEG recordings written with the
 project's writers: every frame is JPEG-decoded and PNG-encoded in the job's thread (the frame
@@ -11,7 +12,9 @@ timed region; the Ray instance is started once (``ray.init(num_cpus=2)``) and it
 reported apart, as a running cluster is what ``--ray-address auto`` joins. Both engines keep
 warm processes between the batches of one driver (the local engine its fork server, which has
 imported the package; Ray its worker processes, which have loaded the job kind), so only the
-first repeat of each pays for imports and model loading; ``wall_s`` lists every repeat. Then a
+first repeat of each pays for imports and model loading; ``wall_s`` lists every repeat.
+``--compression`` sets the recordings' MCAP chunk compression (default zstd; other values write
+``batch_<compression>.json``). Then a
 20-recording batch with 2 corrupt recordings runs in a subprocess that is SIGKILLed halfway
 and started again. Writes
 ``benchmarks/results/batch.json``.
@@ -57,11 +60,13 @@ def jpeg_pool(width: int, height: int, count: int = 8) -> list[bytes]:
     return pool
 
 
-def make_recording(path: Path, seed: int, frames: int, pool: list[bytes]) -> None:
+def make_recording(
+    path: Path, seed: int, frames: int, pool: list[bytes], compression: str = "zstd"
+) -> None:
     from superlane_tools.recording.messages import can_frame, compressed_image, navsatfix
     from superlane_tools.recording.writers import open_writer
 
-    with open_writer(path, "mcap") as w:
+    with open_writer(path, "mcap", compression=compression) as w:  # type: ignore[arg-type]
         w.add_topic("/cam/compressed", "sensor_msgs/msg/CompressedImage")
         w.add_topic("/can", "can_msgs/msg/Frame")
         w.add_topic("/fix", "sensor_msgs/msg/NavSatFix")
@@ -92,12 +97,14 @@ def timed_batch(recs: Path, root: Path, engine: str, workers: int) -> float:
     return wall
 
 
-def throughput(tmp: Path, recordings: int, frames: int, repeats: int) -> dict[str, object]:
+def throughput(
+    tmp: Path, recordings: int, frames: int, repeats: int, compression: str
+) -> dict[str, object]:
     recs = tmp / "recs"
     recs.mkdir()
     pool = jpeg_pool(1280, 720)
     for k in range(recordings):
-        make_recording(recs / f"drive_{k:02d}.mcap", k, frames, pool)
+        make_recording(recs / f"drive_{k:02d}.mcap", k, frames, pool, compression)
     runs: dict[str, list[float]] = {"local_1": [], "local_2": [], "ray_2": []}
     import ray
 
@@ -126,6 +133,7 @@ def throughput(tmp: Path, recordings: int, frames: int, repeats: int) -> dict[st
         "recordings": recordings,
         "frames_per_recording": frames,
         "frame_size": "1280x720",
+        "mcap_chunk_compression": compression,
         "job": "extract, frame_format png (JPEG decode + PNG encode per frame)",
         "wall_s": runs,
         "median_wall_s": med,
@@ -226,16 +234,26 @@ def main() -> None:
     ap.add_argument("--recordings", type=int, default=8)
     ap.add_argument("--frames", type=int, default=20)
     ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--compression", choices=("zstd", "lz4", "none"), default="zstd")
+    ap.add_argument("--skip-kill", action="store_true", help="only the throughput part")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory(prefix="bench_batch_") as name:
         tmp = Path(name)
         result = {
             "machine": f"{platform.machine()} {platform.python_version()}",
-            "throughput": throughput(tmp, args.recordings, args.frames, args.repeats),
-            "kill_and_resume": kill_and_resume(tmp),
+            "throughput": throughput(
+                tmp, args.recordings, args.frames, args.repeats, args.compression
+            ),
         }
-    RESULTS.parent.mkdir(parents=True, exist_ok=True)
-    RESULTS.write_text(json.dumps(result, indent=1, default=str) + "\n")
+        if not args.skip_kill:
+            result["kill_and_resume"] = kill_and_resume(tmp)
+    out = (
+        RESULTS
+        if args.compression == "zstd"
+        else RESULTS.with_name(f"batch_{args.compression}.json")
+    )
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(result, indent=1, default=str) + "\n")
     print(json.dumps(result, indent=1, default=str))
 
 
