@@ -1,7 +1,7 @@
 """Benchmark `slt batch`: 1 vs 2 local workers, Ray vs local, corrupt inputs, kill and resume.
 
 Run: ``python benchmarks/bench_batch.py [--recordings 8] [--frames 20] [--repeats 3]
-[--compression zstd|lz4|none] [--skip-kill]``.
+[--compression zstd|lz4|none] [--ram] [--skip-kill]``.
 
 Job: ``extract`` with ``frame_format: png`` on 1280x720 JPEG recordings written with the
 project's writers: every frame is JPEG-decoded and PNG-encoded in the job's thread (the frame
@@ -13,8 +13,11 @@ reported apart, as a running cluster is what ``--ray-address auto`` joins. Both 
 warm processes between the batches of one driver (the local engine its fork server, which has
 imported the package; Ray its worker processes, which have loaded the job kind), so only the
 first repeat of each pays for imports and model loading; ``wall_s`` lists every repeat.
-``--compression`` sets the recordings' MCAP chunk compression (default zstd; other values write
-``batch_<compression>.json``). Then a
+``--compression`` sets the recordings' MCAP chunk compression (default zstd). Each batch writes
+about 330 MB of PNG files per recording (2.6 GB for 8); ``--ram`` puts the output roots in
+``/dev/shm`` (each removed after its batch), which takes this VM's disk out of the comparison
+and leaves the engines' own scaling. Other than the defaults, results go to
+``batch_<compression>[_ram].json``. Then a
 20-recording batch with 2 corrupt recordings runs in a subprocess that is SIGKILLed halfway
 and started again. Writes
 ``benchmarks/results/batch.json``.
@@ -26,6 +29,7 @@ import argparse
 import json
 import os
 import platform
+import shutil
 import signal
 import statistics
 import subprocess
@@ -78,7 +82,7 @@ def make_recording(
             w.write("/fix", t, navsatfix(t, "gps", 48 + i * 1e-5, 11.0, 500.0, status=2))
 
 
-def timed_batch(recs: Path, root: Path, engine: str, workers: int) -> float:
+def timed_batch(recs: Path, root: Path, engine: str, workers: int, remove: bool = False) -> float:
     from superlane_tools.pipeline.batch import BatchParams, expand_inputs, run_batch
 
     params = BatchParams(
@@ -94,11 +98,13 @@ def timed_batch(recs: Path, root: Path, engine: str, workers: int) -> float:
     report = run_batch(entries, params)
     wall = time.perf_counter() - t0
     assert report.counts["ok"] == len(entries), report.failures
+    if remove:
+        shutil.rmtree(root)
     return wall
 
 
 def throughput(
-    tmp: Path, recordings: int, frames: int, repeats: int, compression: str
+    tmp: Path, recordings: int, frames: int, repeats: int, compression: str, out: Path | None
 ) -> dict[str, object]:
     recs = tmp / "recs"
     recs.mkdir()
@@ -115,11 +121,12 @@ def throughput(
     try:
         # interleaved, so that the three configurations see the same background load
         for r in range(repeats):
+            base, remove = (out, True) if out is not None else (tmp, False)
             for workers in (1, 2):
                 runs[f"local_{workers}"].append(
-                    timed_batch(recs, tmp / f"l{workers}_{r}", "local", workers)
+                    timed_batch(recs, base / f"l{workers}_{r}", "local", workers, remove)
                 )
-            runs["ray_2"].append(timed_batch(recs, tmp / f"r_{r}", "ray", 2))
+            runs["ray_2"].append(timed_batch(recs, base / f"r_{r}", "ray", 2, remove))
             print(
                 f"repeat {r}: local 1 worker {runs['local_1'][-1]:.2f} s, "
                 f"2 workers {runs['local_2'][-1]:.2f} s, ray 2 {runs['ray_2'][-1]:.2f} s"
@@ -134,6 +141,7 @@ def throughput(
         "frames_per_recording": frames,
         "frame_size": "1280x720",
         "mcap_chunk_compression": compression,
+        "output_roots": "RAM (/dev/shm)" if out is not None else "disk (temporary folder)",
         "job": "extract, frame_format png (JPEG decode + PNG encode per frame)",
         "wall_s": runs,
         "median_wall_s": med,
@@ -235,23 +243,25 @@ def main() -> None:
     ap.add_argument("--frames", type=int, default=20)
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--compression", choices=("zstd", "lz4", "none"), default="zstd")
+    ap.add_argument("--ram", action="store_true", help="output roots in /dev/shm")
     ap.add_argument("--skip-kill", action="store_true", help="only the throughput part")
     args = ap.parse_args()
+    ram = Path(tempfile.mkdtemp(prefix="bench_batch_", dir="/dev/shm")) if args.ram else None
     with tempfile.TemporaryDirectory(prefix="bench_batch_") as name:
         tmp = Path(name)
         result = {
             "machine": f"{platform.machine()} {platform.python_version()}",
             "throughput": throughput(
-                tmp, args.recordings, args.frames, args.repeats, args.compression
+                tmp, args.recordings, args.frames, args.repeats, args.compression, ram
             ),
         }
         if not args.skip_kill:
             result["kill_and_resume"] = kill_and_resume(tmp)
-    out = (
-        RESULTS
-        if args.compression == "zstd"
-        else RESULTS.with_name(f"batch_{args.compression}.json")
-    )
+    if ram is not None:
+        shutil.rmtree(ram, ignore_errors=True)
+    default = args.compression == "zstd" and not args.ram
+    suffix = f"_{args.compression}" + ("_ram" if args.ram else "")
+    out = RESULTS if default else RESULTS.with_name(f"batch{suffix}.json")
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(result, indent=1, default=str) + "\n")
     print(json.dumps(result, indent=1, default=str))
