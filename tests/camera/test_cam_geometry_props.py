@@ -184,7 +184,12 @@ def test_quadratic_road_matches_ray_casting_and_the_numeric_solver(
     np.testing.assert_allclose(np.stack([x[hit], y[hit]], axis=1), want, rtol=1e-8, atol=1e-8)
     numeric = ray_scale_numeric(road, xf, (grade, curv))
     closed = road.ray_scale(xf, (grade, curv))
-    np.testing.assert_allclose(numeric[hit], closed[hit], rtol=1e-9)
+    # A ray that grazes a crest meets the road in a double root, which bracketing on a grid
+    # cannot resolve; compare where the two roots are distinct (relative discriminant > 1e-3).
+    lin = grade * xf + h
+    distinct = lin * lin + 4.0 * curv * h * xf * xf > 1e-3 * lin * lin
+    both = hit & distinct
+    np.testing.assert_allclose(numeric[both], closed[both], rtol=1e-9)
 
 
 def test_uphill_pulls_points_closer_and_downhill_pushes_them_out() -> None:
