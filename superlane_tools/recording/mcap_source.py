@@ -29,7 +29,7 @@ from superlane_tools.recording.errors import RecordingError
 from superlane_tools.records import Message, RawMessage, Skipped, TopicInfo
 
 if TYPE_CHECKING:
-    from mcap.records import Channel, Chunk, Schema
+    from mcap.records import Channel, Schema
     from mcap.records import Message as McapMessage
     from mcap.summary import Summary
 
@@ -316,23 +316,26 @@ class McapRecording(ClosingRecording):
         heap: list[tuple[int, int, int, McapMessage]] = []
         next_chunk = 0
         loader = _ChunkPrefetcher(self.path, candidates)
+
+        def load(ref: _ChunkRef) -> list[McapMessage]:
+            return [
+                msg
+                for msg in self._chunk_result(ref, loader.next())
+                if msg.channel_id in wanted and in_range(msg.log_time, start_ns, stop_ns)
+            ]
+
         try:
             while next_chunk < len(candidates) or heap:
                 if not heap:  # the usual case: chunks one after the other, each in time order
                     ref = candidates[next_chunk]
                     next_chunk += 1
-                    msgs = [
-                        msg
-                        for msg in self._chunk_result(ref, loader.next())
-                        if msg.channel_id in wanted and in_range(msg.log_time, start_ns, stop_ns)
-                    ]
+                    msgs = load(ref)
                     alone = next_chunk == len(candidates) or (
                         candidates[next_chunk].start_ns > ref.end_ns
                     )
                     if alone and all(a.log_time <= b.log_time for a, b in pairwise(msgs)):
-                        channels = self._channels
                         for msg in msgs:
-                            yield channels[msg.channel_id], msg
+                            yield self._channels[msg.channel_id], msg
                         continue
                     for index, msg in enumerate(msgs):
                         heapq.heappush(heap, (msg.log_time, ref.offset, index, msg))
@@ -342,22 +345,20 @@ class McapRecording(ClosingRecording):
                 ):
                     ref = candidates[next_chunk]
                     next_chunk += 1
-                    for index, msg in enumerate(self._chunk_result(ref, loader.next())):
-                        if msg.channel_id in wanted and in_range(msg.log_time, start_ns, stop_ns):
-                            heapq.heappush(heap, (msg.log_time, ref.offset, index, msg))
+                    for index, msg in enumerate(load(ref)):
+                        heapq.heappush(heap, (msg.log_time, ref.offset, index, msg))
                 if heap:
                     msg = heapq.heappop(heap)[3]
                     yield self._channels[msg.channel_id], msg
         finally:
             loader.close()
 
-    def _chunk_result(self, ref: _ChunkRef, loaded: Chunk | Exception) -> list[McapMessage]:
+    def _chunk_result(
+        self, ref: _ChunkRef, loaded: list[McapMessage] | Exception
+    ) -> list[McapMessage]:
         """Return a loaded chunk's messages; report a damaged chunk and return none."""
         if not isinstance(loaded, Exception):
-            try:
-                return _chunk_messages(loaded)
-            except Exception as err:  # a record cut or malformed inside the chunk
-                loaded = err
+            return loaded
         lost = self._indexed_count(ref)
         self._iter_skips.add(
             "corrupt chunk",
@@ -416,47 +417,28 @@ class McapRecording(ClosingRecording):
                     yield self._channels[item.channel_id], item
 
 
-def _load_chunk(handle: BinaryIO, ref: _ChunkRef) -> Chunk | Exception:
-    """Read, decompress and CRC-check one chunk; return it uncompressed, or the error.
-
-    Only work that releases the GIL (file reads, zstd/lz4, CRC-32) happens here, in the
-    prefetch thread; splitting the records (Python) is left to the consumer.
-    """
+def _load_chunk(handle: BinaryIO, ref: _ChunkRef) -> list[McapMessage] | Exception:
+    """Read, decompress and CRC-check one chunk; return its messages or the error."""
     from mcap.data_stream import ReadDataStream
     from mcap.records import Chunk
-    from mcap.stream_reader import get_chunk_data_stream
+    from mcap.records import Message as McapMessage
+    from mcap.stream_reader import breakup_chunk
 
     try:
         handle.seek(ref.offset + _RECORD_PREFIX)
         chunk = Chunk.read(ReadDataStream(handle))
-        stream, length = get_chunk_data_stream(chunk, validate_crc=True)
-        data = stream.read(length)
+        records = breakup_chunk(chunk, validate_crc=True)
     except Exception as err:  # bad CRC, bad compression, cut record
         return err
-    return Chunk(
-        compression="",
-        data=data,
-        message_end_time=chunk.message_end_time,
-        message_start_time=chunk.message_start_time,
-        uncompressed_crc=0,
-        uncompressed_size=length,
-    )
-
-
-def _chunk_messages(chunk: Chunk) -> list[McapMessage]:
-    """The message records of an uncompressed chunk, in the order they lie."""
-    from mcap.records import Message as McapMessage
-    from mcap.stream_reader import breakup_chunk
-
-    return [r for r in breakup_chunk(chunk) if isinstance(r, McapMessage)]
+    return [r for r in records if isinstance(r, McapMessage)]
 
 
 class _ChunkPrefetcher:
     """Loads chunks in a background thread, a few ahead of the consumer, in a given order.
 
     Reading, zstd/lz4 decompression and the CRC check release the GIL, so they overlap with
-    splitting, decoding and writing in the consuming thread. The thread reads through its own
-    file handle; at most :data:`PREFETCH_CHUNKS` loaded chunks wait in memory.
+    decoding and writing in the consuming thread. The thread reads through its own file handle;
+    at most :data:`PREFETCH_CHUNKS` loaded chunks wait in memory.
     """
 
     def __init__(self, path: Path, order: list[_ChunkRef]) -> None:
@@ -466,7 +448,7 @@ class _ChunkPrefetcher:
             raise RecordingError(f"cannot open {path}: {err.strerror}") from err
         self._pool = ThreadPoolExecutor(1, thread_name_prefix="slt-mcap-chunks")
         self._order = iter(order)
-        self._queue: deque[Future[Chunk | Exception]] = deque()
+        self._queue: deque[Future[list[McapMessage] | Exception]] = deque()
         for _ in range(PREFETCH_CHUNKS):
             self._submit()
 
@@ -475,8 +457,8 @@ class _ChunkPrefetcher:
         if ref is not None:
             self._queue.append(self._pool.submit(_load_chunk, self._handle, ref))
 
-    def next(self) -> Chunk | Exception:
-        """Return the next chunk of the order (uncompressed, or its loading error)."""
+    def next(self) -> list[McapMessage] | Exception:
+        """Return the next chunk of the order (its messages or its loading error)."""
         loaded = self._queue.popleft().result()
         self._submit()
         return loaded

@@ -12,7 +12,7 @@ import pandas as pd
 from superlane_tools.can import LoadedDbc
 from superlane_tools.corridor import AvailabilityParams, Segment
 from superlane_tools.pipeline.reprocess import outputs as tables
-from superlane_tools.pipeline.reprocess.config import ReprocessConfig
+from superlane_tools.pipeline.reprocess.config import ReprocessConfig, TrackingConfig
 from superlane_tools.pipeline.reprocess.curvature_align import (
     align_super_curvature,
     smooth_like_truth,
@@ -245,26 +245,9 @@ def _sections(
             "`super` is the fit's raw 2*a2 at the frame time: the curvature of a quadratic over "
             "the lines' supported range ahead, so it describes the road about half that range "
             "ahead and leaves out the vehicle's own lateral manoeuvres. `super_path` is the "
-            "like-for-like estimate of the path curvature at the vehicle: "
-            + (
-                "the lane tracker (Kalman filter and smoother over the distance travelled, "
-                "each frame's -a1, 2*a2 and slope with "
-                + (
-                    "the fit's own covariance"
-                    if config.tracking.measurement_noise == "fit"
-                    else "fixed noise levels"
-                )
-                + ", look-ahead in the measurement model) estimates the road curvature at the "
-                "vehicle `super_road` and the curvature of the vehicle's own lateral manoeuvres; "
-                "both are smoothed with the truth's filter and summed. `super_road_sg` / "
-                "`super_path_sg` are the untracked versions: "
-                if config.tracking.enabled
-                else ""
-            )
-            + "2*a2 placed at the middle of the ego lines' supported range ahead and read back "
-            "at the vehicle's arc length, smoothed with the truth's filter, plus the second "
-            "derivative along the path of the vehicle's lateral position in its lane. Mobileye "
-            "curvature is 2*C2 (defined at the vehicle) with its sign flipped into the "
+            "like-for-like estimate of the path curvature at the vehicle, `super_road` the "
+            f"same without the vehicle's lateral manoeuvres; {_path_method(config.tracking)} "
+            "Mobileye curvature is 2*C2 (defined at the vehicle) with its sign flipped into the "
             "left-positive lane model convention.",
             f"- frames with RTK truth: {int(curv['rtk_curvature'].notna().sum())} of {n_frames}",
         ],
@@ -309,3 +292,25 @@ def _sections(
         [i for i in images if "example" in i],
     )
     return [overview, curvature, availability, examples]
+
+
+UNTRACKED_PATH = (
+    "2*a2 placed at the middle of the ego lines' supported range ahead and read back at the "
+    "vehicle's arc length, smoothed with the truth's filter, plus the second derivative along "
+    "the path of the vehicle's lateral position in its lane."
+)
+
+
+def _path_method(tracking: TrackingConfig) -> str:
+    """How ``super_road`` / ``super_path`` were made, for the report."""
+    if not tracking.enabled:
+        return f"both come from {UNTRACKED_PATH}"
+    noise = (
+        "the fit's own covariance" if tracking.measurement_noise == "fit" else "fixed noise levels"
+    )
+    return (
+        "both come from the lane tracker (Kalman filter and smoother over the distance travelled "
+        f"on each frame's -a1, 2*a2 and slope, with {noise} and the look-ahead in the "
+        "measurement model), smoothed with the truth's filter. `super_road_sg` / "
+        f"`super_path_sg` are the untracked estimates: {UNTRACKED_PATH}"
+    )
