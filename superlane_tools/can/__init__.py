@@ -1,5 +1,15 @@
 """CAN: lenient DBC loading and vectorised signal decoding."""
 
+from superlane_tools.can.buses import (
+    ALL_BUSES,
+    BusDbc,
+    Coverage,
+    DbcSpec,
+    bus_matches,
+    dbc_coverage,
+    decode_buses,
+    parse_dbc_spec,
+)
 from superlane_tools.can.dbc import LoadedDbc, load_dbc, load_dbc_text
 from superlane_tools.can.decode import (
     SIGNAL_COLUMNS,
@@ -9,15 +19,40 @@ from superlane_tools.can.decode import (
     frames_to_arrays,
 )
 from superlane_tools.can.errors import CanError
+from superlane_tools.can.mobileye import (
+    MAPPINGS,
+    Latency,
+    MobileyeMapping,
+    latency_by_xcorr,
+    mobileye_table,
+)
+from superlane_tools.can.units import SPEED_UNITS, YAW_RATE_UNITS, si_factor, to_si
 
 __all__ = [
+    "ALL_BUSES",
+    "MAPPINGS",
     "SIGNAL_COLUMNS",
+    "SPEED_UNITS",
+    "YAW_RATE_UNITS",
+    "BusDbc",
     "CanError",
+    "Coverage",
+    "DbcSpec",
     "FrameArrays",
+    "Latency",
     "LoadedDbc",
+    "MobileyeMapping",
+    "bus_matches",
+    "dbc_coverage",
+    "decode_buses",
     "decode_frames",
     "empty_signal_table",
     "frames_to_arrays",
+    "latency_by_xcorr",
     "load_dbc",
     "load_dbc_text",
+    "mobileye_table",
+    "parse_dbc_spec",
+    "si_factor",
+    "to_si",
 ]
