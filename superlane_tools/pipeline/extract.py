@@ -8,7 +8,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
-from superlane_tools.can import LoadedDbc, load_dbc
+from superlane_tools.can import ALL_BUSES, Coverage, LoadedDbc, load_dbc, parse_dbc_spec
 from superlane_tools.errors import ConfigError, UsageError
 from superlane_tools.geo import GeodeticOrigin
 from superlane_tools.pipeline._can_sink import CanSink
@@ -53,7 +53,8 @@ class ExtractConfig:
             e.g. from a YAML config; a kind listed here is not auto-detected.
         start_s: Start of the range, seconds after the recording's first message; None: start.
         end_s: End of the range (exclusive), seconds after the first message; None: end.
-        dbc_paths: DBC files to decode CAN frames with (none: raw frames only).
+        dbc_paths: DBC files to decode CAN frames with (none: raw frames only); ``BUS=FILE``
+            binds a DBC to one bus (CAN topic or channel), a plain file applies to all.
         frame_format: ``jpg``, ``png`` (files) or ``none`` (index only).
         every: Keep every Nth frame of each image topic.
         origin: ENU origin; None: the first valid fix.
@@ -95,6 +96,7 @@ class ExtractResult:
         dbc_repairs: DBC file name -> repairs made while loading it.
         skipped: What was skipped or lost (reading errors, corrupt frames), one entry per kind.
         origin: The ENU origin used, when GNSS was extracted.
+        can_coverage: Ids matched by the DBCs of the ids seen (None without CAN or DBCs).
     """
 
     outputs: tuple[Path, ...]
@@ -103,6 +105,7 @@ class ExtractResult:
     dbc_repairs: Mapping[str, list[str]]
     skipped: tuple[Skipped, ...]
     origin: GeodeticOrigin | None
+    can_coverage: Coverage | None = None
 
 
 def load_stream_config(path: str | os.PathLike[str]) -> dict[str, tuple[str, ...]]:
@@ -207,11 +210,13 @@ def extract(
     src = Path(recording_path)
     out = Path(out_dir)
     dbcs: dict[str, LoadedDbc] = {}
-    for dbc_path in config.dbc_paths:
-        loaded = load_dbc(dbc_path)
-        dbcs[Path(dbc_path).name] = loaded
+    specs = [parse_dbc_spec(str(p)) for p in config.dbc_paths]
+    for spec in specs:
+        loaded = load_dbc(spec.path)
+        name = spec.path.name if spec.bus == ALL_BUSES else f"{spec.bus}={spec.path.name}"
+        dbcs[name] = loaded
         if on_dbc is not None:
-            on_dbc(Path(dbc_path).name, loaded)
+            on_dbc(name, loaded)
     skips = SkipLog()
     with open_recording(src) as rec:
         selected = select_streams(rec.topics(), config)
@@ -228,7 +233,9 @@ def extract(
         settings = asdict(config)
         settings["streams"] = {k: list(v) for k, v in selected.items()}
         provenance = _HashedProvenance(
-            PendingIdentities((src, *config.dbc_paths)), command=command, config=settings
+            PendingIdentities((src, *(spec.path for spec in specs))),
+            command=command,
+            config=settings,
         )
         total = _total(rec.topics(), set(kind_of)) if start_ns is None and stop_ns is None else None
         frame_sink = (
@@ -265,6 +272,10 @@ def extract(
         if progress is not None:
             progress(done, done)
         read_skips = list(rec.skipped)
+    coverage = can_sink.coverage() if can_sink is not None and dbcs else None
+    if coverage is not None and coverage.none_matched:
+        detail = f"no CAN id matched by any DBC: 0 of {coverage.seen} ids (wrong DBC?)"
+        read_skips.append(Skipped("CAN signals", detail, coverage.seen))
     counts = {
         "frames": frame_sink.kept if frame_sink else 0,
         "can_frames": can_sink.frames if can_sink else 0,
@@ -278,6 +289,7 @@ def extract(
         dbc_repairs={name: list(d.repairs) for name, d in dbcs.items()},
         skipped=(*read_skips, *skips.items()),
         origin=gnss_sink.used_origin if gnss_sink else None,
+        can_coverage=coverage,
     )
 
 
