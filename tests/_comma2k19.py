@@ -6,7 +6,7 @@ the calibrated gyro on ``/imu`` (``sensor_msgs/msg/Imu`` in the phone's sensor f
 the vertical axis is ``-z``). Log times are comma's monotonic seconds in nanoseconds. Nothing
 is committed: the recording is built from ``$SLT_REALDATA/comma2k19/segment`` on demand.
 
-Usage: ``python tests/geo/_comma2k19.py OUT.mcap``.
+Usage: ``python tests/_comma2k19.py OUT.mcap``.
 """
 
 from __future__ import annotations
