@@ -53,6 +53,15 @@ def parse_dbc_spec(text: str) -> DbcSpec:
     return DbcSpec(bus.strip(), Path(path.strip()))
 
 
+def bind_dbcs(dbcs: Mapping[str, LoadedDbc]) -> list[BusDbc]:
+    """Bind DBCs named ``BUS=FILE`` to their bus; plain names apply to every bus."""
+    bound = []
+    for name, loaded in dbcs.items():
+        bus, sep, file = name.partition("=")
+        bound.append(BusDbc(bus, file, loaded) if sep else BusDbc(ALL_BUSES, name, loaded))
+    return bound
+
+
 def bus_matches(bus: str, topic: str) -> bool:
     """Return True when the DBC bus key ``bus`` applies to the CAN ``topic``."""
     if bus == ALL_BUSES:

@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 import pyarrow as pa
 
-from superlane_tools.can import ALL_BUSES, BusDbc, Coverage, LoadedDbc, dbc_coverage, decode_buses
+from superlane_tools.can import Coverage, LoadedDbc, bind_dbcs, dbc_coverage, decode_buses
 from superlane_tools.records import Message
 from superlane_tools.reporting import ParquetStreamWriter
 from superlane_tools.reporting.provenance import ProvenanceSource, resolve_provenance
@@ -55,12 +55,7 @@ class CanSink:
 
     def __init__(self, out_dir: Path, dbcs: dict[str, LoadedDbc], provenance: ProvenanceSource):
         self.dbcs = dbcs
-        self._bound = [
-            BusDbc(name.split("=", 1)[0], name.split("=", 1)[1], loaded)
-            if "=" in name
-            else BusDbc(ALL_BUSES, name, loaded)
-            for name, loaded in dbcs.items()
-        ]
+        self._bound = bind_dbcs(dbcs)
         self._ids: dict[str, set[int]] = {}
         self.frames = 0
         self.signal_rows = 0

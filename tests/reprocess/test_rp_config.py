@@ -9,11 +9,12 @@ import pandas as pd
 import pytest
 
 from superlane_tools.camera.profiles import load_camera
+from superlane_tools.can import mobileye_table
 from superlane_tools.errors import ConfigError
 from superlane_tools.pipeline.reprocess import ReprocessConfig, load_config
 from superlane_tools.pipeline.reprocess.config import RtkConfig
 from superlane_tools.pipeline.reprocess.inputs import extrinsics_from_tf
-from superlane_tools.pipeline.reprocess.signals import mobileye_table, rtk_truth
+from superlane_tools.pipeline.reprocess.signals import rtk_truth
 from superlane_tools.simulation.sensors import camera_quaternion_xyzw
 
 

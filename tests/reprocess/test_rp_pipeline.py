@@ -170,6 +170,8 @@ def test_oracle_backend_curvature(drive: Path, tmp_path: Path) -> None:
         "super_road_sg",
         "super_path_sg",
         "mobileye",
+        "mobileye_path",
+        "dynamics",
     }
     curv = pd.read_parquet(tmp_path / "oracle" / "curvature.parquet")
     path = curv["super_path_curvature"].to_numpy()

@@ -9,8 +9,10 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from superlane_tools.can import LoadedDbc
+from superlane_tools.can import MAPPINGS, LoadedDbc, latency_by_xcorr, mobileye_table
+from superlane_tools.can.errors import CanError
 from superlane_tools.corridor import AvailabilityParams, Segment
+from superlane_tools.geo import DEGRADED_NOTE
 from superlane_tools.pipeline.reprocess import outputs as tables
 from superlane_tools.pipeline.reprocess.config import ReprocessConfig, TrackingConfig
 from superlane_tools.pipeline.reprocess.curvature_align import (
@@ -25,10 +27,12 @@ from superlane_tools.pipeline.reprocess.lane_tracker import (
 )
 from superlane_tools.pipeline.reprocess.signals import (
     CanFrames,
+    ImuSamples,
     at_frames,
     can_frame_signals,
+    dynamics_reference,
+    gnss_speed,
     mobileye_at_frames,
-    mobileye_table,
     rtk_truth,
 )
 from superlane_tools.pipeline.reprocess.stages import FrameStages
@@ -54,13 +58,25 @@ def finalize(
     skipped: Sequence[Skipped],
     recording: Path,
     stages: FrameStages,
+    imu: ImuSamples | None = None,
+    lost: list[Skipped] | None = None,
 ) -> list[Path]:
     """Write every derived output; append missing-stream statements to ``notes``."""
     t_ns = scalars["t_ns"].astype(np.int64)
     written: list[Path] = []
     signals = can.decode(dbcs)
     written.append(write_table(signals, out / "can_signals.parquet", provenance))
+    if len(can):
+        coverage = can.coverage(dbcs)
+        notes.append(coverage.line())
+        if coverage.none_matched and lost is not None:
+            detail = f"no CAN id matched by any DBC: 0 of {coverage.seen} ids (wrong DBC?)"
+            lost.append(Skipped("CAN signals", detail, coverage.seen))
     speed_s, yaw_s = can_frame_signals(signals, config.can)
+    rtk = rtk_truth(gnss_rows, t_ns, config.rtk, speed_s)
+    if speed_s is None and (fallback := gnss_speed(rtk)) is not None:
+        speed_s = fallback
+        notes.append("speed: no CAN speed, estimated from the GNSS fixes")
     speed = at_frames(speed_s, t_ns)
     yaw = at_frames(yaw_s, t_ns)
     if not len(can):
@@ -73,20 +89,45 @@ def finalize(
             f"no CAN speed signal {config.can.speed_signal!r}: availability by length "
             "marked unknown"
         )
-    me = mobileye_table(signals, config.can.mobileye_right_positive)
+    if config.can.mobileye_mapping not in MAPPINGS:
+        raise CanError(
+            f"unknown can.mobileye_mapping {config.can.mobileye_mapping!r}; "
+            f"shipped: {', '.join(MAPPINGS)}"
+        )
+    from dataclasses import replace
+
+    mapping = replace(
+        MAPPINGS[config.can.mobileye_mapping], right_positive=config.can.mobileye_right_positive
+    )
+    me = mobileye_table(signals, mapping)
     written.append(write_table(me, out / "mobileye.parquet", provenance))
     me_curv = mobileye_at_frames(me, t_ns)
     if len(can) and me.empty:
         notes.append("no Mobileye lane messages on CAN: no Mobileye comparison")
-    rtk = rtk_truth(gnss_rows, t_ns, config.rtk)
     written.append(write_table(rtk.fixes, out / "rtk.parquet", provenance))
     if rtk.fixes.empty:
         notes.append("no GNSS/RTK stream: no curvature ground truth")
-    elif rtk.n_degraded or rtk.n_dropouts:
+    else:
+        if rtk.degraded:
+            notes.append(f"{DEGRADED_NOTE}: plain GNSS fixes only (no RTK fixed fix)")
+        if rtk.n_degraded or rtk.n_dropouts:
+            notes.append(
+                f"RTK: {rtk.n_degraded} degraded fixes flagged and excluded, "
+                f"{rtk.n_dropouts} dropouts > {config.rtk.max_gap_s} s"
+            )
         notes.append(
-            f"RTK: {rtk.n_degraded} degraded fixes flagged and excluded, "
-            f"{rtk.n_dropouts} dropouts > {config.rtk.max_gap_s} s"
+            f"truth: no sample below {config.rtk.min_speed_mps} m/s ({rtk.n_slow} fixes while "
+            f"standing or crawling); fixes decimated to >= {config.rtk.min_step_m} m steps; "
+            f"noise floor {_fmt(rtk.noise_floor_per_m)} 1/m"
         )
+    if yaw_s is None and imu is not None and len(imu):
+        yaw_s = imu.yaw_series(config.rtk.imu_yaw_axis)
+        notes.append(f"yaw rate: IMU gyro about {config.rtk.imu_yaw_axis}")
+    dyn = dynamics_reference(yaw_s, speed_s, t_ns, config.rtk)
+    if dyn is None:
+        notes.append("no yaw-rate / speed reference: no dynamics curvature cross-check")
+    else:
+        notes.append(f"yaw-rate reference: gyro bias {dyn.bias.rps:.2e} rad/s ({dyn.bias.source})")
     curv = pd.DataFrame(
         {
             "frame_index": np.arange(len(t_ns), dtype=np.int32),
@@ -99,6 +140,9 @@ def finalize(
             "rtk_valid": rtk.frame_valid,
             "super_curvature": scalars["super_curv"].astype(np.float64),
             "mobileye_curvature": me_curv,
+            "dynamics_curvature": (
+                dyn.curvature_per_m if dyn is not None else np.full(len(t_ns), np.nan)
+            ),
         }
     )
     aligned = align_super_curvature(
@@ -116,11 +160,14 @@ def finalize(
     curv["super_lateral_sg_curvature"] = aligned.lateral_per_m
     curv["super_path_sg_curvature"] = aligned.path_per_m
     _add_track(curv, scalars, config, notes)
+    _add_fair_mobileye(curv, me, t_ns, config, notes)
     curv["super_error"] = curv["super_curvature"] - curv["rtk_curvature"]
     curv["super_path_error"] = curv["super_path_curvature"] - curv["rtk_curvature"]
     curv["mobileye_error"] = curv["mobileye_curvature"] - curv["rtk_curvature"]
     written.append(write_table(curv, out / "curvature.parquet", provenance))
     summary = tables.curvature_summary(curv, segments)
+    summary["truth_noise_floor_per_m"] = rtk.noise_floor_per_m
+    summary["truth_degraded"] = rtk.degraded
     written.append(write_table(summary, out / "curvature_summary.parquet", provenance))
     geometry = {
         "super": (scalars["super_w"], scalars["super_l"]),
@@ -148,6 +195,51 @@ def finalize(
         _sections(config, stages, notes, skipped, summary, av_seqs, curv, images, len(t_ns)),
     )
     return written
+
+
+def _fmt(value: float) -> str:
+    return "unknown" if not np.isfinite(value) else f"{value:.2e}"
+
+
+def _add_fair_mobileye(
+    curv: pd.DataFrame,
+    me: pd.DataFrame,
+    t_ns: np.ndarray,
+    config: ReprocessConfig,
+    notes: list[str],
+) -> None:
+    """Give Mobileye SUPER's treatment: same smoothing and manoeuvre term, beside the raw value.
+
+    Mobileye's ``2*C2`` describes the road at the vehicle (placement 0 m ahead); its own
+    ``C0`` of both lines gives the lateral position in the lane, as SUPER's fit does.
+    """
+    s_m = curv["s_m"].to_numpy(dtype=np.float64)
+    raw = curv["mobileye_curvature"].to_numpy(dtype=np.float64)
+    left = mobileye_at_frames(me, t_ns, "left_a0_m")
+    right = mobileye_at_frames(me, t_ns, "right_a0_m")
+    fair = align_super_curvature(
+        s_m,
+        raw,
+        np.zeros(len(t_ns)),
+        0.5 * (left + right),
+        left - right,
+        window_m=config.rtk.window_m,
+        ds_m=config.rtk.ds_m,
+    )
+    curv["mobileye_path_curvature"] = fair.path_per_m
+    if np.isfinite(raw).any():
+        truth = curv["rtk_curvature"].to_numpy(dtype=np.float64)
+        t_s = (t_ns - t_ns[0]) / 1e9 if len(t_ns) else np.zeros(0)
+        lag = latency_by_xcorr(t_s, truth, raw)
+        notes.append(
+            f"Mobileye latency by cross-correlation with the truth: {lag.lag_s:.2f} s "
+            f"(correlation {lag.correlation:.2f})"
+        )
+        lane = mobileye_at_frames(me, t_ns, "lane_curvature")
+        both = np.isfinite(lane) & np.isfinite(raw)
+        if both.any():
+            rms = float(np.sqrt(np.mean((lane[both] - raw[both]) ** 2)))
+            notes.append(f"Mobileye 0x737 Lane_Curvature vs 2*C2: RMS difference {rms:.2e} 1/m")
 
 
 def _add_track(

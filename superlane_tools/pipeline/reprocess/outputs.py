@@ -207,11 +207,15 @@ CURVATURE_SOURCES = (
     "super_road_sg",
     "super_path_sg",
     "mobileye",
+    "mobileye_path",
+    "dynamics",
 )
 """Curvature estimates compared with RTK (``<source>_curvature`` columns of curvature.parquet).
 
 ``super_road`` / ``super_path`` come from the lane tracker when it is enabled; ``*_sg`` are the
-same without it (look-ahead alignment and the truth's filter only).
+same without it (look-ahead alignment and the truth's filter only). ``mobileye`` is Mobileye's
+raw ``2*C2``; ``mobileye_path`` gives it SUPER's treatment (the truth's filter and the
+manoeuvre term from its own ``C0``). ``dynamics`` is yaw rate / speed smoothed like the truth.
 """
 
 

@@ -24,7 +24,7 @@ import numpy as np
 import pandas as pd
 import pyarrow as pa
 
-from superlane_tools.can import LoadedDbc, load_dbc
+from superlane_tools.can import ALL_BUSES, DbcSpec, LoadedDbc, load_dbc, parse_dbc_spec
 from superlane_tools.corridor import AvailabilityParams, Segment, windows
 from superlane_tools.lanes import LaneFit
 from superlane_tools.pipeline._gnss_sink import GnssSink
@@ -35,7 +35,7 @@ from superlane_tools.pipeline.reprocess._finalize import finalize
 from superlane_tools.pipeline.reprocess.config import ReprocessConfig
 from superlane_tools.pipeline.reprocess.inputs import resolve_camera, select
 from superlane_tools.pipeline.reprocess.lane_tracker import COV_INDEX, COV_KEYS
-from superlane_tools.pipeline.reprocess.signals import CanFrames
+from superlane_tools.pipeline.reprocess.signals import CanFrames, ImuSamples
 from superlane_tools.pipeline.reprocess.stages import Finished, FrameStages, Prepared
 from superlane_tools.recording.open import open_recording
 from superlane_tools.records import Skipped
@@ -203,8 +203,11 @@ def _track_input(fit: LaneFit, max_slope: float) -> tuple[float, float, bool]:
 
 
 def _load_dbcs(config: ReprocessConfig) -> tuple[dict[str, LoadedDbc], list[Path]]:
-    paths = [Path(p) for p in config.can.dbcs] or [shipped_dbc(n) for n in SHIPPED_DBCS]
-    return {p.name: load_dbc(p) for p in paths}, paths
+    specs = [parse_dbc_spec(p) for p in config.can.dbcs] or [
+        DbcSpec(ALL_BUSES, shipped_dbc(n)) for n in SHIPPED_DBCS
+    ]
+    names = [s.path.name if s.bus == ALL_BUSES else f"{s.bus}={s.path.name}" for s in specs]
+    return {n: load_dbc(s.path) for n, s in zip(names, specs, strict=True)}, [s.path for s in specs]
 
 
 def _segments(config: ReprocessConfig, t_ns: np.ndarray, fps: float) -> list[Segment]:
@@ -289,7 +292,12 @@ def reprocess(
             config=config_data,
             models=stages.models,
         )
-        can = CanFrames()
+        can, imu = CanFrames(), ImuSamples()
+        # Every CAN bus (topic) unless one is configured; the IMU for the yaw-rate reference.
+        can_topics = {streams.can} if cfg.topics.can else _typed(rec.topics(), "can_msgs/msg/Frame")
+        imu_topics = (
+            {cfg.topics.imu} if cfg.topics.imu else _typed(rec.topics(), "sensor_msgs/msg/Imu")
+        )
         gnss = GnssSink(out, None, provenance)
         examples: list[ExampleFrame] = []
         failed: list[str] = []
@@ -321,7 +329,7 @@ def reprocess(
                 if progress is not None:
                     progress(done_count, total)
 
-            topics = [t for t in (streams.frames, streams.can, streams.gnss) if t]
+            topics = [t for t in (streams.frames, streams.gnss, *can_topics, *imu_topics) if t]
             index = 0
             for msg in rec.messages(topics=topics):
                 if msg.topic == streams.frames:
@@ -329,8 +337,10 @@ def reprocess(
                     index += 1
                     while len(pending) > 2 * cfg.workers:
                         handle(pending.popleft().result())
-                elif msg.topic == streams.can:
+                elif msg.topic in can_topics:
                     can.add(msg)
+                elif msg.topic in imu_topics:
+                    imu.add(msg)
                 elif msg.topic == streams.gnss:
                     gnss.add(msg)
             while pending:
@@ -367,6 +377,8 @@ def reprocess(
         examples=examples,
         notes=notes,
         skipped=skipped,
+        imu=imu,
+        lost=skipped,
         recording=src,
         stages=stages,
     )
@@ -388,6 +400,12 @@ def reprocess(
         notes=tuple(notes),
         frames_per_s=n / timings["total"] if timings["total"] > 0 else 0.0,
     )
+
+
+def _typed(topics: Any, msgtype: str) -> set[str]:
+    """Return the topics of one message type (ROS 1 / ROS 2 spellings alike)."""
+    short = msgtype.replace("/msg/", "/")
+    return {t.topic for t in topics if t.msgtype in (msgtype, short)}
 
 
 def _timings(frames_path: Path) -> dict[str, float]:
