@@ -279,6 +279,7 @@ def _add_track(
             scalars["super_track_ok"].astype(bool),
             trk,
             fit_cov,
+            scalars["super_ahead"].astype(np.float64),
         )
         curv["super_heading_rad"] = track.heading_rad
         curv["super_track_used"] = track.used

@@ -179,6 +179,9 @@ def _ego_geometry(fit: LaneFit) -> tuple[float, float, float]:
     near = max(left.range_min_m, right.range_min_m)
     far = min(left.range_max_m, right.range_max_m)
     ahead = 0.5 * (near + far) if far > near else math.nan
+    effective = fit.extras.get("lookahead_m", math.nan)  # where 2*a2 measures the road
+    if far > near and math.isfinite(effective) and effective > 0:
+        ahead = effective
     if width <= 1.0:
         return math.nan, math.nan, ahead
     offsets = np.array([lane.offset_m for lane in fit.lanes]) - 0.5 * width
