@@ -59,6 +59,19 @@ def simulate(
     labels: Annotated[
         bool, typer.Option("--labels", help="Also write label and corridor PNGs per frame.")
     ] = False,
+    speed_kph: Annotated[
+        bool, typer.Option("--speed-kph", help="Send the CAN speed in km/h (slt_vehicle_kph.dbc).")
+    ] = False,
+    imu: Annotated[
+        bool, typer.Option("--imu", help="Also write an IMU topic (/imu/data).")
+    ] = False,
+    second_bus: Annotated[
+        bool,
+        typer.Option(
+            "--second-bus",
+            help="Mobileye lanes on a second CAN bus (/can1/rx) with an id colliding with 0x180.",
+        ),
+    ] = False,
     list_: Annotated[bool, typer.Option("--list", help="List the scenarios and exit.")] = False,
 ) -> None:
     """Simulate one drive: `slt simulate --scenario NAME --out drive.mcap`."""
@@ -79,7 +92,7 @@ def simulate(
     with cli_errors():
         from superlane_tools.simulation.drive import simulate_drive
         from superlane_tools.simulation.scenarios import get_scenario
-        from superlane_tools.simulation.sensors import RtkParams
+        from superlane_tools.simulation.sensors import RtkParams, VehicleOptions
 
         get_scenario(scenario)
         rtk = RtkParams(rate_hz=rtk_rate, mode=rtk_mode, dropouts_per_min=rtk_dropouts)
@@ -102,6 +115,7 @@ def simulate(
                 fps=fps,
                 jpeg_quality=jpeg_quality,
                 rtk=rtk,
+                vehicle=VehicleOptions(speed_kph=speed_kph, imu=imu, second_bus=second_bus),
                 command=command_line(),
                 progress=step,
             )

@@ -23,6 +23,8 @@ from superlane_tools.simulation.world import World
 FloatArray = NDArray[np.float64]
 
 VEHICLE_DBC = "slt_vehicle.dbc"
+VEHICLE_KPH_DBC = "slt_vehicle_kph.dbc"
+"""The same vehicle bus with the speed in km/h (0.01 km/h per bit), as many vehicles send it."""
 MOBILEYE_DBC = "slt_mobileye_lanes.dbc"
 ANTENNA_HEIGHT_M = 1.5
 """GNSS antenna height above the vehicle origin (road surface), metres."""
@@ -162,11 +164,70 @@ def rtk_fixes(
     ]
 
 
+@dataclass(frozen=True)
+class VehicleOptions:
+    """How the simulated vehicle reports itself.
+
+    Attributes:
+        speed_kph: Send the speed in km/h (:data:`VEHICLE_KPH_DBC`) instead of m/s.
+        imu: Also write a ``sensor_msgs/Imu`` topic (gyro z = yaw rate, with its own bias).
+        second_bus: Put the Mobileye lanes on a second CAN bus, together with a camera
+            heartbeat whose id (0x180) collides with the vehicle bus's speed message.
+    """
+
+    speed_kph: bool = False
+    imu: bool = False
+    second_bus: bool = False
+
+
+HEARTBEAT_ID = 0x180
+"""Id of the second bus's camera heartbeat: the same id as the vehicle bus's speed."""
+
+
+def heartbeat_can(world: World, start_ns: int, rate_hz: float = 10.0) -> list[CanPayload]:
+    """A camera heartbeat on the second bus (id 0x180, a counter and status bytes)."""
+    t = np.arange(0.0, world.duration_s + 1e-9, 1.0 / rate_hz)
+    return [
+        CanPayload(
+            start_ns + round(float(ti) * 1e9) + 500,
+            HEARTBEAT_ID,
+            bytes([0xA5, i % 256, 3, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF]),
+        )
+        for i, ti in enumerate(t)
+    ]
+
+
+def imu_gyro(
+    world: World, start_ns: int, rng: np.random.Generator, rate_hz: float = 100.0
+) -> list[tuple[int, tuple[float, float, float]]]:
+    """Simulate an IMU's gyro (rad/s, x forward, y left, z up) with a constant bias and noise."""
+    t = np.arange(0.0, world.duration_s + 1e-9, 1.0 / rate_hz)
+    path, road = world.path, world.road
+    v = np.interp(t, path.t_s, path.speed_mps)
+    k = np.interp(np.interp(t, path.t_s, path.s_m), road.s_m, path.curvature)
+    bias = rng.normal(0.0, 0.003, 3)
+    noise = rng.normal(0.0, 0.002, (len(t), 3))
+    gyro = noise + bias
+    gyro[:, 2] += k * v
+    return [
+        (start_ns + round(float(ti) * 1e9) + 2000, (float(g[0]), float(g[1]), float(g[2])))
+        for ti, g in zip(t, gyro, strict=True)
+    ]
+
+
 def vehicle_can(
-    world: World, start_ns: int, rng: np.random.Generator, rate_hz: float = 50.0
+    world: World,
+    start_ns: int,
+    rng: np.random.Generator,
+    rate_hz: float = 50.0,
+    speed_kph: bool = False,
 ) -> list[CanPayload]:
-    """Encode speed (0x180) and yaw rate (0x181) at ``rate_hz`` with sensor noise and bias."""
-    db = load_shipped_dbc(VEHICLE_DBC)
+    """Encode speed (0x180) and yaw rate (0x181) at ``rate_hz`` with sensor noise and bias.
+
+    With ``speed_kph`` the speed is sent in km/h (:data:`VEHICLE_KPH_DBC`); the random draws
+    are the same either way, so the two drives differ only in the speed's unit.
+    """
+    db = load_shipped_dbc(VEHICLE_KPH_DBC if speed_kph else VEHICLE_DBC)
     speed_msg = db.get_message_by_name("VehicleSpeed")
     yaw_msg = db.get_message_by_name("YawRate")
     dt = 1.0 / rate_hz
@@ -190,7 +251,7 @@ def vehicle_can(
                 speed_msg.frame_id,
                 speed_msg.encode(
                     {
-                        "VehicleSpeed": round(float(v_meas[i]), 2),
+                        "VehicleSpeed": round(float(v_meas[i]) * (3.6 if speed_kph else 1.0), 2),
                         "SpeedValid": 1,
                         "LongitudinalAccel": round(float(np.clip(accel[i], -32.0, 32.0)), 3),
                         "Counter": counter,
