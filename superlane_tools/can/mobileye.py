@@ -149,7 +149,9 @@ def mobileye_table(signals: pd.DataFrame, spec: MobileyeMapping | None = None) -
         Columns ``log_time_ns`` and, per side ``left``/``right``: ``{side}_a0_m``,
         ``{side}_a1_rad``, ``{side}_a2_per_m``, ``{side}_a3_per_m2``, ``{side}_quality``,
         ``{side}_view_range_m``, ``{side}_curvature``; then ``curvature``,
-        ``lane_curvature``. Empty when the recording has no Mobileye lane messages.
+        ``lane_curvature``, ``corridor_width_m`` (between the lines 10 m ahead) and
+        ``corridor_length_m`` (shorter view range), NaN unless both lines pass the quality
+        gate. Empty when the recording has no Mobileye lane messages.
     """
     m = spec or MobileyeMapping()
     sign = -1.0 if m.right_positive else 1.0
@@ -194,10 +196,46 @@ def mobileye_table(signals: pd.DataFrame, spec: MobileyeMapping | None = None) -
         )
     assert merged is not None
     merged["curvature"] = _mean_of_good(merged, list(sides), m.min_quality)
+    width, length = _corridor(merged, m.min_quality, CORRIDOR_WIDTH_AT_M)
+    merged["corridor_width_m"] = width
+    merged["corridor_length_m"] = length
     lane = _wide(signals, m.curvature_message)
     t = merged["log_time_ns"].to_numpy(dtype=np.int64)
     merged["lane_curvature"] = sign * _column(lane, m.curvature_signal, t)
     return merged.reset_index(drop=True)
+
+
+CORRIDOR_WIDTH_AT_M = 10.0
+"""Distance ahead at which Mobileye's corridor width is measured, metres."""
+
+
+def _corridor(merged: pd.DataFrame, min_quality: int, at_m: float) -> tuple[FloatArray, FloatArray]:
+    """Mobileye's ego corridor: width between its lines at ``at_m`` ahead, length = view range.
+
+    NaN (no corridor) unless both lines have quality >= ``min_quality``; the length is the
+    shorter of the two view ranges, from the camera as for the other methods.
+    """
+    n = len(merged)
+    if not {"left_a0_m", "right_a0_m"} <= set(merged.columns):
+        return np.full(n, np.nan), np.full(n, np.nan)
+
+    def at(side: str) -> FloatArray:
+        a0, a1, a2, a3 = (
+            merged[f"{side}_{k}"].to_numpy(dtype=np.float64)
+            for k in ("a0_m", "a1_rad", "a2_per_m", "a3_per_m2")
+        )
+        cubic: FloatArray = a0 + at_m * (np.nan_to_num(a1) + at_m * (a2 + at_m * np.nan_to_num(a3)))
+        return cubic
+
+    ok = (merged["left_quality"].to_numpy() >= min_quality) & (
+        merged["right_quality"].to_numpy() >= min_quality
+    )
+    width = np.where(ok, at("left") - at("right"), np.nan)
+    length = np.fmin(
+        merged["left_view_range_m"].to_numpy(dtype=np.float64),
+        merged["right_view_range_m"].to_numpy(dtype=np.float64),
+    )
+    return width, np.where(ok, length, np.nan)
 
 
 def _mean_of_good(merged: pd.DataFrame, sides: list[str], min_quality: int) -> FloatArray:

@@ -38,6 +38,7 @@ from superlane_tools.pipeline.reprocess.signals import (
 from superlane_tools.pipeline.reprocess.stages import FrameStages
 from superlane_tools.records import Skipped
 from superlane_tools.reporting import Provenance, write_table
+from superlane_tools.reporting.headline import headline_table
 from superlane_tools.reporting.plots import ExampleFrame
 from superlane_tools.reporting.report import Section, write_report
 
@@ -173,10 +174,16 @@ def finalize(
         "super": (scalars["super_w"], scalars["super_l"]),
         "corridor_net": (scalars["net_w"], scalars["net_l"]),
         "hough": (scalars["hough_w"], scalars["hough_l"]),
+        "mobileye": (
+            mobileye_at_frames(me, t_ns, "corridor_width_m"),
+            mobileye_at_frames(me, t_ns, "corridor_length_m"),
+        ),
     }
     unavailable = (
         {"corridor_net": stages.corridor_unavailable} if stages.corridor_unavailable else {}
     )
+    if me.empty:
+        unavailable["mobileye"] = "no Mobileye lane messages"
     av_frames, av_seqs, _ = tables.availability_tables(
         t_ns, geometry, unavailable, speed, params, segments
     )
@@ -351,7 +358,13 @@ def _sections(
         f"Available: corridor width in [{config.kpi.min_width_m}, {config.kpi.max_width_m}] m and "
         f"length >= speed * {config.kpi.time_gap_s} s. Sequences: {config.kpi.window_s} s "
         f"windows (or manifest segments); a sequence is available with no outage longer than "
-        f"{config.kpi.max_outage_frames} frames."
+        f"{config.kpi.max_outage_s:.3g} s (dropped frames count as outage). Columns: "
+        "`n_frames` frames in the sequence, `n_available` frames available, `n_unknown` frames "
+        "whose availability is unknown (no speed), `ratio` = n_available / n_frames, "
+        "`available` the sequence decision (empty: decided by unknown frames), "
+        "`longest_outage_s` the longest outage, `method_ran` whether the method produced output "
+        "on this drive at all (False: not run, e.g. no corridor model; not a result). Mobileye's "
+        "corridor is its two lines (both quality >= 2), width 10 m ahead, length = view range."
     ]
     shown = pd.DataFrame()
     if not av_seqs.empty:
@@ -368,7 +381,7 @@ def _sections(
                 "longest_outage_s",
                 "method_available",
             ]
-        ]
+        ].rename(columns={"method_available": "method_ran"})
     availability = Section(
         "Availability",
         av_lines,
@@ -384,7 +397,20 @@ def _sections(
         (),
         [i for i in images if "example" in i],
     )
-    return [overview, curvature, availability, examples]
+    floor = float(summary["truth_noise_floor_per_m"].iloc[0]) if len(summary) else float("nan")
+    degraded = bool(summary["truth_degraded"].iloc[0]) if len(summary) else False
+    headline = Section(
+        "Headline",
+        [
+            "One number per method: curvature RMSE against the truth (1/m, the same frames, "
+            "placement, smoothing and manoeuvre term for the path methods) and availability "
+            "(frames and sequences, see Availability). No RMSE can be read below the truth's "
+            "own noise floor."
+            + (" Truth degraded: not RTK (plain GNSS fixes)." if degraded else ""),
+        ],
+        [headline_table(summary, av_seqs, floor)],
+    )
+    return [headline, overview, curvature, availability, examples]
 
 
 UNTRACKED_PATH = (

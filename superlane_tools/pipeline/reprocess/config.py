@@ -140,7 +140,9 @@ class KpiConfig:
         min_width_m: Narrowest usable corridor, metres.
         max_width_m: Widest usable corridor, metres.
         time_gap_s: The corridor must reach ``speed * time_gap_s`` ahead, seconds.
-        max_outage_frames: A sequence stays available with outages up to this many frames.
+        max_outage_frames: Outage limit in frames, used only when ``max_outage_s`` is 0.
+        max_outage_s: A sequence stays available with outages up to this long, seconds
+            (default the paper's 5 frames at 15 Hz); dropped frames count as outage.
         window_s: Sequence length when the drive is cut into windows, seconds.
         manifest: YAML list of ``{start_s, stop_s, category}`` segments (seconds after the first
             frame); empty: consecutive windows.
@@ -151,6 +153,7 @@ class KpiConfig:
     max_width_m: float = 6.0
     time_gap_s: float = 0.7
     max_outage_frames: int = 5
+    max_outage_s: float = 5.0 / 15.0
     window_s: float = 30.0
     manifest: str = ""
     category: str = ""

@@ -24,8 +24,8 @@ from superlane_tools.pipeline.lanes_fit import fit_row
 from superlane_tools.pipeline.reprocess.stages import Finished
 
 FloatArray = NDArray[np.float64]
-METHODS = ("super", "corridor_net", "hough")
-"""Availability methods: SUPER lane fit, ego-corridor network, Hough baseline."""
+METHODS = ("super", "corridor_net", "hough", "mobileye")
+"""Availability methods: SUPER lane fit, ego-corridor network, Hough baseline, Mobileye."""
 STAGES = (
     "decode",
     "segmentation",
@@ -184,7 +184,7 @@ def availability_tables(
         )
         if n == 0:
             continue
-        for k, seq in enumerate(sequence_availability(fa, params, segments)):
+        for k, seq in enumerate(sequence_availability(fa, params, segments, t_ns)):
             row = seq._asdict()
             row.update(
                 method=method,

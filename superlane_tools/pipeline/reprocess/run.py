@@ -364,6 +364,7 @@ def reprocess(
         max_width_m=kpi.max_width_m,
         time_gap_s=kpi.time_gap_s,
         max_outage_frames=kpi.max_outage_frames,
+        max_outage_s=kpi.max_outage_s if kpi.max_outage_s > 0 else None,
         window_frames=max(1, round(kpi.window_s * fps)),
         frame_rate_hz=fps,
     )
