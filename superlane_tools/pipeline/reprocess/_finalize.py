@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 import pandas as pd
@@ -35,12 +35,29 @@ from superlane_tools.pipeline.reprocess.signals import (
     mobileye_at_frames,
     rtk_truth,
 )
-from superlane_tools.pipeline.reprocess.stages import FrameStages
 from superlane_tools.records import Skipped
 from superlane_tools.reporting import Provenance, write_table
 from superlane_tools.reporting.headline import headline_table
 from superlane_tools.reporting.plots import ExampleFrame
 from superlane_tools.reporting.report import Section, write_report
+
+
+class StageInfo(Protocol):
+    """What the report states about the image stages (``FrameStages`` or no camera)."""
+
+    @property
+    def backend_name(self) -> str:
+        """The segmentation backend used."""
+        ...
+
+    @property
+    def corridor_unavailable(self) -> str:
+        """Why the corridor network did not run ("" when it did)."""
+        ...
+
+
+IMAGE_METHODS = ("super", "corridor_net", "hough")
+"""Availability methods that need camera frames."""
 
 
 def finalize(
@@ -58,9 +75,10 @@ def finalize(
     notes: list[str],
     skipped: Sequence[Skipped],
     recording: Path,
-    stages: FrameStages,
+    stages: StageInfo,
     imu: ImuSamples | None = None,
     lost: list[Skipped] | None = None,
+    camera: bool = True,
 ) -> list[Path]:
     """Write every derived output; append missing-stream statements to ``notes``."""
     t_ns = scalars["t_ns"].astype(np.int64)
@@ -184,6 +202,8 @@ def finalize(
     )
     if me.empty:
         unavailable["mobileye"] = "no Mobileye lane messages"
+    if not camera:
+        unavailable.update(dict.fromkeys(IMAGE_METHODS, "no camera stream"))
     av_frames, av_seqs, _ = tables.availability_tables(
         t_ns, geometry, unavailable, speed, params, segments
     )
@@ -314,7 +334,7 @@ def _add_track(
 
 def _sections(
     config: ReprocessConfig,
-    stages: FrameStages,
+    stages: StageInfo,
     notes: Sequence[str],
     skipped: Sequence[Skipped],
     summary: pd.DataFrame,

@@ -28,7 +28,6 @@ from superlane_tools.can import ALL_BUSES, DbcSpec, LoadedDbc, load_dbc, parse_d
 from superlane_tools.corridor import AvailabilityParams, Segment, windows
 from superlane_tools.lanes import LaneFit
 from superlane_tools.pipeline._gnss_sink import GnssSink
-from superlane_tools.pipeline.errors import PipelineError
 from superlane_tools.pipeline.reprocess import outputs as tables
 from superlane_tools.pipeline.reprocess._examples import example_frame
 from superlane_tools.pipeline.reprocess._finalize import finalize
@@ -272,9 +271,12 @@ def reprocess(
     dbcs, dbc_paths = _load_dbcs(cfg)
     with open_recording(src) as rec:
         streams = select(rec.topics(), cfg)
-        if not streams.frames:
-            listing = ", ".join(f"{t.topic} ({t.msgtype})" for t in rec.topics()) or "none"
-            raise PipelineError(f"{src.name}: no camera image topic to reprocess ({listing})")
+        listed = rec.topics()  # every CAN bus unless one is configured; the IMU
+        can_topics = {streams.can} if cfg.topics.can else _typed(listed, "can_msgs/msg/Frame")
+        imu_topics = {cfg.topics.imu} if cfg.topics.imu else _typed(listed, "sensor_msgs/msg/Imu")
+        if not streams.frames:  # truth, dynamics and Mobileye still need no camera
+            found = (can_topics, imu_topics, streams.gnss)
+            return _without_camera(rec, src, out, cfg, (dbcs, dbc_paths), found, command)
         camera, camera_source = resolve_camera(rec, src, streams, cfg.camera)
         stages = FrameStages(cfg, camera)
         notes = [*streams.notes, f"camera: {camera_source}", *stages.notes]
@@ -296,11 +298,6 @@ def reprocess(
             models=stages.models,
         )
         can, imu = CanFrames(), ImuSamples()
-        # Every CAN bus (topic) unless one is configured; the IMU for the yaw-rate reference.
-        can_topics = {streams.can} if cfg.topics.can else _typed(rec.topics(), "can_msgs/msg/Frame")
-        imu_topics = (
-            {cfg.topics.imu} if cfg.topics.imu else _typed(rec.topics(), "sensor_msgs/msg/Imu")
-        )
         gnss = GnssSink(out, None, provenance)
         examples: list[ExampleFrame] = []
         failed: list[str] = []
@@ -403,6 +400,39 @@ def reprocess(
         frames=n,
         notes=tuple(notes),
         frames_per_s=n / timings["total"] if timings["total"] > 0 else 0.0,
+    )
+
+
+def _without_camera(
+    rec: Any,
+    src: Path,
+    out: Path,
+    cfg: ReprocessConfig,
+    loaded: tuple[dict[str, LoadedDbc], list[Path]],
+    topics: tuple[set[str], set[str], str],
+    command: str,
+) -> ReprocessResult:
+    """Reprocess what a recording without a camera allows (see ``_signals_only``)."""
+    from superlane_tools.pipeline.reprocess._signals_only import reprocess_signals
+
+    t_start = time.perf_counter()
+    dbcs, dbc_paths = loaded
+    provenance = Provenance(
+        command=command or f"reprocess({src.name!r})",
+        inputs=(input_identity(src), *(input_identity(p) for p in dbc_paths)),
+        config=cfg.to_dict(),
+    )
+    notes: list[str] = []
+    written, frames, lost = reprocess_signals(rec, src, out, cfg, dbcs, provenance, topics, notes)
+    total = time.perf_counter() - t_start
+    return ReprocessResult(
+        status="partial" if lost else "ok",
+        skipped=tuple(lost),
+        outputs=tuple(written),
+        timings={"total": total},
+        frames=0,
+        notes=(*notes, f"{frames} evaluation instants, no camera frames"),
+        frames_per_s=0.0,
     )
 
 
