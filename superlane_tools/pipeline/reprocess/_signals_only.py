@@ -15,34 +15,17 @@ from typing import Any
 import numpy as np
 
 from superlane_tools.can import LoadedDbc
-from superlane_tools.corridor import AvailabilityParams
 from superlane_tools.pipeline._gnss_sink import GnssSink
 from superlane_tools.pipeline.errors import PipelineError
 from superlane_tools.pipeline.reprocess._finalize import finalize
 from superlane_tools.pipeline.reprocess.config import ReprocessConfig
 from superlane_tools.pipeline.reprocess.lane_tracker import COV_KEYS
+from superlane_tools.pipeline.reprocess.outputs import SCALAR_KEYS, availability_params
 from superlane_tools.pipeline.reprocess.signals import CanFrames, ImuSamples
 from superlane_tools.reporting import Provenance
 
 GRID_HZ = 15.0
 """Evaluation rate without camera frames (the corridor paper's camera rate), Hz."""
-SCALAR_KEYS = (
-    "super_w",
-    "super_l",
-    "net_w",
-    "net_l",
-    "hough_w",
-    "hough_l",
-    "super_curv",
-    "super_centre",
-    "super_lane_width",
-    "super_ahead",
-    "super_a1",
-    "super_b",
-    "super_near",
-    "super_far",
-    *COV_KEYS,
-)
 NO_CAMERA = "no camera stream"
 
 
@@ -110,7 +93,7 @@ def reprocess_signals(
         else np.zeros(0, dtype=np.int64)
     )
     n = t_ns.size
-    scalars: dict[str, np.ndarray] = {k: np.full(n, np.nan) for k in SCALAR_KEYS}
+    scalars: dict[str, np.ndarray] = {k: np.full(n, np.nan) for k in (*SCALAR_KEYS, *COV_KEYS)}
     scalars["t_ns"] = t_ns
     scalars["super_track_ok"] = np.zeros(n, dtype=bool)
     notes.append(
@@ -118,15 +101,7 @@ def reprocess_signals(
         f"reference and Mobileye evaluated on a {GRID_HZ:g} Hz grid"
     )
     kpi = cfg.kpi
-    params = AvailabilityParams(
-        min_width_m=kpi.min_width_m,
-        max_width_m=kpi.max_width_m,
-        time_gap_s=kpi.time_gap_s,
-        max_outage_frames=kpi.max_outage_frames,
-        window_frames=max(1, round(kpi.window_s * GRID_HZ)),
-        frame_rate_hz=GRID_HZ,
-        max_outage_s=kpi.max_outage_s if kpi.max_outage_s > 0 else None,
-    )
+    params = availability_params(kpi, GRID_HZ)
     from superlane_tools.corridor import windows
     from superlane_tools.corridor.availability import Segment
 

@@ -24,6 +24,24 @@ from superlane_tools.pipeline.lanes_fit import fit_row
 from superlane_tools.pipeline.reprocess.stages import Finished
 
 FloatArray = NDArray[np.float64]
+SCALAR_KEYS = (
+    "super_w",
+    "super_l",
+    "net_w",
+    "net_l",
+    "hough_w",
+    "hough_l",
+    "super_curv",
+    "super_centre",
+    "super_lane_width",
+    "super_ahead",
+    "super_a1",
+    "super_b",
+    "super_near",
+    "super_far",
+)
+"""Per-frame float scalars kept for the tables after the pass (besides ``t_ns``, the fit
+covariance entries and the ``super_track_ok`` / ``ok`` flags)."""
 METHODS = ("super", "corridor_net", "hough", "mobileye")
 """Availability methods: SUPER lane fit, ego-corridor network, Hough baseline, Mobileye."""
 STAGES = (
@@ -132,6 +150,19 @@ def frame_rows(done: Finished, corridor_status: str, mean_frames: int) -> dict[s
         "right_line_px": list(h.right_line) if h and h.right_line else None,
     }
     return {"frames": frames, "lanes": lanes, "corridor": corridor, "baseline": baseline}
+
+
+def availability_params(kpi: Any, fps: float) -> AvailabilityParams:
+    """Return the availability thresholds of a ``[kpi]`` config section at ``fps`` frames/s."""
+    return AvailabilityParams(
+        min_width_m=kpi.min_width_m,
+        max_width_m=kpi.max_width_m,
+        time_gap_s=kpi.time_gap_s,
+        max_outage_frames=kpi.max_outage_frames,
+        window_frames=max(1, round(kpi.window_s * fps)),
+        frame_rate_hz=fps,
+        max_outage_s=kpi.max_outage_s if kpi.max_outage_s > 0 else None,
+    )
 
 
 def availability_tables(

@@ -25,7 +25,7 @@ import pandas as pd
 import pyarrow as pa
 
 from superlane_tools.can import ALL_BUSES, DbcSpec, LoadedDbc, load_dbc, parse_dbc_spec
-from superlane_tools.corridor import AvailabilityParams, Segment, windows
+from superlane_tools.corridor import Segment, windows
 from superlane_tools.lanes import LaneFit
 from superlane_tools.pipeline._gnss_sink import GnssSink
 from superlane_tools.pipeline.reprocess import outputs as tables
@@ -104,27 +104,7 @@ class _Streamer:
         }
         self.rows: dict[str, list[dict[str, Any]]] = {name: [] for name in specs}
         self.scalars: dict[str, list[float]] = {
-            k: []
-            for k in (
-                "t_ns",
-                "super_w",
-                "super_l",
-                "net_w",
-                "net_l",
-                "hough_w",
-                "hough_l",
-                "super_curv",
-                "super_centre",
-                "super_lane_width",
-                "super_ahead",
-                "super_a1",
-                "super_b",
-                "super_near",
-                "super_far",
-                "super_track_ok",
-                *COV_KEYS,
-                "ok",
-            )
+            k: [] for k in ("t_ns", *tables.SCALAR_KEYS, "super_track_ok", *COV_KEYS, "ok")
         }
 
     def add(self, done: Finished, corridor_status: str, mean_frames: int, max_slope: float) -> None:
@@ -356,15 +336,7 @@ def reprocess(
     fps = 1e9 / float(np.median(np.diff(t_ns))) if len(t_ns) > 1 else 15.0
     segments = _segments(cfg, t_ns, fps)
     kpi = cfg.kpi
-    params = AvailabilityParams(
-        min_width_m=kpi.min_width_m,
-        max_width_m=kpi.max_width_m,
-        time_gap_s=kpi.time_gap_s,
-        max_outage_frames=kpi.max_outage_frames,
-        max_outage_s=kpi.max_outage_s if kpi.max_outage_s > 0 else None,
-        window_frames=max(1, round(kpi.window_s * fps)),
-        frame_rate_hz=fps,
-    )
+    params = tables.availability_params(kpi, fps)
     written += finalize(
         out=out,
         config=cfg,

@@ -196,6 +196,19 @@ def _worst_variance(frame: pd.DataFrame) -> FloatArray:
     return var
 
 
+def curvature_params(config: RtkConfig) -> CurvatureParams:
+    """Return the arc-length curvature estimate's parameters of an ``[rtk]`` config section."""
+    return CurvatureParams(
+        ds_m=config.ds_m,
+        window_m=config.window_m,
+        polyorder=config.polyorder,
+        max_gap_s=config.max_gap_s,
+        min_run_m=config.min_run_m,
+        min_speed_mps=config.min_speed_mps,
+        min_step_m=config.min_step_m,
+    )
+
+
 def rtk_truth(
     rows: Sequence[Mapping[str, Any]],
     frame_t_ns: IntArray,
@@ -241,15 +254,7 @@ def rtk_truth(
         east, north, up = enu.east_m, enu.north_m, enu.up_m
     gap_s = np.concatenate([[0.0], np.diff(t) / 1e9])
     dropout = gap_s > config.max_gap_s
-    params = CurvatureParams(
-        ds_m=config.ds_m,
-        window_m=config.window_m,
-        polyorder=config.polyorder,
-        max_gap_s=config.max_gap_s,
-        min_run_m=config.min_run_m,
-        min_speed_mps=config.min_speed_mps,
-        min_step_m=config.min_step_m,
-    )
+    params = curvature_params(config)
     fix_speed_mps = None
     if speed is not None:
         fix_speed_mps = align(speed.t_ns, speed.values, t, "linear", SIGNAL_TOLERANCE_NS)
@@ -383,16 +388,7 @@ def dynamics_reference(
     """
     if yaw is None or speed is None or len(yaw.t_ns) < 3:
         return None
-    params = DynamicsParams(
-        curvature=CurvatureParams(
-            ds_m=config.ds_m,
-            window_m=config.window_m,
-            polyorder=config.polyorder,
-            max_gap_s=config.max_gap_s,
-            min_run_m=config.min_run_m,
-            min_speed_mps=config.min_speed_mps,
-        )
-    )
+    params = DynamicsParams(curvature=curvature_params(config))
     return yaw_rate_curvature(yaw.t_ns, yaw.values, speed.t_ns, speed.values, frame_t_ns, params)
 
 
