@@ -81,7 +81,7 @@ _ALL: tuple[Scenario, ...] = (
             speed_mps=14.0,
             speed_variation_mps=2.0,
             ego_lanes=(0,),
-            leader_gap_m=15.0,
+            leader_gap_m=30.0,
             stop_every_s=25.0,
         ),
         conditions=Conditions(name="stop_and_go"),
