@@ -56,6 +56,10 @@ def simulate(
     rtk_dropouts: Annotated[
         float, typer.Option(help="GNSS outages per minute (1-4 s each).")
     ] = 0.0,
+    rtk_multipath: Annotated[
+        float,
+        typer.Option(help="GNSS multipath episodes per minute (2-8 s of 0.3-1.5 m jumps, float)."),
+    ] = 0.0,
     labels: Annotated[
         bool, typer.Option("--labels", help="Also write label and corridor PNGs per frame.")
     ] = False,
@@ -95,7 +99,12 @@ def simulate(
         from superlane_tools.simulation.sensors import RtkParams, VehicleOptions
 
         get_scenario(scenario)
-        rtk = RtkParams(rate_hz=rtk_rate, mode=rtk_mode, dropouts_per_min=rtk_dropouts)
+        rtk = RtkParams(
+            rate_hz=rtk_rate,
+            mode=rtk_mode,
+            dropouts_per_min=rtk_dropouts,
+            multipath_per_min=rtk_multipath,
+        )
         rtk.validate()
         with _progress_bar(f"simulate {scenario}") as bar:
             task = bar.add_task("frames", total=None)

@@ -75,6 +75,9 @@ class RtkParams:
         mode: ``fixed`` (RTK fixed, cm noise), ``float`` (RTK float, ~0.2 m) or
             ``standalone`` (single point, metres of slowly wandering error).
         dropouts_per_min: Mean number of outages per minute (each 1-4 s without fixes).
+        multipath_per_min: Mean number of multipath episodes per minute: for 2-8 s the fixes
+            jump 0.3-1.5 m sideways and the receiver reports RTK float (status 1) with a
+            covariance that says so.
         origin_lat_deg: Latitude of the world origin, degrees.
         origin_lon_deg: Longitude of the world origin, degrees.
         origin_alt_m: Ellipsoidal height of the world origin, metres.
@@ -83,6 +86,7 @@ class RtkParams:
     rate_hz: float = 10.0
     mode: str = "fixed"
     dropouts_per_min: float = 0.0
+    multipath_per_min: float = 0.0
     origin_lat_deg: float = 48.137154
     origin_lon_deg: float = 11.576124
     origin_alt_m: float = 520.0
@@ -144,20 +148,33 @@ def rtk_fixes(
     for _ in range(n_out):
         t0 = float(rng.uniform(0.0, world.duration_s))
         keep &= ~((t >= t0) & (t < t0 + float(rng.uniform(1.0, 4.0))))
+    jumped = np.zeros(n, dtype=bool)
+    if params.multipath_per_min > 0:
+        # Drawn from their own generator: the other draws (and drives) stay the same.
+        mp_rng = np.random.default_rng(rng.integers(0, 2**31))
+        for _ in range(int(mp_rng.poisson(params.multipath_per_min * world.duration_s / 60))):
+            t0 = float(mp_rng.uniform(0.0, world.duration_s))
+            span = (t >= t0) & (t < t0 + float(mp_rng.uniform(2.0, 8.0)))
+            angle = float(mp_rng.uniform(0.0, 2 * np.pi))
+            size = float(mp_rng.uniform(0.3, 1.5))
+            east[span] += size * np.cos(angle)
+            north[span] += size * np.sin(angle)
+            jumped |= span
     lat, lon, alt = pymap3d.enu2geodetic(
         east, north, up, params.origin_lat_deg, params.origin_lon_deg, params.origin_alt_m
     )
     var_h = s_h * s_h + wander * wander
     var_v = s_v * s_v + 2.25 * wander * wander
     cov = (var_h, 0.0, 0.0, 0.0, var_h, 0.0, 0.0, 0.0, var_v)
+    cov_jump = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 2.0)
     return [
         FixSample(
             start_ns + round(float(t[i]) * 1e9),
             float(lat[i]),
             float(lon[i]),
             float(alt[i]),
-            status,
-            cov,
+            min(status, 1) if jumped[i] else status,
+            cov_jump if jumped[i] else cov,
         )
         for i in range(n)
         if keep[i]

@@ -50,3 +50,34 @@ def test_sensors_while_standing_give_jitter_not_motion() -> None:
     )
     speed = table[table["signal"] == "VehicleSpeed"]["value"].to_numpy()
     assert (speed < 0.1).sum() > 500  # the CAN speed reads standstill
+
+
+def test_multipath_jumps_are_flagged_and_kept_out_of_the_truth() -> None:
+    from superlane_tools.pipeline.reprocess.config import RtkConfig
+    from superlane_tools.pipeline.reprocess.signals import rtk_truth
+
+    world = build_world(SCENARIOS["highway_curves"], 4, 60.0)
+    params = RtkParams(multipath_per_min=4.0)
+    fixes = rtk_fixes(world, params, 0, np.random.default_rng(1))
+    assert any(f.status == 1 for f in fixes)
+    rows = [
+        {
+            "topic": "/fix",
+            "log_time_ns": f.log_time_ns,
+            "latitude_deg": f.lat_deg,
+            "longitude_deg": f.lon_deg,
+            "altitude_m": f.alt_m,
+            "fix_status": f.status,
+            "covariance_m2": list(f.covariance_enu_m2),
+        }
+        for f in fixes
+    ]
+    t = np.arange(0.0, 60.0, 1 / 15)
+    path = world.path
+    true_k = np.interp(np.interp(t, path.t_s, path.s_m), world.road.s_m, path.curvature)
+    truth = rtk_truth(rows, (t * 1e9).astype(np.int64), RtkConfig())
+    assert truth.n_degraded == sum(f.status == 1 for f in fixes)
+    k = truth.frame_curvature
+    ok = np.isfinite(k)
+    assert ok.sum() > 300
+    assert np.sqrt(np.mean((k[ok] - true_k[ok]) ** 2)) < 2e-4

@@ -422,8 +422,8 @@ def _sections(
     headline = Section(
         "Headline",
         [
-            "One number per method: curvature RMSE against the truth (1/m, the same frames, "
-            "placement, smoothing and manoeuvre term for the path methods) and availability "
+            "One number per method: curvature RMSE against the same truth (1/m; the path methods "
+            "get the same placement, smoothing and manoeuvre term) and availability "
             "(frames and sequences, see Availability). No RMSE can be read below the truth's "
             "own noise floor."
             + (" Truth degraded: not RTK (plain GNSS fixes)." if degraded else ""),
