@@ -145,6 +145,21 @@ def export_cmd(
         err_console.print(f"wrote {result.n_records} frames -> {result.out}", markup=False)
 
 
+@lanes_app.command("export-kitti")
+def export_kitti_cmd(
+    lanes_parquet: Annotated[Path, typer.Argument(help="lanes.parquet from `slt lanes fit`.")],
+    camera: Annotated[str, typer.Option(help="Camera profile name or camera YAML file.")],
+    out: Annotated[Path, typer.Option(help="Output folder of KITTI ego-lane PNGs.")],
+) -> None:
+    """Rasterise each frame's fitted ego lane as a KITTI submission PNG (um_lane_NNNNNN.png)."""
+    from superlane_tools.camera import load_camera
+    from superlane_tools.pipeline.lanes_fit import export_kitti_ego_lane
+
+    with cli_errors():
+        result = export_kitti_ego_lane(lanes_parquet, load_camera(camera), out)
+        err_console.print(f"wrote {result.n_records} frames -> {result.out}", markup=False)
+
+
 def register(app: typer.Typer) -> None:
     """Add the ``lanes`` command group to the root app."""
     app.add_typer(lanes_app)

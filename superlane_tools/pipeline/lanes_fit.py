@@ -43,6 +43,7 @@ from superlane_tools.reporting import (
     Provenance,
     input_identity,
     read_provenance,
+    write_bytes_atomic,
     write_table,
     write_text_atomic,
 )
@@ -507,3 +508,53 @@ def export_tusimple(
     )
     text = "".join(f"{format_record(rec)}\n" for rec in records)
     return ExportResult(write_text_atomic(out, text), len(records))
+
+
+KITTI_NAME = re.compile(r"^(um|umm|uu)_(\d+)$")
+
+
+def export_kitti_ego_lane(
+    lanes_parquet: str | os.PathLike[str], camera: CameraModel, out_dir: str | os.PathLike[str]
+) -> ExportResult:
+    """Write each frame's fitted ego lane as a KITTI submission PNG (255 inside, 0 outside).
+
+    ``um_000000.png`` masks become ``um_lane_000000.png``; other names keep their stem. A frame
+    without both ego lines gets an all-zero image (the benchmark needs every frame).
+
+    Raises:
+        PipelineError: If the file is not a ``lanes.parquet`` written by ``slt lanes fit``.
+    """
+    from superlane_tools.evaluation.kitti import ego_lane_mask
+
+    src = Path(lanes_parquet)
+    try:
+        rows = pq.read_table(src).to_pylist()
+    except (OSError, pa.ArrowInvalid) as err:
+        raise PipelineError(f"cannot read {src}: {err}") from err
+    if rows and "ego_left" not in rows[0]:
+        raise PipelineError(f"{src}: not a lanes.parquet file (no ego_left)")
+    root = Path(out_dir)
+    for row in rows:
+        frame = _fitted_frame(row)
+        size = (int(row["width"]), int(row["height"]))
+        cam = camera if size == (camera.width, camera.height) else camera.resized(*size)
+        left, right = int(row["ego_left"]), int(row["ego_right"])
+        if left >= 0 and right >= 0:
+            mask = ego_lane_mask(frame.lanes[left], frame.lanes[right], frame.b, cam, frame.c)
+        else:
+            mask = np.zeros((size[1], size[0]), dtype=bool)
+        stem = Path(row["name"]).stem
+        match = KITTI_NAME.match(stem)
+        name = f"{match.group(1)}_lane_{match.group(2)}" if match else stem
+        target = root / Path(row["name"]).parent / f"{name}.png"
+        write_bytes_atomic(target, _png(np.where(mask, 255, 0).astype(np.uint8)))
+    return ExportResult(root, len(rows))
+
+
+def _png(image: NDArray[np.uint8]) -> bytes:
+    import cv2  # late: heavy import
+
+    ok, buf = cv2.imencode(".png", image)
+    if not ok:
+        raise PipelineError("cannot encode a PNG")
+    return bytes(buf.tobytes())
