@@ -91,6 +91,14 @@ def tusimple_cmd(
     centre: Annotated[
         float, typer.Option(help="Image column that separates left and right lines (ego modes).")
     ] = 640.0,
+    no_time_gate: Annotated[
+        bool,
+        typer.Option(
+            "--no-time-gate",
+            help="Score every frame as if run_time were 0 (NOT official: the geometry alone, "
+            "without LaneEval's 200 ms rule).",
+        ),
+    ] = False,
     save: Save = None,
     row: Row = "no sq",
     column: Column = "sc",
@@ -104,9 +112,12 @@ def tusimple_cmd(
         if mode not in MODES:
             raise UsageError(f"--mode must be one of {', '.join(MODES)}, not {mode!r}")
         preds = load_jsonl(pred, require_h_samples=False)
+        if no_time_gate:
+            preds = [p._replace(run_time_ms=0.0) for p in preds]
         gts = load_jsonl(gt, require_h_samples=True)
         score = evaluate(preds, gts) if mode == "all" else evaluate_mode(preds, gts, mode, centre)
-        _save(save, "tusimple", row, column, score.as_dict(), pred, gt, {"mode": mode})
+        extra = {"mode": mode, "time_gate": not no_time_gate}
+        _save(save, "tusimple", row, column, score.as_dict(), pred, gt, extra)
     values = score.as_dict()
     if not as_json:
         values = {

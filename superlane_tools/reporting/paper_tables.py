@@ -6,7 +6,8 @@ cell it fills (``row``, ``column``), the numbers, the exact command line, and th
 lays the records out as the paper does:
 
 * **Table 2** (``tusimple``, mode ``all``): TuSimple accuracy; rows ``no sq`` / ``sq``, columns
-  ``no sc`` / ``sc`` (or any other method name).
+  ``no sc`` / ``sc`` (or any other method name); a record scored with ``--no-time-gate`` goes to
+  a column suffixed ``(no time gate)``.
 * **Table 3** (``caltech``): TPR per clip (columns 1-4 = cordova1, cordova2, washington1,
   washington2) and ``Ave.``, the mean of the clip TPRs (as the paper's averages are); row = method.
 * **Table 4** (``kitti``): BEV ``F_max``, ``Prec.``, ``Rec.``, ``FPR`` (and ``AP``, ``FNR``),
@@ -141,9 +142,11 @@ def _cells(record: EvalRecord) -> list[tuple[str, str, str, float, str]]:
     row = record.row
     if record.kind == "tusimple":
         mode = str(record.extra.get("mode", "all"))
+        gate = "" if record.extra.get("time_gate", True) else " (no time gate)"
         if mode == "all":
-            return [("Table 2", row, record.column or "sc", float(m["accuracy"]), "accuracy")]
-        col = f"{mode}: {record.column}" if record.column else mode
+            col = (record.column or "sc") + gate
+            return [("Table 2", row, col, float(m["accuracy"]), "accuracy")]
+        col = (f"{mode}: {record.column}" if record.column else mode) + gate
         return [("Fig. 9", row, col, float(m["accuracy"]), "accuracy")]
     if record.kind == "attributes":
         prefix = f"{record.column} " if record.column else ""
@@ -240,7 +243,7 @@ def _grid(cells: pd.DataFrame, table: str, with_refs: bool) -> pd.DataFrame:
     cols = list(dict.fromkeys(part["column"]))
     if table == "Table 2":
         rows = sorted(rows, key=lambda r: (r != "no sq", r))
-        cols = sorted(cols, key=lambda c: (c not in ("no sc", "sc"), c != "no sc", c))
+        cols = sorted(cols, key=lambda c: ("time gate" in c, not c.startswith("no sc"), c))
     if table == "Table 3":
         cols = sorted(cols, key=lambda c: (c == "Ave.", c))
     out: list[dict[str, str]] = []
