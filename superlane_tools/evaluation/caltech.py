@@ -175,11 +175,12 @@ def read_ccvl(path: str | os.PathLike[str]) -> list[tuple[str, list[FloatArray]]
         EvaluationError: If the file cannot be read or lacks ``ld.frames``.
     """
     from scipy.io import loadmat  # late: only this reader needs it
+    from scipy.io.matlab import MatReadError
 
     file = Path(path)
     try:
         data = loadmat(str(file), simplify_cells=True)
-    except (OSError, ValueError, TypeError) as err:
+    except (OSError, ValueError, TypeError, MatReadError) as err:
         raise EvaluationError(f"cannot read Caltech labels {file}: {err}") from err
     try:
         frames = _as_list(data["ld"]["frames"])
