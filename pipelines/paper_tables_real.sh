@@ -9,10 +9,11 @@ set -euo pipefail
 REPO="$(cd "$(dirname "$0")/.." && pwd)"
 DATA="${1:-${SLT_REALDATA:-$REPO/../shared/data}}"
 WORK="${2:-$(mktemp -d)}"
-OUT="$REPO/reports/paper_tables"
-REC="$OUT/records"; REC0="$OUT/records_no_time_gate"
-rm -rf "$REC" "$REC0"
-mkdir -p "$WORK/kitti_frames" "$REC" "$REC0"
+cd "$REPO"  # records and tables name their files relative to the repository
+OUT="reports/paper_tables"
+REC="$OUT/records"; REC0="$OUT/records_no_time_gate"; PRED="$OUT/predictions"
+rm -rf "$REC" "$REC0" "$PRED"
+mkdir -p "$WORK/kitti_frames" "$REC" "$REC0" "$PRED"
 LABELS="$DATA/tusimple/train_frames/labels.json"
 run() { echo "+ $*" >&2; "$@"; }
 
@@ -26,17 +27,17 @@ for sc in sc "no sc"; do
     [[ $sq == sq ]] && fit+=(--sequential)
     run "${fit[@]}"
     run slt lanes export-tusimple "$WORK/lanes_$tag.parquet" --camera tusimple \
-      --tasks "$LABELS" --out "$WORK/pred_$tag.json"
-    run slt eval tusimple "$WORK/pred_$tag.json" "$LABELS" --row "$sq" --column "$sc" \
+      --tasks "$LABELS" --out "$PRED/tusimple_$tag.json"
+    run slt eval tusimple "$PRED/tusimple_$tag.json" "$LABELS" --row "$sq" --column "$sc" \
       --save "$REC/t2_$tag.json"
-    run slt eval tusimple "$WORK/pred_$tag.json" "$LABELS" --row "$sq" --column "$sc" \
+    run slt eval tusimple "$PRED/tusimple_$tag.json" "$LABELS" --row "$sq" --column "$sc" \
       --no-time-gate --save "$REC0/t2_$tag.json"
   done
 done
 for mode in ego 3lane; do
-  run slt eval tusimple "$WORK/pred_sc_nosq.json" "$LABELS" --mode "$mode" --row "SUPER sc" \
+  run slt eval tusimple "$PRED/tusimple_sc_nosq.json" "$LABELS" --mode "$mode" --row "SUPER sc" \
     --column "TuSimple 129" --save "$REC/f9_$mode.json"
-  run slt eval tusimple "$WORK/pred_sc_nosq.json" "$LABELS" --mode "$mode" --row "SUPER sc" \
+  run slt eval tusimple "$PRED/tusimple_sc_nosq.json" "$LABELS" --mode "$mode" --row "SUPER sc" \
     --column "TuSimple 129" --no-time-gate --save "$REC0/f9_$mode.json"
 done
 
@@ -48,9 +49,9 @@ for sc in sc "no sc"; do
   fit=(slt lanes fit "$WORK/kseg" --camera kitti --out "$WORK/klanes_$tag.parquet")
   [[ $sc == "no sc" ]] && fit+=(--no-slope)
   run "${fit[@]}"
-  run slt lanes export-kitti "$WORK/klanes_$tag.parquet" --camera kitti --out "$WORK/kpred_$tag"
+  run slt lanes export-kitti "$WORK/klanes_$tag.parquet" --camera kitti --out "$PRED/kitti_$tag"
   for rec in "$REC" "$REC0"; do
-    run slt eval kitti "$WORK/kpred_$tag" "$DATA/kitti_road" --row "SUPER $sc" \
+    run slt eval kitti "$PRED/kitti_$tag" "$DATA/kitti_road" --row "SUPER $sc" \
       --save "$rec/t4_$tag.json"
   done
 done

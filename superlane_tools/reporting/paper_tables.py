@@ -237,15 +237,29 @@ def _format(table: str, value: float) -> str:
     return f"{100 * value:.2f}%"
 
 
-def _grid(cells: pd.DataFrame, table: str, with_refs: bool) -> pd.DataFrame:
-    part = cells[cells["table"] == table]
-    rows = list(dict.fromkeys(part["row"]))
-    cols = list(dict.fromkeys(part["column"]))
+def _order(table: str, rows: list[str], cols: list[str]) -> tuple[list[str], list[str]]:
     if table == "Table 2":
         rows = sorted(rows, key=lambda r: (r != "no sq", r))
         cols = sorted(cols, key=lambda c: ("time gate" in c, not c.startswith("no sc"), c))
-    if table == "Table 3":
+    elif table == "Table 3":
         cols = sorted(cols, key=lambda c: (c == "Ave.", c))
+    elif table == "Fig. 9":
+        rank = {"ego": 0, "3lan": 1}
+        cols = sorted(cols, key=lambda c: (rank.get(c[:4].rstrip(":"), 2), c))
+    return rows, cols
+
+
+def _sources(part: pd.DataFrame) -> dict[str, int]:
+    """Number the records of one table in order of appearance (1, 2, ...)."""
+    return {src: k for k, src in enumerate(dict.fromkeys(part["result_file"]), start=1)}
+
+
+def _grid(cells: pd.DataFrame, table: str, with_refs: bool) -> pd.DataFrame:
+    part = cells[cells["table"] == table]
+    numbers = _sources(part)
+    rows, cols = _order(
+        table, list(dict.fromkeys(part["row"])), list(dict.fromkeys(part["column"]))
+    )
     out: list[dict[str, str]] = []
     for r in rows:
         line = {"": r}
@@ -255,7 +269,8 @@ def _grid(cells: pd.DataFrame, table: str, with_refs: bool) -> pd.DataFrame:
                 line[c] = ""
                 continue
             text = _format(table, float(hit["value"].iloc[0]))
-            line[c] = f"{text} [{int(hit.index[0]) + 1}]" if with_refs else text
+            ref = numbers[str(hit["result_file"].iloc[0])]
+            line[c] = f"{text} [{ref}]" if with_refs else text
         out.append(line)
     return pd.DataFrame(out)
 
@@ -264,8 +279,21 @@ def _tables(cells: pd.DataFrame) -> list[str]:
     return [t for t in TABLE_TITLES if t in set(cells["table"])]
 
 
+def _source_lines(part: pd.DataFrame, prefix: str) -> list[str]:
+    lines = []
+    for src, k in _sources(part).items():
+        rec = part[part["result_file"] == src].iloc[0]
+        lines.append(
+            f"{prefix}[{k}] `{rec['command']}` -- predictions `{rec['predictions']}` "
+            f"(sha256 {str(rec['predictions_sha256'])[:16]}), ground truth "
+            f"`{rec['ground_truth']}` (sha256 {str(rec['ground_truth_sha256'])[:16]}), "
+            f"record `{src}`"
+        )
+    return lines
+
+
 def paper_markdown(cells: pd.DataFrame) -> str:
-    """Return the tables in Markdown, each followed by the sources of its cells."""
+    """Return the tables in Markdown, each followed by the sources ``[k]`` of its cells."""
     parts: list[str] = []
     for table in _tables(cells):
         grid = _grid(cells, table, with_refs=True)
@@ -278,26 +306,21 @@ def paper_markdown(cells: pd.DataFrame) -> str:
         ]
         lines += ["| " + " | ".join(str(v) for v in row) + " |" for row in grid.to_numpy()]
         lines += ["", "Sources:", ""]
-        part = cells[cells["table"] == table]
-        for idx, rec in zip(part.index, part.to_dict("records"), strict=True):
-            lines.append(
-                f"* [{idx + 1}] {rec['row']} / {rec['column']} ({rec['metric']} = "
-                f"{rec['value']:.6g}): `{rec['command']}`; predictions `{rec['predictions']}` "
-                f"(sha256 {str(rec['predictions_sha256'])[:12]}); record `{rec['result_file']}`"
-            )
+        lines += _source_lines(cells[cells["table"] == table], "* ")
         parts.append("\n".join(lines) + "\n")
     return "\n".join(parts)
 
 
 def paper_latex(cells: pd.DataFrame) -> str:
-    """Return the tables as LaTeX ``tabular`` blocks (sources as a comment per cell)."""
+    """Return the tables as LaTeX ``tabular`` blocks, with their sources as comments."""
     parts: list[str] = []
     for table in _tables(cells):
         parts.append(f"% {TABLE_TITLES[table]}")
-        part = cells[cells["table"] == table]
-        for idx, rec in zip(part.index, part.to_dict("records"), strict=True):
-            parts.append(f"% [{idx + 1}] {rec['row']} / {rec['column']}: {rec['command']}")
-        parts.append(latex_table(_grid(cells, table, with_refs=False)))
+        grid = _grid(cells, table, with_refs=True)
+        for col in grid.columns[1:]:
+            grid[col] = grid[col].str.replace(r" \[(\d+)\]$", r"$^{\1}$", regex=True)
+        parts.extend(_source_lines(cells[cells["table"] == table], "% "))
+        parts.append(latex_table(grid))
     return "\n".join(parts)
 
 
