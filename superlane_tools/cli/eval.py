@@ -71,9 +71,10 @@ def _print(values: dict[str, Any], as_json: bool) -> None:
     if as_json:
         typer.echo(json.dumps(values))
         return
+    width = max(len(key) for key in values) + 2
     for key, value in values.items():
         text = f"{value:.4f}" if isinstance(value, float) else str(value)
-        typer.echo(f"{key:<18}{text}")
+        typer.echo(f"{key:<{width}}{text}")
 
 
 @eval_app.command("tusimple")
