@@ -186,3 +186,23 @@ def test_cli_kitti_writes_a_record(realdata: Path, tmp_path: Path) -> None:
     res = CliRunner().invoke(app, ["eval", "kitti", str(tmp_path / "nope"), str(root)])
     assert res.exit_code == 1
     assert "slt: error:" in res.output
+
+
+def test_ego_lane_mask_lies_between_the_lines() -> None:
+    from superlane_tools.camera import load_camera
+    from superlane_tools.evaluation.kitti import ego_lane_mask
+    from superlane_tools.lanes import Lane, columns_at_rows
+
+    cam = load_camera("kitti")
+    left, right = Lane(1.8, 0.0, 0.0, 5.0, 40.0), Lane(-1.8, 0.0, 0.0, 5.0, 40.0)
+    mask = ego_lane_mask(left, right, 0.0, cam)
+    rows = np.arange(cam.height, dtype=float)
+    cl = columns_at_rows(left, 0.0, cam, rows)
+    cr = columns_at_rows(right, 0.0, cam, rows)
+    inside = np.isfinite(cl) & np.isfinite(cr)
+    assert inside.any()
+    assert not mask[~inside].any()  # nothing outside the lines' fitted range
+    v = int(np.flatnonzero(inside)[-1])
+    cols = np.flatnonzero(mask[v])
+    assert cols[0] == pytest.approx(np.ceil(min(cl[v], cr[v])))
+    assert cols[-1] == pytest.approx(np.floor(max(cl[v], cr[v])))
