@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from superlane_tools.evaluation._files import read_text
 from superlane_tools.evaluation.errors import EvaluationError
 
 FloatArray = NDArray[np.float64]
@@ -72,12 +73,7 @@ def read_lines_file(path: str | os.PathLike[str]) -> list[FloatArray]:
     Raises:
         EvaluationError: If the file cannot be read or is malformed.
     """
-    file = Path(path)
-    try:
-        text = file.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as err:
-        raise EvaluationError(f"cannot read {file}") from err
-    return parse_lines_text(text, str(file))
+    return parse_lines_text(read_text(path), str(path))
 
 
 def format_lines(lanes: Iterable[FloatArray]) -> str:
@@ -240,14 +236,10 @@ def read_list(path: str | os.PathLike[str]) -> list[str]:
     Raises:
         EvaluationError: If the file cannot be read or is empty.
     """
-    file = Path(path)
-    try:
-        text = file.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as err:
-        raise EvaluationError(f"cannot read list {file}") from err
+    text = read_text(path, "list")
     names = [line.split()[0].lstrip("/") for line in text.splitlines() if line.strip()]
     if not names:
-        raise EvaluationError(f"{file}: empty list")
+        raise EvaluationError(f"{path}: empty list")
     return names
 
 

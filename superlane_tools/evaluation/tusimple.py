@@ -35,6 +35,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from superlane_tools.evaluation._files import read_text
 from superlane_tools.evaluation.errors import EvaluationError
 
 PIXEL_THRESH_PX = 20.0
@@ -337,11 +338,7 @@ def load_jsonl(
         EvaluationError: If the file cannot be read, or naming the first bad line.
     """
     file = Path(path)
-    try:
-        text = file.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as err:
-        reason = err.strerror if isinstance(err, OSError) else "not UTF-8 text"
-        raise EvaluationError(f"cannot read {file}: {reason}") from err
+    text = read_text(file)
     records: list[TuSimpleRecord] = []
     for number, line in enumerate(text.splitlines(), start=1):
         if not line.strip():
