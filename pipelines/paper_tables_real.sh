@@ -3,18 +3,20 @@
 # BEV) plus the Fig. 9 ego/3-lane modes on the real frames of ../shared/data, with the shipped
 # segmentation model (onnx:super_seg_v2) and the SUPER lane fit. Writes reports/paper_tables/.
 #
-# Usage: pipelines/paper_tables_real.sh [DATA] [WORK]
-#   DATA defaults to $SLT_REALDATA or ../shared/data; WORK to a fresh temporary folder.
+# Usage: pipelines/paper_tables_real.sh [DATA] [WORK] [OUT]
+#   DATA defaults to $SLT_REALDATA or ../shared/data; WORK to a fresh temporary folder; OUT to
+#   reports/paper_tables (relative to the repository, so records name repository paths).
 set -euo pipefail
 REPO="$(cd "$(dirname "$0")/.." && pwd)"
 DATA="${1:-${SLT_REALDATA:-$REPO/../shared/data}}"
 WORK="${2:-$(mktemp -d)}"
 cd "$REPO"  # records and tables name their files relative to the repository
-OUT="reports/paper_tables"
+OUT="${3:-reports/paper_tables}"
 REC="$OUT/records"; REC0="$OUT/records_no_time_gate"; PRED="$OUT/predictions"
 rm -rf "$REC" "$REC0" "$PRED"
 mkdir -p "$WORK/kitti_frames" "$REC" "$REC0" "$PRED"
 LABELS="$DATA/tusimple/train_frames/labels.json"
+N=$(grep -c raw_file "$LABELS")  # labelled frames
 run() { echo "+ $*" >&2; "$@"; }
 
 # TuSimple: 129 real frames (each the labelled 20th frame of a different 0313 clip)
@@ -36,9 +38,9 @@ for sc in sc "no sc"; do
 done
 for mode in ego 3lane; do
   run slt eval tusimple "$PRED/tusimple_sc_nosq.json" "$LABELS" --mode "$mode" --row "SUPER sc" \
-    --column "TuSimple 129" --save "$REC/f9_$mode.json"
+    --column "TuSimple $N" --save "$REC/f9_$mode.json"
   run slt eval tusimple "$PRED/tusimple_sc_nosq.json" "$LABELS" --mode "$mode" --row "SUPER sc" \
-    --column "TuSimple 129" --no-time-gate --save "$REC0/f9_$mode.json"
+    --column "TuSimple $N" --no-time-gate --save "$REC0/f9_$mode.json"
 done
 
 # KITTI um_000000: ego lane in the bird's-eye view
