@@ -249,17 +249,23 @@ def _order(table: str, rows: list[str], cols: list[str]) -> tuple[list[str], lis
     return rows, cols
 
 
-def _sources(part: pd.DataFrame) -> dict[str, int]:
-    """Number the records of one table in order of appearance (1, 2, ...)."""
-    return {src: k for k, src in enumerate(dict.fromkeys(part["result_file"]), start=1)}
+def _layout(part: pd.DataFrame, table: str) -> tuple[list[str], list[str], dict[str, int]]:
+    """Return the ordered rows and columns and the source numbers in reading order."""
+    rows, cols = _order(
+        table, list(dict.fromkeys(part["row"])), list(dict.fromkeys(part["column"]))
+    )
+    numbers: dict[str, int] = {}
+    for r in rows:
+        for c in cols:
+            hit = part[(part["row"] == r) & (part["column"] == c)]
+            if not hit.empty:
+                numbers.setdefault(str(hit["result_file"].iloc[0]), len(numbers) + 1)
+    return rows, cols, numbers
 
 
 def _grid(cells: pd.DataFrame, table: str, with_refs: bool) -> pd.DataFrame:
     part = cells[cells["table"] == table]
-    numbers = _sources(part)
-    rows, cols = _order(
-        table, list(dict.fromkeys(part["row"])), list(dict.fromkeys(part["column"]))
-    )
+    rows, cols, numbers = _layout(part, table)
     out: list[dict[str, str]] = []
     for r in rows:
         line = {"": r}
@@ -279,9 +285,9 @@ def _tables(cells: pd.DataFrame) -> list[str]:
     return [t for t in TABLE_TITLES if t in set(cells["table"])]
 
 
-def _source_lines(part: pd.DataFrame, prefix: str) -> list[str]:
+def _source_lines(part: pd.DataFrame, table: str, prefix: str) -> list[str]:
     lines = []
-    for src, k in _sources(part).items():
+    for src, k in _layout(part, table)[2].items():
         rec = part[part["result_file"] == src].iloc[0]
         lines.append(
             f"{prefix}[{k}] `{rec['command']}` -- predictions `{rec['predictions']}` "
@@ -306,7 +312,7 @@ def paper_markdown(cells: pd.DataFrame) -> str:
         ]
         lines += ["| " + " | ".join(str(v) for v in row) + " |" for row in grid.to_numpy()]
         lines += ["", "Sources:", ""]
-        lines += _source_lines(cells[cells["table"] == table], "* ")
+        lines += _source_lines(cells[cells["table"] == table], table, "* ")
         parts.append("\n".join(lines) + "\n")
     return "\n".join(parts)
 
@@ -319,7 +325,7 @@ def paper_latex(cells: pd.DataFrame) -> str:
         grid = _grid(cells, table, with_refs=True)
         for col in grid.columns[1:]:
             grid[col] = grid[col].str.replace(r" \[(\d+)\]$", r"$^{\1}$", regex=True)
-        parts.extend(_source_lines(cells[cells["table"] == table], "% "))
+        parts.extend(_source_lines(cells[cells["table"] == table], table, "% "))
         parts.append(latex_table(grid))
     return "\n".join(parts)
 
