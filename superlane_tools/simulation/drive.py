@@ -306,7 +306,13 @@ def simulate_drive(
             name = f"{i:06d}"
             tus.write(
                 json.dumps(
-                    {"raw_file": f"frames/{name}.jpg", "lanes": lanes, "h_samples": rows},
+                    {
+                        "raw_file": f"frames/{name}.jpg",
+                        "lanes": lanes,
+                        "h_samples": rows,
+                        "color": list(truth.colors),
+                        "style": list(truth.styles),
+                    },
                     separators=(",", ":"),
                 )
                 + "\n"
