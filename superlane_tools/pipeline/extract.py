@@ -17,6 +17,7 @@ from superlane_tools.pipeline._gnss_sink import GnssSink
 from superlane_tools.pipeline.errors import PipelineError
 from superlane_tools.recording.base import Recording, SkipLog
 from superlane_tools.recording.open import open_recording
+from superlane_tools.recording.video import VIDEO_MSGTYPES, read_with_video
 from superlane_tools.records import Skipped, TopicInfo
 from superlane_tools.reporting import Provenance
 from superlane_tools.reporting.provenance import PendingIdentities
@@ -27,6 +28,7 @@ FRAME_TYPES = frozenset(
         "sensor_msgs/msg/CompressedImage",
         "foxglove.CompressedImage",
         "foxglove.RawImage",
+        *VIDEO_MSGTYPES,
     }
 )
 CAMERA_INFO_TYPES = frozenset({"sensor_msgs/msg/CameraInfo", "foxglove.CameraCalibration"})
@@ -242,7 +244,7 @@ def extract(
         done = 0
         ok = False
         try:
-            for msg in rec.messages(topics=list(kind_of), start_ns=start_ns, stop_ns=stop_ns):
+            for msg in read_with_video(rec, list(kind_of), start_ns, stop_ns):
                 kind = kind_of[msg.topic]
                 if kind == "can" and can_sink is not None:
                     can_sink.add(msg)

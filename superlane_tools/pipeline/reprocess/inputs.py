@@ -15,6 +15,7 @@ from superlane_tools.pipeline._images import jpeg_size, raw_pixels, sniff_format
 from superlane_tools.pipeline.extract import ExtractConfig, select_streams
 from superlane_tools.pipeline.reprocess.config import ReprocessConfig
 from superlane_tools.recording.base import Recording, field_value
+from superlane_tools.recording.video import DECODED_MSGTYPE, decoded_image
 from superlane_tools.records import Message, TopicInfo
 
 TF_TYPES = frozenset({"tf2_msgs/msg/TFMessage"})
@@ -186,6 +187,8 @@ def decode_frame(msg: Message) -> NDArray[np.uint8]:
     import cv2
 
     data = msg.data
+    if msg.msgtype == DECODED_MSGTYPE:  # video, decoded in order by recording.video
+        return decoded_image(msg)
     if msg.msgtype in RAW_TYPES:
         pixels = raw_pixels(
             data.data,
@@ -239,7 +242,7 @@ def decode_reduced(
         recorded ``(width, height)``; None when the frame is not a JPEG, is not reducible for
         this target, or cannot be decoded this way (decode it with :func:`decode_frame`).
     """
-    if target_width <= 0 or msg.msgtype in RAW_TYPES:
+    if target_width <= 0 or msg.msgtype in RAW_TYPES or msg.msgtype == DECODED_MSGTYPE:
         return None
     payload = bytes(msg.data.data)
     if sniff_format(payload) != "jpeg":
