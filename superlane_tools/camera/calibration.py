@@ -117,9 +117,7 @@ def calibrate_chessboard(
             f"only {len(used)} of {len(images)} images show a complete {cols}x{rows} board; "
             f"need at least {MIN_VIEWS}"
         )
-    rms, k, dist, rvecs, tvecs = cv2.calibrateCamera(
-        object_points, image_points, size, None, None
-    )
+    rms, k, dist, rvecs, tvecs = cv2.calibrateCamera(object_points, image_points, size, None, None)
     per_view = []
     for obj, img, rvec, tvec in zip(object_points, image_points, rvecs, tvecs, strict=True):
         projected, _ = cv2.projectPoints(obj, rvec, tvec, k, dist)

@@ -10,6 +10,7 @@ from superlane_tools._version import __version__
 from superlane_tools.cli import (
     batch,
     camera,
+    convert,
     corridor,
     extract,
     info,
@@ -64,6 +65,7 @@ corridor.register(app)
 train.register(app)
 eval_cmd.register(app)
 tables.register(app)
+convert.register(app)
 
 
 def main() -> None:
