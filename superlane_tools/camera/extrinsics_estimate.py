@@ -142,12 +142,23 @@ def frame_lines(
     rng = np.random.default_rng(seed)
     tol = 4.0 / intrinsics.fx  # 4 pixels
     centre = (intrinsics.width / 2.0 - intrinsics.cx) / intrinsics.fx
+    y_bottom = (intrinsics.height - intrinsics.cy) / intrinsics.fy
     lines = []
     for side in (xn < centre, xn >= centre):
-        fit = _ransac_line(yn[side], xn[side], tol, rng)
-        if fit is None:
+        # the ego line is the innermost of the side's lines (an outer solid line has more pixels)
+        ys, xs = yn[side], xn[side]
+        found: list[tuple[float, float]] = []
+        for _ in range(3):
+            fit = _ransac_line(ys, xs, tol, rng)
+            if fit is None:
+                break
+            a, b, _count = fit
+            found.append((a, b))
+            rest = np.abs(xs - (a * ys + b)) >= 3.0 * tol
+            ys, xs = ys[rest], xs[rest]
+        if not found:
             return None
-        lines.append((fit[0], fit[1]))
+        lines.append(min(found, key=lambda ab: abs(ab[0] * y_bottom + ab[1] - centre)))
     (al, bl), (ar, br) = lines
     if not (al < 0.0 < ar):  # left line leans right going up, right line leans left
         return None

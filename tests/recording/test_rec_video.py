@@ -75,7 +75,8 @@ def test_decoder_skips_until_the_first_keyframe(fmt: str, codec: str) -> None:
     assert [o.log_time_ns for o in out] == list(range(2, 12))
     assert [o.skipped for o in out[:3]] == [BEFORE_KEYFRAME] * 3
     for o in out[3:]:
-        assert o.image is not None and o.skipped == ""
+        assert o.image is not None
+        assert o.skipped == ""
         err = np.abs(o.image.astype(int) - frames[o.log_time_ns].astype(int)).mean()
         assert err < 6.0, f"frame {o.log_time_ns}: mean abs error {err:.1f}"
 
@@ -135,7 +136,8 @@ def test_extract_writes_video_frames_from_a_mid_gop_start(tmp_path: Path) -> Non
     result = extract(rec, tmp_path / "out", ExtractConfig(start_s=0.65, frame_format="png"))
     table = pd.read_parquet(tmp_path / "out" / "frames.parquet")
     assert result.skipped == ()
-    assert table["ok"].all() and len(table) == 5
+    assert table["ok"].all()
+    assert len(table) == 5
     assert set(table["encoding"]) == {"h264"}
     assert (table["width"] == 160).all()
     assert (tmp_path / "out" / table["path"].iloc[0]).is_file()
@@ -161,7 +163,8 @@ def test_h264_drive_reprocesses_to_the_lanes_of_its_jpeg_twin(twins: dict[str, P
     b = pd.read_parquet(twins["h264"] / "lanes.parquet")
     fitted_a = np.isfinite(a["curvature"]).sum()
     fitted_b = np.isfinite(b["curvature"]).sum()
-    assert fitted_a >= 40 and abs(int(fitted_a) - int(fitted_b)) <= 2
+    assert fitted_a >= 40
+    assert abs(int(fitted_a) - int(fitted_b)) <= 2
     both = a.merge(b, on="frame_index", suffixes=("_j", "_h"))
     width_diff = (both["lane_width_j"] - both["lane_width_h"]).abs()
     assert width_diff.median() < 0.05  # metres
