@@ -12,6 +12,7 @@ from superlane_tools.cli import (
     camera,
     convert,
     corridor,
+    dbc,
     extract,
     info,
     lanes,
@@ -19,6 +20,7 @@ from superlane_tools.cli import (
     segment,
     simulate,
     tables,
+    tools,
     train,
 )
 from superlane_tools.cli import eval as eval_cmd
@@ -66,6 +68,8 @@ train.register(app)
 eval_cmd.register(app)
 tables.register(app)
 convert.register(app)
+tools.register(app)
+dbc.register(app)
 
 
 def main() -> None:

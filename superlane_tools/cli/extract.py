@@ -80,6 +80,9 @@ def extract_cmd(
             "--config", help="YAML {frames: [...], camera_info: [...], can: [...], gnss: [...]}."
         ),
     ] = None,
+    verbose: Annotated[
+        bool, typer.Option("--verbose", "-v", help="List every DBC repair, not just how many.")
+    ] = False,
 ) -> None:
     """Extract frames, camera info, CAN frames/signals and GNSS fixes to files and Parquet.
 
@@ -107,12 +110,13 @@ def extract_cmd(
 
         def show_dbc(name: str, loaded: object) -> None:
             repairs = getattr(loaded, "repairs", [])
+            hint = " (--verbose or `slt dbc show` lists them)" if repairs and not verbose else ""
             err_console.print(
-                f"slt: dbc {name}: loaded with {len(repairs)} repair(s)",
+                f"slt: dbc {name}: loaded with {len(repairs)} repair(s){hint}",
                 markup=False,
                 soft_wrap=True,
             )
-            for line in repairs:
+            for line in repairs if verbose else []:
                 err_console.print(f"slt: dbc {name}: {line}", markup=False, soft_wrap=True)
 
         with Progress(
