@@ -168,7 +168,7 @@ def _video_items(
 
         encoder: VideoEncoder | None = None
         for frame in container.decode(stream):
-            image = frame.to_ndarray(format="bgr24")
+            image: np.ndarray = frame.to_ndarray(format="bgr24")
             height, width = image.shape[:2]
             if encoder is None:
                 rate = config.fps or float(stream.average_rate or 30)
@@ -240,7 +240,7 @@ def _gpx_items(path: Path, offset_ns: int) -> Iterator[Item]:
             gpx = gpxpy.parse(handle)
     except Exception as err:  # gpxpy raises its own and XML errors
         raise RecordingError(f"{path.name}: not a readable GPX file: {err}") from err
-    points = [p for track in gpx.tracks for seg in track.segments for p in seg.points]
+    points: list[Any] = [p for track in gpx.tracks for seg in track.segments for p in seg.points]
     points += list(gpx.waypoints) + [p for route in gpx.routes for p in route.points]
     timed = sorted((p for p in points if p.time is not None), key=lambda p: p.time)
     if not timed:

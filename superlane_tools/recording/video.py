@@ -353,22 +353,23 @@ class VideoEncoder:
         if width % 2 or height % 2 or width <= 0 or height <= 0:
             raise RecordingError(f"video frames need an even size, got {width}x{height}")
         self.fmt = fmt
-        self._ctx = av.CodecContext.create(name, "w")
-        self._ctx.width, self._ctx.height = width, height
-        self._ctx.pix_fmt = "yuv420p"
-        self._ctx.time_base = fractions.Fraction(1, 1000)
-        self._ctx.framerate = fractions.Fraction(round(fps * 1000), 1000)
-        self._ctx.gop_size = max(1, gop)
-        self._ctx.max_b_frames = 0
-        self._ctx.thread_count = 1  # deterministic output
+        ctx: Any = av.CodecContext.create(name, "w")
+        ctx.width, ctx.height = width, height
+        ctx.pix_fmt = "yuv420p"
+        ctx.time_base = fractions.Fraction(1, 1000)
+        ctx.framerate = fractions.Fraction(round(fps * 1000), 1000)
+        ctx.gop_size = max(1, gop)
+        ctx.max_b_frames = 0
+        ctx.thread_count = 1  # deterministic output
         params = f"keyint={max(1, gop)}:min-keyint={max(1, gop)}:scenecut=0"
-        self._ctx.options = {
+        ctx.options = {
             "preset": "veryfast",
             "tune": "zerolatency",
             "crf": str(crf),
             ("x264-params" if fmt == "h264" else "x265-params"): params
             + (":log-level=error" if fmt == "h265" else ""),
         }
+        self._ctx = ctx
         self._index = 0
         self._ms_per_frame = 1000.0 / fps
 
