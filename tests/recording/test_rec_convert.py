@@ -196,3 +196,22 @@ def test_udacity_dashcam_frames_convert_calibrate_and_reprocess(
     widths = fitted["lane_width"].dropna()
     assert ((widths > 2.3) & (widths < 4.8)).mean() >= 0.75
     assert list((run / "plots").glob("example_*.png"))
+
+
+def test_camera_auto_uses_a_profile_beside_the_recording(tmp_path: Path) -> None:
+    from superlane_tools.camera import camera_to_yaml, load_camera
+
+    mp4 = _mp4(tmp_path / "dash.mp4", _frames(3), fps=2)
+    rec = tmp_path / "dash.mcap"
+    assert runner.invoke(app, ["convert", str(mp4), "-o", str(rec)]).exit_code == 0
+    run = ["reprocess", str(rec), "-o", str(tmp_path / "run"), "--camera", "auto", "--no-plots"]
+    missing = runner.invoke(app, run)
+    assert missing.exit_code == 2
+    assert "slt camera calibrate" in missing.stderr
+    assert "slt camera estimate" in missing.stderr
+    assert "dash.camera.yaml" in missing.stderr
+    profile = load_camera("sim_default").resized(160, 96)
+    (tmp_path / "dash.camera.yaml").write_text(camera_to_yaml(profile), encoding="utf-8")
+    found = runner.invoke(app, run)
+    assert found.exit_code in (0, 3), found.output
+    assert "dash.camera.yaml beside the recording" in found.output

@@ -128,14 +128,24 @@ def _tf_extrinsics(rec: Recording, topic: str, frame_id: str) -> Extrinsics | No
     return None
 
 
+def camera_sidecar(path: Path) -> Path:
+    """Return where ``--camera auto`` looks for a profile beside a recording.
+
+    ``drive.mcap`` -> ``drive.camera.yaml`` (a ROS 2 bag folder ``drive/`` -> ``drive.camera.yaml``
+    next to it), as written by ``slt camera estimate -o``.
+    """
+    return path.parent / f"{path.name.removesuffix(path.suffix) or path.name}.camera.yaml"
+
+
 def resolve_camera(
     rec: Recording, path: Path, streams: Streams, camera: str
 ) -> tuple[CameraModel, str]:
     """Return the camera and a sentence saying where it came from.
 
     ``auto`` takes the intrinsics from the first CameraInfo and the extrinsics from the MCAP
-    ``slt_camera`` metadata record or from ``/tf_static``; anything else is a profile name or
-    a camera YAML file.
+    ``slt_camera`` metadata record or from ``/tf_static``; then a profile beside the recording
+    (:func:`camera_sidecar`, e.g. from ``slt camera estimate``); anything else is a profile name
+    or a camera YAML file.
 
     Raises:
         UsageError: If ``auto`` finds no calibration or no extrinsics.
@@ -146,10 +156,15 @@ def resolve_camera(
 
     if camera != "auto":
         return load_camera(camera), f"camera profile {camera}"
+    sidecar = camera_sidecar(path)
+    hint = (
+        f"pass --camera PROFILE|YAML, or make a profile with `slt camera calibrate` (chessboard "
+        f"photos) and `slt camera estimate` (this recording) saved as {sidecar.name}"
+    )
     if not streams.camera_info:
-        raise UsageError(
-            f"{path.name}: no CameraInfo topic for --camera auto; pass --camera PROFILE|YAML"
-        )
+        if sidecar.is_file():
+            return load_camera(sidecar), f"camera profile {sidecar.name} beside the recording"
+        raise UsageError(f"{path.name}: no CameraInfo topic for --camera auto; {hint}")
     info = next(iter(rec.messages(topics=[streams.camera_info])), None)
     if info is None:
         raise UsageError(f"{path.name}: {streams.camera_info} has no messages; pass --camera")
@@ -162,9 +177,11 @@ def resolve_camera(
         extr = _tf_extrinsics(rec, streams.tf, frame_id)
         source = f"{streams.tf} ({frame_id})"
     if extr is None:
+        if sidecar.is_file():
+            return load_camera(sidecar), f"camera profile {sidecar.name} beside the recording"
         raise UsageError(
             f"{path.name}: CameraInfo has no extrinsics and the recording holds neither an "
-            "slt_camera metadata record nor a /tf_static camera transform; pass --camera"
+            f"slt_camera metadata record nor a /tf_static camera transform; {hint}"
         )
     cam = from_camera_info(
         int(field_value(data, "width") or 0),
