@@ -15,7 +15,7 @@ import json
 import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -205,7 +205,7 @@ def add_signals(
             values = {
                 str(s): _finite(v) for s, v in zip(group["signal"], group["value"], strict=True)
             }
-            rows.append((int(t_ns), topic, values))
+            rows.append((int(cast(Any, t_ns)), topic, values))
             if topic not in schemas:
                 units = dict(
                     zip(
