@@ -61,6 +61,13 @@ def convert_cmd(
             help="Frame times from this rate (start + i/fps), not the container.", min=0.1
         ),
     ] = None,
+    camera: Annotated[
+        str | None,
+        typer.Option(
+            metavar="PROFILE",
+            help="Camera profile/YAML of the video: adds CameraInfo and the slt_camera record.",
+        ),
+    ] = None,
 ) -> None:
     """Convert a video and side logs, or any log alone, into one MCAP for slt and Foxglove."""
     from superlane_tools.recording.convert import ConvertConfig, ConvertInput, convert
@@ -83,7 +90,9 @@ def convert_cmd(
             except ValueError as err:
                 raise UsageError(f"--offset {path.name}: {text!r} is not seconds") from err
             items.append(ConvertInput(path, k, seconds))  # type: ignore[arg-type]
-        result = convert(items, out, ConvertConfig(video_start, fps), command=command_line())
+        result = convert(
+            items, out, ConvertConfig(video_start, fps, camera=camera), command=command_line()
+        )
     for topic, count in sorted(result.counts.items()):
         err_console.print(f"{topic}: {count} messages", markup=False)
     for note in result.notes:

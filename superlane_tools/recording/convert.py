@@ -37,6 +37,8 @@ VIDEO_SUFFIXES = frozenset({".mp4", ".mkv", ".mov", ".avi", ".webm", ".m4v", ".h
 CAN_SUFFIXES = frozenset({".asc", ".blf", ".trc", ".candump"})
 METADATA_NAME = "slt_convert"
 VIDEO_TOPIC = "/camera/video"
+CAMERA_INFO_TOPIC = "/camera/camera_info"
+CAMERA_FRAME = "camera"
 FIX_TOPIC = "/gnss/fix"
 _NS = 1_000_000_000
 _TIME_COLUMNS = ("time_ns", "t_ns", "timestamp_ns", "time", "t", "timestamp", "time_s", "t_s")
@@ -68,11 +70,15 @@ class ConvertConfig:
             seconds into the video).
         fps: Frame rate for frame times ``start + i / fps``; None: the container's times.
         reencode_crf: CRF of the H.264 re-encode (used only when packets cannot be copied).
+        camera: Camera profile name or YAML of the video's camera; when given, every frame gets
+            a ``sensor_msgs/msg/CameraInfo`` (intrinsics scaled to the video size) and the file
+            an ``slt_camera`` metadata record (extrinsics), so ``--camera auto`` finds both.
     """
 
     video_start: str | None = None
     fps: float | None = None
     reencode_crf: int = 20
+    camera: str | None = None
 
 
 @dataclass
@@ -143,6 +149,7 @@ def _video_items(
             else f"{path.name}: {codec} re-encoded to H.264 (B-frames or codec not streamable)"
         )
         tb = stream.time_base
+        size = (int(stream.codec_context.width), int(stream.codec_context.height))
         index = 0
         first_pts: int | None = None
 
@@ -162,7 +169,7 @@ def _video_items(
                 for out in bsf.filter(packet if packet.size else None):
                     t = frame_time(out.pts)
                     index += 1
-                    yield t, VIDEO_TOPIC, COMPRESSED_VIDEO_MSGTYPE, (fmt, bytes(out))
+                    yield t, VIDEO_TOPIC, COMPRESSED_VIDEO_MSGTYPE, (fmt, bytes(out), size)
             return
         from superlane_tools.recording.video import VideoEncoder
 
@@ -179,7 +186,29 @@ def _video_items(
             t = frame_time(frame.pts)
             index += 1
             unit = encoder.encode(image[: height - height % 2, : width - width % 2])
-            yield t, VIDEO_TOPIC, COMPRESSED_VIDEO_MSGTYPE, ("h264", unit)
+            yield t, VIDEO_TOPIC, COMPRESSED_VIDEO_MSGTYPE, ("h264", unit, encoder.size)
+
+
+def _camera_info(camera: Any, t_ns: int, size: tuple[int, int]) -> Any:
+    k = camera.intrinsics
+    if (k.width, k.height) != size:
+        k = k.scaled(*size)
+    return msgs.camera_info(t_ns, CAMERA_FRAME, k.width, k.height, k.matrix, list(k.dist))
+
+
+def _camera_metadata(camera: Any) -> dict[str, str]:
+    """The ``slt_camera`` record ``--camera auto`` reads the extrinsics from."""
+    e = camera.extrinsics
+    return {
+        "name": str(camera.name),
+        "child_frame": CAMERA_FRAME,
+        "height_m": repr(e.height_m),
+        "pitch_rad": repr(e.pitch_rad),
+        "roll_rad": repr(e.roll_rad),
+        "yaw_rad": repr(e.yaw_rad),
+        "x_m": repr(e.x_m),
+        "y_m": repr(e.y_m),
+    }
 
 
 def _has_reordering(path: Path) -> bool:
@@ -365,6 +394,13 @@ def convert(
         if all(i.offset_s == 0 for i in inputs)
         else "each input's clock plus its --offset"
     )
+    camera = None
+    if cfg.camera is not None:
+        from superlane_tools.camera import load_camera
+
+        if "video" not in kinds:
+            raise RecordingError("--camera describes a video's camera: give a video input")
+        camera = load_camera(cfg.camera)
     topics: dict[str, str] = {}
     with open_writer(out, "mcap", compression="none" if "video" in kinds else "zstd") as writer:
         for t, topic, msgtype, payload in heapq.merge(*sources, key=lambda x: x[0]):
@@ -373,7 +409,15 @@ def convert(
                 topics[topic] = msgtype
             message = payload
             if msgtype == COMPRESSED_VIDEO_MSGTYPE:
-                message = msgs.compressed_video(t, "camera", payload[0], payload[1])
+                message = msgs.compressed_video(t, CAMERA_FRAME, payload[0], payload[1])
+                if camera is not None:
+                    info = _camera_info(camera, t, payload[2])
+                    if CAMERA_INFO_TOPIC not in topics:
+                        writer.add_topic(CAMERA_INFO_TOPIC, "sensor_msgs/msg/CameraInfo")
+                        topics[CAMERA_INFO_TOPIC] = "sensor_msgs/msg/CameraInfo"
+                        writer.add_metadata("slt_camera", _camera_metadata(camera))
+                    writer.write(CAMERA_INFO_TOPIC, t, info)
+                    result.counts[CAMERA_INFO_TOPIC] = result.counts.get(CAMERA_INFO_TOPIC, 0) + 1
             writer.write(topic, t, message)
             result.counts[topic] = result.counts.get(topic, 0) + 1
         if not topics:

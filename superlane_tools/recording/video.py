@@ -353,6 +353,7 @@ class VideoEncoder:
         if width % 2 or height % 2 or width <= 0 or height <= 0:
             raise RecordingError(f"video frames need an even size, got {width}x{height}")
         self.fmt = fmt
+        self.size = (width, height)
         ctx: Any = av.CodecContext.create(name, "w")
         ctx.width, ctx.height = width, height
         ctx.pix_fmt = "yuv420p"

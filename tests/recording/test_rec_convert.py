@@ -215,3 +215,29 @@ def test_camera_auto_uses_a_profile_beside_the_recording(tmp_path: Path) -> None
     found = runner.invoke(app, run)
     assert found.exit_code in (0, 3), found.output
     assert "dash.camera.yaml beside the recording" in found.output
+
+
+def test_convert_with_camera_lets_auto_find_camera_info_and_extrinsics(tmp_path: Path) -> None:
+    mp4 = _mp4(tmp_path / "dash.mp4", _frames(3), fps=2)
+    rec = tmp_path / "dash.mcap"
+    conv = runner.invoke(app, ["convert", str(mp4), "-o", str(rec), "--camera", "sim_default"])
+    assert conv.exit_code == 0, conv.output
+    with open_recording(rec) as r:
+        infos = list(r.messages(topics=["/camera/camera_info"]))
+    assert len(infos) == 3
+    assert (infos[0].data.width, infos[0].data.height) == (160, 96)  # scaled to the video
+    assert _metadata_named(rec, "slt_camera")["height_m"] == "1.5"
+    run = ["reprocess", str(rec), "-o", str(tmp_path / "run"), "--camera", "auto", "--no-plots"]
+    result = runner.invoke(app, run)
+    assert result.exit_code in (0, 3), result.output
+    assert "extrinsics from MCAP metadata slt_camera" in result.output
+
+
+def _metadata_named(path: Path, name: str) -> dict[str, str]:
+    from mcap.reader import make_reader
+
+    with path.open("rb") as handle:
+        for record in make_reader(handle).iter_metadata():
+            if record.name == name:
+                return dict(record.metadata)
+    return {}
