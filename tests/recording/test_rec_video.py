@@ -170,3 +170,15 @@ def test_h264_drive_reprocesses_to_the_lanes_of_its_jpeg_twin(twins: dict[str, P
     assert width_diff.median() < 0.05  # metres
     offset_diff = (both["b_j"] - both["b_h"]).abs()
     assert offset_diff.median() < 0.01
+
+
+@pytest.mark.parametrize(("fmt", "name"), [("ros1", "v.bag"), ("ros2", "v2"), ("mcap", "v.mcap")])
+def test_simulated_h265_video_in_every_format(tmp_path: Path, fmt: str, name: str) -> None:
+    out = tmp_path / name
+    simulate_drive("highway_curves", 1.0, 1, fmt, 160, 96, False, out, fps=5.0, video="h265")
+    with open_recording(out) as rec:
+        types = {t.topic: t.msgtype for t in rec.topics()}
+    assert "foxglove_msgs/msg/CompressedVideo" in types.values()
+    frames = list(RecordingFrames(out))
+    assert len(frames) == 5
+    assert all(f.image is not None and f.image.shape == (96, 160, 3) for f in frames)
