@@ -218,9 +218,14 @@ def estimate_cmd(
             f"{recording.name}.\nIntrinsics: {result.intrinsics_source}.\n"
             f"Written by: {command_line()}"
         )
-        summary = {**est.summary(), "intrinsics": result.intrinsics_source}
+        blocks: dict[str, object] = {}
+        if intrinsics is not None and Path(intrinsics).is_file():
+            source = yaml.safe_load(Path(intrinsics).read_text(encoding="utf-8"))
+            if isinstance(source, dict) and "calibration" in source:  # keep the chessboard report
+                blocks["calibration"] = source["calibration"]
+        blocks["estimate"] = {**est.summary(), "intrinsics": result.intrinsics_source}
         text = camera_to_yaml(result.camera, comment=comment) + yaml.safe_dump(
-            {"estimate": summary}, sort_keys=False
+            blocks, sort_keys=False
         )
         _write_profile(out, text)
     e = est.extrinsics

@@ -148,6 +148,38 @@ def cat_messages(
     return rec.messages(topics=names, start_ns=start_ns, stop_ns=end_ns)
 
 
+class McapCopier:
+    """Copies messages from an MCAP reader into an MCAP writer, byte for byte.
+
+    Schemas and channels (with their metadata) are registered in the writer the first time a
+    message of theirs is copied.
+    """
+
+    def __init__(self, writer: Any) -> None:
+        self._writer = writer
+        self._schemas: dict[int, int] = {}
+        self._channels: dict[int, int] = {}
+
+    def add(self, schema: Any, channel: Any, message: Any) -> None:
+        """Copy one ``(schema, channel, message)`` as the mcap reader yields them."""
+        cid = self._channels.get(channel.id)
+        if cid is None:
+            sid = 0
+            if schema is not None:
+                if schema.id not in self._schemas:
+                    self._schemas[schema.id] = self._writer.register_schema(
+                        schema.name, schema.encoding, schema.data
+                    )
+                sid = self._schemas[schema.id]
+            cid = self._writer.register_channel(
+                channel.topic, channel.message_encoding, sid, dict(channel.metadata)
+            )
+            self._channels[channel.id] = cid
+        self._writer.add_message(
+            cid, message.log_time, message.data, message.publish_time, message.sequence
+        )
+
+
 @dataclass(frozen=True)
 class FilterResult:
     """What ``filter_mcap`` wrote: messages per topic, metadata and attachments kept."""
@@ -210,31 +242,13 @@ def filter_mcap(
             with work.open("wb") as fout:
                 writer = Writer(fout, compression=CompressionType[compression.upper()])
                 writer.start(profile=header.profile, library=header.library)
-                schema_ids: dict[int, int] = {}
-                channel_ids: dict[int, int] = {}
+                copier = McapCopier(writer)
                 for schema, channel, message in reader.iter_messages(
                     starting_at=start_ns, ending_before=end_ns, log_time_order=True
                 ):
                     if not match(channel.topic):
                         continue
-                    if channel.id not in channel_ids:
-                        sid = 0
-                        if schema is not None:
-                            if schema.id not in schema_ids:
-                                schema_ids[schema.id] = writer.register_schema(
-                                    schema.name, schema.encoding, schema.data
-                                )
-                            sid = schema_ids[schema.id]
-                        channel_ids[channel.id] = writer.register_channel(
-                            channel.topic, channel.message_encoding, sid, dict(channel.metadata)
-                        )
-                    writer.add_message(
-                        channel_ids[channel.id],
-                        message.log_time,
-                        message.data,
-                        message.publish_time,
-                        message.sequence,
-                    )
+                    copier.add(schema, channel, message)
                     counts[channel.topic] = counts.get(channel.topic, 0) + 1
                 fin.seek(0)
                 meta = list(make_reader(fin).iter_metadata())

@@ -196,6 +196,8 @@ def add_signals(
     from mcap.reader import make_reader
     from mcap.writer import CompressionType, Writer
 
+    from superlane_tools.recording.tools import McapCopier
+
     rows: list[tuple[int, str, dict[str, Any]]] = []
     schemas: dict[str, dict[str, Any]] = {}
     if can_signals is not None and can_signals.is_file():
@@ -249,23 +251,9 @@ def add_signals(
         header = reader.get_header()
         writer = Writer(fout, compression=CompressionType.ZSTD)
         writer.start(profile=header.profile, library=header.library)
-        schema_ids: dict[int, int] = {}
-        channel_ids: dict[int, int] = {}
+        copier = McapCopier(writer)
         for schema, channel, message in reader.iter_messages(log_time_order=True):
-            if channel.id not in channel_ids:
-                sid = 0
-                if schema is not None:
-                    if schema.id not in schema_ids:
-                        schema_ids[schema.id] = writer.register_schema(
-                            schema.name, schema.encoding, schema.data
-                        )
-                    sid = schema_ids[schema.id]
-                channel_ids[channel.id] = writer.register_channel(
-                    channel.topic, channel.message_encoding, sid, dict(channel.metadata)
-                )
-            writer.add_message(
-                channel_ids[channel.id], message.log_time, message.data, message.publish_time
-            )
+            copier.add(schema, channel, message)
         fin.seek(0)
         for record in make_reader(fin).iter_metadata():
             writer.add_metadata(record.name, dict(record.metadata))
