@@ -87,3 +87,15 @@ def test_rate_memory_does_not_grow_with_the_time_span() -> None:
     tracemalloc.stop()
     assert rate == 0.0  # nearly all 10 s windows of ten years are empty
     assert peak < 5_000_000  # bytes; one counter per 10 s window would be 250 MB
+
+
+def test_info_lists_can_ids_of_a_real_candump_log(realdata: Path) -> None:
+    log = realdata / "can_logs" / "ford_fusion" / "nothing.log"
+    result = runner.invoke(app, ["info", str(log), "--json"])
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.stdout)
+    assert doc["read_from"] == "every message"
+    ids = {r["can_id"]: r for r in doc["can_ids"]}
+    assert sum(r["count"] for r in ids.values()) == doc["message_count"]
+    assert ids[0x47]["dlcs"] == [8]
+    assert abs(ids[0x47]["rate_hz"] - 50.0) < 1.0
