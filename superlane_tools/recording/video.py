@@ -44,6 +44,9 @@ FFMPEG_CODECS = {
 }
 """Video format names (as recordings spell them) -> FFmpeg decoder names."""
 
+DECODER_PREFERENCE = {"av1": ("libdav1d", "libaom-av1", "av1")}
+"""FFmpeg decoders to try per codec, in order (FFmpeg's own ``av1`` decodes only with hardware)."""
+
 BEFORE_KEYFRAME = "before the first keyframe"
 """Skip reason of frames that precede the stream's first decodable keyframe."""
 
@@ -76,11 +79,18 @@ def message_codec(msg: Message) -> str | None:
     return video_codec(msg.msgtype, str(field_value(msg.data, "format") or ""))
 
 
-def decoder_available(codec: str) -> bool:
-    """Return True when the installed FFmpeg has a decoder called ``codec``."""
+def decoder_name(codec: str) -> str | None:
+    """Return the installed FFmpeg decoder to use for ``codec`` (None: none installed)."""
     import av
 
-    return codec in av.codecs_available
+    return next(
+        (n for n in DECODER_PREFERENCE.get(codec, (codec,)) if n in av.codecs_available), None
+    )
+
+
+def decoder_available(codec: str) -> bool:
+    """Return True when the installed FFmpeg can decode ``codec``."""
+    return decoder_name(codec) is not None
 
 
 def is_keyframe(codec: str, payload: bytes) -> bool:
@@ -133,9 +143,10 @@ class VideoDecoder:
     def __post_init__(self) -> None:
         import av
 
-        if self.codec not in av.codecs_available:
+        name = decoder_name(self.codec)
+        if name is None:
             raise RecordingError(f"this FFmpeg build has no {self.codec} decoder")
-        self._ctx = av.CodecContext.create(self.codec, "r")
+        self._ctx = av.CodecContext.create(name, "r")
         self._ctx.thread_count = self.threads
         self._ctx.thread_type = "SLICE"  # frame threading delays output by one frame per thread
 

@@ -19,6 +19,7 @@ from superlane_tools.recording.video import (
     VideoDecoder,
     VideoEncoder,
     decode_video,
+    decoder_available,
     is_keyframe,
     read_with_video,
     video_codec,
@@ -182,3 +183,33 @@ def test_simulated_h265_video_in_every_format(tmp_path: Path, fmt: str, name: st
     frames = list(RecordingFrames(out))
     assert len(frames) == 5
     assert all(f.image is not None and f.image.shape == (96, 160, 3) for f in frames)
+
+
+@pytest.mark.parametrize(("encoder", "codec"), [("libsvtav1", "av1"), ("libvpx-vp9", "vp9")])
+def test_av1_and_vp9_decode_when_ffmpeg_has_them(encoder: str, codec: str) -> None:
+    import fractions
+
+    import av
+
+    if encoder not in av.codecs_available or not decoder_available(codec):
+        pytest.skip(f"this FFmpeg build lacks {encoder} or a {codec} decoder")
+    ctx = av.CodecContext.create(encoder, "w")
+    ctx.width, ctx.height, ctx.pix_fmt = 160, 96, "yuv420p"
+    ctx.time_base = fractions.Fraction(1, 10)
+    ctx.framerate = 10
+    ctx.gop_size = 5
+    ctx.max_b_frames = 0
+    units: list[bytes] = []
+    for i, img in enumerate(_frames(10)):
+        frame = av.VideoFrame.from_ndarray(img, format="bgr24")
+        frame.pts = i
+        units += [bytes(p) for p in ctx.encode(frame)]
+    units += [bytes(p) for p in ctx.encode(None)]
+    assert is_keyframe(codec, units[0])
+    dec = VideoDecoder(codec)
+    out = []
+    for i, unit in enumerate(units):
+        out += dec.feed(i, None, unit)
+    out += dec.flush()
+    assert len(out) == len(units)
+    assert all(o.image is not None for o in out)
