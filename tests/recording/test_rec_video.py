@@ -213,3 +213,23 @@ def test_av1_and_vp9_decode_when_ffmpeg_has_them(encoder: str, codec: str) -> No
     out += dec.flush()
     assert len(out) == len(units)
     assert all(o.image is not None for o in out)
+
+
+def test_extract_cli_takes_absolute_and_iso_times(tmp_path: Path) -> None:
+    from typer.testing import CliRunner
+
+    from superlane_tools.cli.app import app
+    from superlane_tools.recording.times import format_utc
+
+    rec = tmp_path / "video.mcap"
+    _write_video(rec, "foxglove_msgs/msg/CompressedVideo")
+    runner = CliRunner()
+    for start in (str(T0 + 7 * STEP), format_utc(T0 + 7 * STEP), "0.7"):
+        out = tmp_path / f"out_{len(start)}"
+        result = runner.invoke(app, ["extract", str(rec), "-o", str(out), "--start", start])
+        assert result.exit_code == 0, result.output
+        table = pd.read_parquet(out / "frames.parquet")
+        assert table["log_time_ns"].min() == T0 + 7 * STEP, start
+    bad = runner.invoke(app, ["extract", str(rec), "-o", str(tmp_path / "x"), "--start", "soon"])
+    assert bad.exit_code == 2
+    assert "not a time" in bad.stderr
