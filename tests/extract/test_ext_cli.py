@@ -215,7 +215,11 @@ def test_real_messy_dbc_repairs_are_printed(realdata: Path, tmp_path: Path) -> N
     dbc = realdata / "dbc/mobileye/Mobileye.dbc"
     result = _run(log, "--out", tmp_path, "--dbc", dbc)
     assert result.exit_code == 0, result.output  # type: ignore[attr-defined]
-    assert "dropped VAL_ table" in result.output  # type: ignore[attr-defined]
+    assert "Mobileye.dbc: loaded with 4 repair(s) (--verbose" in result.output  # type: ignore[attr-defined]
+    assert "dropped VAL_ table" not in result.output  # type: ignore[attr-defined]
+    verbose = _run(log, "--out", tmp_path / "v", "--dbc", dbc, "--verbose")
+    assert verbose.exit_code == 0, verbose.output  # type: ignore[attr-defined]
+    assert "dropped VAL_ table" in verbose.output  # type: ignore[attr-defined]
 
 
 def test_real_nmea(realdata: Path, tmp_path: Path) -> None:
