@@ -31,8 +31,9 @@ import numpy as np
 
 from superlane_tools.camera import load_camera
 from superlane_tools.evaluation import TuSimpleRecord, evaluate
+from superlane_tools.evaluation.tusimple_export import NO_POINT, lane_columns
 from superlane_tools.lanes import FitParams, fit_frame
-from superlane_tools.pipeline.lanes_fit import ClassMap, mask_points, tusimple_lanes
+from superlane_tools.pipeline.lanes_fit import ClassMap, mask_points
 
 LABEL_FILES = ("label_data_0313.json", "label_data_0531.json", "label_data_0601.json")
 CLASSES = ClassMap(lane_ids=(2,), road_ids=(1, 2), code_of_id={2: 0})
@@ -80,9 +81,10 @@ def _predict(args: tuple[dict[str, Any], FitParams, bool]) -> tuple[dict[str, An
     camera = load_camera(PROFILE)
     pts = mask_points(render(record, camera.width, camera.height), CLASSES)
     fit = fit_frame(pts.lane_uv, pts.road_uv, camera, params)
-    lanes = tusimple_lanes(
-        fit.lanes, fit.b if np.isfinite(fit.b) else 0.0, camera, record["h_samples"]
+    cols = lane_columns(
+        fit.lanes, fit.b if np.isfinite(fit.b) else 0.0, fit.c, camera, record["h_samples"]
     )
+    lanes = [xs for xs in cols if any(x != NO_POINT for x in xs)]
     pred = {
         "raw_file": record["raw_file"],
         "lanes": lanes,

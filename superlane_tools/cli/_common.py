@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import shlex
 import sys
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
@@ -77,7 +78,7 @@ def command_line() -> str:
     parameters, since ``sys.argv`` then belongs to the host program.
     """
     if sys.argv and Path(sys.argv[0]).name == "slt":
-        return " ".join(["slt", *sys.argv[1:]])
+        return shlex.join(["slt", *sys.argv[1:]])
     ctx = _current_context()
     if ctx is None:
         return "slt"
@@ -86,5 +87,5 @@ def command_line() -> str:
         if value is None or value is False or value in ((), []):
             continue
         flag = "--" + name.replace("_", "-")
-        parts.append(flag if value is True else f"{flag} {value}")
+        parts.append(flag if value is True else f"{flag} {shlex.quote(str(value))}")
     return " ".join(parts)

@@ -10,7 +10,9 @@ from superlane_tools._version import __version__
 from superlane_tools.cli import (
     batch,
     camera,
+    convert,
     corridor,
+    dbc,
     extract,
     info,
     lanes,
@@ -18,6 +20,7 @@ from superlane_tools.cli import (
     segment,
     simulate,
     tables,
+    tools,
     train,
 )
 from superlane_tools.cli import eval as eval_cmd
@@ -64,6 +67,9 @@ corridor.register(app)
 train.register(app)
 eval_cmd.register(app)
 tables.register(app)
+convert.register(app)
+tools.register(app)
+dbc.register(app)
 
 
 def main() -> None:

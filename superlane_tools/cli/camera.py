@@ -12,7 +12,10 @@ from superlane_tools.cli._common import cli_errors, command_line, err_console
 
 camera_app = typer.Typer(
     name="camera",
-    help="Camera profiles: list the bundled ones, show one, convert KITTI calibration files.",
+    help=(
+        "Camera profiles: list the bundled ones, show one, convert KITTI calibration files, "
+        "calibrate from chessboard photos, estimate the mounting from a recording."
+    ),
     no_args_is_help=True,
     rich_markup_mode=None,
 )
@@ -84,6 +87,155 @@ def from_kitti_cmd(
         else:
             write_text_atomic(out, text)
             err_console.print(f"wrote {out}", markup=False)
+
+
+def _image_list(images: list[Path]) -> list[Path]:
+    out: list[Path] = []
+    for path in images:
+        if path.is_dir():
+            out.extend(
+                sorted(p for p in path.iterdir() if p.suffix.lower() in {".jpg", ".jpeg", ".png"})
+            )
+        else:
+            out.append(path)
+    return out
+
+
+def _write_profile(out: Path | None, text: str) -> None:
+    from superlane_tools.reporting import write_text_atomic
+
+    if out is None:
+        typer.echo(text, nl=False)
+    else:
+        write_text_atomic(out, text)
+        err_console.print(f"wrote {out}", markup=False)
+
+
+@camera_app.command("calibrate")
+def calibrate_cmd(
+    images: Annotated[
+        list[Path],
+        typer.Argument(help="Chessboard photos, or folders of them.", show_default=False),
+    ],
+    board: Annotated[
+        str, typer.Option(metavar="COLSxROWS", help="Inner corners per row x per column.")
+    ] = "9x6",
+    square: Annotated[float, typer.Option(help="Square side, metres.", min=1e-6)] = 0.025,
+    height_m: Annotated[
+        float, typer.Option(help="Camera height above the road, metres (until estimated).")
+    ] = 1.3,
+    pitch_deg: Annotated[
+        float, typer.Option(help="Downward pitch, degrees (until estimated).")
+    ] = 0.0,
+    name: Annotated[str, typer.Option(help="Profile name written into the YAML.")] = "calibrated",
+    out: Annotated[
+        Path | None,
+        typer.Option("--out", "-o", help="Write the profile YAML here instead of printing it."),
+    ] = None,
+) -> None:
+    """Calibrate intrinsics and distortion from chessboard photos (OpenCV) into a profile."""
+    import yaml
+
+    from superlane_tools.camera import camera_to_yaml
+    from superlane_tools.camera.calibration import calibrate_chessboard, parse_board
+    from superlane_tools.camera.model import CameraModel, Extrinsics
+    from superlane_tools.errors import UsageError
+
+    with cli_errors():
+        paths = _image_list(images)
+        if not paths:
+            raise UsageError("no images given (JPEG or PNG files, or folders of them)")
+        result = calibrate_chessboard(paths, parse_board(board), square)
+        cam = CameraModel(
+            result.intrinsics, Extrinsics(height_m, math.radians(pitch_deg)), name=name
+        )
+        comment = (
+            f"Calibrated from {len(result.used)} of {len(paths)} chessboard photos: "
+            f"RMS reprojection error {result.rms_px:.3f} px.\n"
+            f"Extrinsics are assumed (height {height_m:g} m, pitch {pitch_deg:g} deg): "
+            "run `slt camera estimate` on a recording to estimate them.\n"
+            f"Written by: {command_line()}"
+        )
+        text = camera_to_yaml(cam, comment=comment) + yaml.safe_dump(
+            {"calibration": result.summary()}, sort_keys=False
+        )
+        _write_profile(out, text)
+    for path, reason in result.rejected:
+        err_console.print(f"slt: skipped: {path.name}: {reason}", markup=False)
+    err_console.print(
+        f"reprojection error {result.rms_px:.3f} px RMS over {len(result.used)} views",
+        markup=False,
+    )
+
+
+@camera_app.command("estimate")
+def estimate_cmd(
+    recording: Annotated[
+        Path, typer.Argument(help="Recording with a camera topic (images or video).")
+    ],
+    lane_width: Annotated[
+        float, typer.Option(help="Lane width of the road driven, metres.", min=0.5)
+    ] = 3.7,
+    intrinsics: Annotated[
+        str | None,
+        typer.Option(
+            metavar="PROFILE", help="Camera profile or YAML with the intrinsics (calibrate)."
+        ),
+    ] = None,
+    focal_px: Annotated[
+        float | None, typer.Option(help="Focal length, pixels at the recorded size.")
+    ] = None,
+    hfov: Annotated[float | None, typer.Option(help="Horizontal field of view, degrees.")] = None,
+    frames: Annotated[int, typer.Option(help="Frames to use, spread evenly.", min=3)] = 60,
+    topic: Annotated[str | None, typer.Option(help="Camera topic (default: the first).")] = None,
+    name: Annotated[str, typer.Option(help="Profile name written into the YAML.")] = "estimated",
+    out: Annotated[
+        Path | None,
+        typer.Option("--out", "-o", help="Write the profile YAML here instead of printing it."),
+    ] = None,
+) -> None:
+    """Estimate pitch, yaw and height from the lane lines' vanishing point and the lane width."""
+    import yaml
+
+    from superlane_tools.camera import camera_to_yaml, load_camera
+    from superlane_tools.pipeline.camera_estimate import estimate_camera
+
+    with cli_errors():
+        known = load_camera(intrinsics).intrinsics if intrinsics is not None else None
+        result = estimate_camera(
+            recording,
+            intrinsics=known,
+            focal_px=focal_px,
+            hfov_deg=hfov,
+            lane_width_m=lane_width,
+            max_frames=frames,
+            topic=topic,
+            name=name,
+        )
+        est = result.estimate
+        comment = (
+            f"Extrinsics estimated from {est.frames_used} of {est.frames_seen} frames of "
+            f"{recording.name}.\nIntrinsics: {result.intrinsics_source}.\n"
+            f"Written by: {command_line()}"
+        )
+        blocks: dict[str, object] = {}
+        if intrinsics is not None and Path(intrinsics).is_file():
+            source = yaml.safe_load(Path(intrinsics).read_text(encoding="utf-8"))
+            if isinstance(source, dict) and "calibration" in source:  # keep the chessboard report
+                blocks["calibration"] = source["calibration"]
+        blocks["estimate"] = {**est.summary(), "intrinsics": result.intrinsics_source}
+        text = camera_to_yaml(result.camera, comment=comment) + yaml.safe_dump(
+            blocks, sort_keys=False
+        )
+        _write_profile(out, text)
+    e = est.extrinsics
+    err_console.print(
+        f"pitch {math.degrees(e.pitch_rad):.2f} +- {math.degrees(est.pitch_sigma_rad):.2f} deg, "
+        f"yaw {math.degrees(e.yaw_rad):.2f} +- {math.degrees(est.yaw_sigma_rad):.2f} deg, "
+        f"height {e.height_m:.3f} +- {est.height_sigma_m:.3f} m (per-frame spread; "
+        f"{est.frames_used} frames); intrinsics: {result.intrinsics_source}",
+        markup=False,
+    )
 
 
 def register(app: typer.Typer) -> None:

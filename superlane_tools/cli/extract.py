@@ -35,6 +35,16 @@ def _origin(text: str | None) -> GeodeticOrigin | None:
         raise UsageError(f"--origin: {err}") from err
 
 
+def _time(text: str | None, option: str) -> tuple[float | None, int | None]:
+    """Parse ``--start``/``--end``: (seconds after the first message, absolute ns)."""
+    from superlane_tools.recording.times import parse_time
+
+    if text is None:
+        return None, None
+    spec = parse_time(text, option)
+    return (None, spec.ns) if spec.absolute else (spec.ns / 1e9, None)
+
+
 def extract_cmd(
     recording: Annotated[
         Path,
@@ -53,12 +63,18 @@ def extract_cmd(
         ),
     ] = None,
     start: Annotated[
-        float | None,
-        typer.Option(help="Start, seconds after the recording's first message.", min=0.0),
+        str | None,
+        typer.Option(
+            metavar="TIME",
+            help="Start: seconds after the first message (12.5), ISO 8601 or epoch ns.",
+        ),
     ] = None,
     end: Annotated[
-        float | None,
-        typer.Option(help="End (exclusive), seconds after the recording's first message."),
+        str | None,
+        typer.Option(
+            metavar="TIME",
+            help="End (exclusive): seconds after the first message, ISO 8601 or epoch ns.",
+        ),
     ] = None,
     dbc: Annotated[
         list[Path] | None,
@@ -83,6 +99,9 @@ def extract_cmd(
             "--config", help="YAML {frames: [...], camera_info: [...], can: [...], gnss: [...]}."
         ),
     ] = None,
+    verbose: Annotated[
+        bool, typer.Option("--verbose", "-v", help="List every DBC repair, not just how many.")
+    ] = False,
 ) -> None:
     """Extract frames, camera info, CAN frames/signals and GNSS fixes to files and Parquet.
 
@@ -100,8 +119,10 @@ def extract_cmd(
         settings = ExtractConfig(
             topics=tuple(topics or ()),
             streams=streams,
-            start_s=start,
-            end_s=end,
+            start_s=_time(start, "--start")[0],
+            end_s=_time(end, "--end")[0],
+            start_ns=_time(start, "--start")[1],
+            end_ns=_time(end, "--end")[1],
             dbc_paths=tuple(dbc or ()),
             frame_format=frames.lower(),
             every=every,
@@ -110,12 +131,13 @@ def extract_cmd(
 
         def show_dbc(name: str, loaded: object) -> None:
             repairs = getattr(loaded, "repairs", [])
+            hint = " (--verbose or `slt dbc show` lists them)" if repairs and not verbose else ""
             err_console.print(
-                f"slt: dbc {name}: loaded with {len(repairs)} repair(s)",
+                f"slt: dbc {name}: loaded with {len(repairs)} repair(s){hint}",
                 markup=False,
                 soft_wrap=True,
             )
-            for line in repairs:
+            for line in repairs if verbose else []:
                 err_console.print(f"slt: dbc {name}: {line}", markup=False, soft_wrap=True)
 
         with Progress(

@@ -13,6 +13,7 @@ from superlane_tools.cli._common import EXIT_CODES_HELP, cli_errors, console, er
 from superlane_tools.errors import ExitCode
 
 if TYPE_CHECKING:
+    from superlane_tools.recording.inspect import CanIdStats, McapFileInfo
     from superlane_tools.recording.summary import RecordingSummary
 
 
@@ -24,6 +25,55 @@ def _utc(ns: int | None) -> str:
 
 def _num(value: float | None, fmt: str) -> str:
     return "-" if value is None else format(value, fmt)
+
+
+def _size(n: int) -> str:
+    value = float(n)
+    for unit in ("B", "KiB", "MiB", "GiB"):
+        if value < 1024 or unit == "GiB":
+            return f"{value:.1f} {unit}" if unit != "B" else f"{n} B"
+        value /= 1024
+    return f"{n} B"
+
+
+def _print_file(info: McapFileInfo, mode: str) -> None:
+    out = console
+    compression = ", ".join(c or "none" for c in info.compression) or "-"
+    out.print(
+        f"file: {_size(info.size_bytes)}, MCAP profile {info.profile or '-'}, library "
+        f"{info.library or '-'}, {info.chunk_count} chunks ({compression}); read from: {mode}",
+        markup=False,
+        highlight=False,
+    )
+    for m in info.metadata:
+        pairs = ", ".join(f"{k}={v}" for k, v in list(m["data"].items())[:6])
+        more = " ..." if len(m["data"]) > 6 else ""
+        out.print(f"metadata {m['name']}: {pairs}{more}", markup=False, highlight=False)
+    for a in info.attachments:
+        out.print(
+            f"attachment {a['name']} ({a['media_type']}, {_size(a['size_bytes'])})",
+            markup=False,
+            highlight=False,
+        )
+
+
+def _print_can_ids(rows: list[CanIdStats]) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    out = console if console.is_terminal else Console(highlight=False, width=200)
+    table = Table(show_lines=False)
+    for name in ("CAN topic", "id", "count", "rate Hz", "DLC"):
+        table.add_column(name, justify="left" if name == "CAN topic" else "right")
+    for r in rows:
+        table.add_row(
+            r.topic,
+            f"0x{r.can_id:X}",
+            str(r.count),
+            _num(r.rate_hz, ".2f"),
+            ",".join(str(d) for d in r.dlcs),
+        )
+    out.print(table)
 
 
 def _print_table(summary: RecordingSummary) -> None:
@@ -75,13 +125,32 @@ def info(
     as_json: Annotated[
         bool, typer.Option("--json", help="Print the summary as JSON instead of a table.")
     ] = False,
+    scan: Annotated[
+        bool,
+        typer.Option(
+            "--scan",
+            help="Read every message (gaps, stamp offsets, CAN ids) even when an MCAP has a "
+            "summary section; without it such a file is answered from its summary alone.",
+        ),
+    ] = False,
 ) -> None:
     """Show topics, types, counts, median rates, largest gaps and header-stamp offsets."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
 
     from superlane_tools.cli._common import report_skipped
     from superlane_tools.recording import open_recording, summarize
+    from superlane_tools.recording.inspect import (
+        CAN_MSGTYPES,
+        can_id_stats,
+        mcap_file_info,
+        summary_from_mcap,
+    )
 
+    file_info = mcap_file_info(recording)
+    if file_info is not None and file_info.has_statistics and not scan:
+        summary = summary_from_mcap(recording, file_info)
+        _emit(summary, file_info, "summary section", [], as_json)
+        return
     with cli_errors(), open_recording(recording) as rec:
         expected = [t.message_count for t in rec.topics()]
         total = sum(c for c in expected if c is not None) if None not in expected else None
@@ -95,13 +164,35 @@ def info(
         ) as bar:
             task = bar.add_task("read", total=total)
             summary = summarize(rec, progress=lambda n: bar.update(task, completed=n))
-    if as_json:
-        typer.echo(json.dumps(summary.to_dict(), indent=2))
-    else:
-        _print_table(summary)
+        can_topics = [t.topic for t in summary.topics if t.msgtype in CAN_MSGTYPES]
+        can_rows = can_id_stats(rec, can_topics) if can_topics else []
+    _emit(summary, file_info, "every message", can_rows, as_json)
     code = report_skipped(summary.skipped)
     if code != ExitCode.OK:
         raise typer.Exit(int(code))
+
+
+def _emit(
+    summary: RecordingSummary,
+    file_info: McapFileInfo | None,
+    mode: str,
+    can_rows: list[CanIdStats],
+    as_json: bool,
+) -> None:
+    from dataclasses import asdict
+
+    if as_json:
+        doc = summary.to_dict()
+        doc["read_from"] = mode
+        doc["file"] = file_info.to_dict() if file_info is not None else None
+        doc["can_ids"] = [asdict(r) for r in can_rows]
+        typer.echo(json.dumps(doc, indent=2))
+        return
+    if file_info is not None:
+        _print_file(file_info, mode)
+    _print_table(summary)
+    if can_rows:
+        _print_can_ids(can_rows)
 
 
 def register(app: typer.Typer) -> None:

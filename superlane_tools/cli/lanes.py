@@ -36,7 +36,11 @@ def fit_cmd(
         typer.Option(help="YAML mapping class nodes to mask ids [default: SEG_DIR/classes.yaml]."),
     ] = None,
     sequential: Annotated[
-        bool, typer.Option(help="Warm-start each frame from the previous one (a video sequence).")
+        bool,
+        typer.Option(
+            help="Warm-start each frame from the previous one in the same folder (a clip); "
+            "masks are taken in natural order (2 before 10)."
+        ),
     ] = False,
     no_slope: Annotated[
         bool, typer.Option("--no-slope", help="Fit a flat road (no slope compensation).")
@@ -96,20 +100,64 @@ def export_cmd(
     camera: Annotated[str, typer.Option(help="Camera profile name or camera YAML file.")],
     out: Annotated[Path, typer.Option(help="Output TuSimple JSON-lines file.")],
     h_samples: Annotated[
-        str, typer.Option(help="Image rows START:STOP:STEP (stop exclusive).")
+        str,
+        typer.Option(help="Image rows START:STOP:STEP (stop exclusive), used without --tasks."),
     ] = "160:720:10",
+    tasks: Annotated[
+        Path | None,
+        typer.Option(
+            help="TuSimple task or label file (test_tasks.json, label_data_*.json): each frame "
+            "is sampled at the h_samples of the entry with its raw_file."
+        ),
+    ] = None,
+    max_lines: Annotated[
+        int,
+        typer.Option(
+            help="Most lines per frame, nearest the camera first (LaneEval zeroes a frame with "
+            "more than n_gt + 2)."
+        ),
+    ] = 5,
+    lanes: Annotated[
+        int | None,
+        typer.Option(
+            "--lanes",
+            help="Known number of lanes (e.g. from a map): keep the N+1 adjacent lines with the "
+            "most support.",
+        ),
+    ] = None,
     raw_ext: Annotated[
         str, typer.Option(help="Extension that replaces the mask's in raw_file.")
     ] = ".jpg",
 ) -> None:
-    """Project fitted lanes into the image at the h_samples rows; write TuSimple JSON lines."""
+    """Project fitted lanes into the image at each frame's rows; write TuSimple JSON lines."""
     from superlane_tools.camera import load_camera
-    from superlane_tools.pipeline.lanes_fit import export_tusimple, parse_h_samples
+    from superlane_tools.errors import UsageError
+    from superlane_tools.evaluation.tusimple_export import ExportOptions
+    from superlane_tools.pipeline.lanes_export import export_tusimple
+    from superlane_tools.pipeline.lanes_fit import parse_h_samples
 
     with cli_errors():
+        if max_lines < 1 or (lanes is not None and lanes < 1):
+            raise UsageError("--max-lines and --lanes must be at least 1")
         rows = parse_h_samples(h_samples)
         cam = load_camera(camera)
-        result = export_tusimple(lanes_parquet, cam, rows, out, raw_ext)
+        options = ExportOptions(max_lines=max_lines, n_lanes=lanes, raw_ext=raw_ext)
+        result = export_tusimple(lanes_parquet, cam, out, options, h_samples=rows, tasks=tasks)
+        err_console.print(f"wrote {result.n_records} frames -> {result.out}", markup=False)
+
+
+@lanes_app.command("export-kitti")
+def export_kitti_cmd(
+    lanes_parquet: Annotated[Path, typer.Argument(help="lanes.parquet from `slt lanes fit`.")],
+    camera: Annotated[str, typer.Option(help="Camera profile name or camera YAML file.")],
+    out: Annotated[Path, typer.Option(help="Output folder of KITTI ego-lane PNGs.")],
+) -> None:
+    """Rasterise each frame's fitted ego lane as a KITTI submission PNG (um_lane_NNNNNN.png)."""
+    from superlane_tools.camera import load_camera
+    from superlane_tools.pipeline.lanes_export import export_kitti_ego_lane
+
+    with cli_errors():
+        result = export_kitti_ego_lane(lanes_parquet, load_camera(camera), out)
         err_console.print(f"wrote {result.n_records} frames -> {result.out}", markup=False)
 
 

@@ -67,6 +67,13 @@ def reprocess_cmd(
     workers: Annotated[
         int | None, typer.Option("--workers", help="Threads for the image stages.")
     ] = None,
+    with_signals: Annotated[
+        bool,
+        typer.Option(
+            "--with-signals",
+            help="Add decoded CAN signals and the truth curves to annotations.mcap.",
+        ),
+    ] = False,
 ) -> None:
     """Reprocess a drive: SUPER lane fit, corridor network, Hough baseline, CAN, RTK.
 
@@ -111,6 +118,18 @@ def reprocess_cmd(
         cfg = cfg.with_overrides(overrides)
         target = out if out is not None else Path("runs") / _recording_name(recording)
         result = _run(recording, target, cfg)
+        annotations = target / "annotations.mcap"
+        if with_signals and annotations.is_file():
+            from superlane_tools.reporting.annotations import add_signals
+
+            added = add_signals(
+                annotations, target / "can_signals.parquet", target / "curvature.parquet"
+            )
+            console.print(
+                f"annotations.mcap: added {len(added)} signal channels "
+                f"({sum(added.values())} messages)",
+                markup=False,
+            )
     for note in result.notes:
         console.print(f"note: {note}", markup=False, soft_wrap=True)
     t = result.timings

@@ -53,6 +53,13 @@ def simulate(
         str, typer.Option(help="GNSS fix quality: fixed (RTK, cm), float or standalone (m).")
     ] = "fixed",
     rtk_rate: Annotated[float, typer.Option(help="GNSS fix rate, Hz (10-20).")] = 10.0,
+    video: Annotated[
+        str | None,
+        typer.Option(
+            metavar="FORMAT",
+            help="Write the camera as foxglove_msgs/CompressedVideo (h264 or h265), not JPEG.",
+        ),
+    ] = None,
     rtk_dropouts: Annotated[
         float, typer.Option(help="GNSS outages per minute (1-4 s each).")
     ] = 0.0,
@@ -123,6 +130,7 @@ def simulate(
                 out,
                 fps=fps,
                 jpeg_quality=jpeg_quality,
+                video=video,
                 rtk=rtk,
                 vehicle=VehicleOptions(speed_kph=speed_kph, imu=imu, second_bus=second_bus),
                 command=command_line(),

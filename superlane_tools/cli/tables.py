@@ -1,4 +1,4 @@
-"""`slt tables`: paper-style tables (availability, curvature) over many reprocess runs."""
+"""`slt tables`: paper-style tables over reprocess runs and evaluation records."""
 
 from __future__ import annotations
 
@@ -58,6 +58,31 @@ def curvature_cmd(runs: RunDirs, out: OutFile = None) -> None:
 
     with cli_errors():
         _emit(curvature_table(runs), out, runs)
+
+
+@tables_app.command("paper")
+def paper_cmd(
+    results: Annotated[
+        list[Path], typer.Argument(help="Evaluation records written by `slt eval ... --save`.")
+    ],
+    out: OutFile = None,
+) -> None:
+    """SUPER paper Tables 2-4 and the Fig. 9 modes from evaluation records (docs/evaluation.md)."""
+    from superlane_tools.reporting.paper_tables import (
+        load_record,
+        paper_cells,
+        paper_markdown,
+        write_paper_tables,
+    )
+
+    with cli_errors():
+        sources = [str(p) for p in results]
+        cells = paper_cells([load_record(p) for p in results], sources)
+        if out is None:
+            typer.echo(paper_markdown(cells))
+            return
+        path = write_paper_tables(cells, out, sources, command_line())
+    console.print(f"wrote {path}", markup=False)
 
 
 def register(app: typer.Typer) -> None:

@@ -13,9 +13,9 @@ over valid pixels only:
 * ``FPR = FP / (FP + TN)``, ``FNR = FN / (TP + FN)``,
 * ``IoU = TP / (TP + FP + FN)`` (not a KITTI column, but the figure the corridor paper reports).
 
-The benchmark proper ranks methods in a bird's-eye view; here everything is in the perspective
-image, as the devkit's ``evaluateRoad`` also allows. Everything here is pure: arrays in, numbers
-out; reading the PNGs is the caller's job.
+The benchmark proper ranks methods in a bird's-eye view: see
+:mod:`superlane_tools.evaluation.kitti_bev`; here everything is in the perspective image.
+Everything here is pure: arrays in, numbers out; reading the PNGs is the caller's job.
 """
 
 from __future__ import annotations
@@ -25,7 +25,9 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from superlane_tools.camera.model import CameraModel
 from superlane_tools.evaluation.errors import EvaluationError
+from superlane_tools.lanes import Lane, columns_at_rows
 
 BoolArray = NDArray[np.bool_]
 
@@ -161,3 +163,29 @@ def lane_area_mask(
     cols = np.arange(width)[None, :]
     out[rows[ok]] = (cols >= lo[:, None]) & (cols <= hi[:, None])
     return out
+
+
+def ego_lane_mask(
+    left: Lane,
+    right: Lane,
+    slope: float,
+    camera: CameraModel,
+    vertical_curvature: float = 0.0,
+) -> BoolArray:
+    """Rasterise the ego lane between two fitted lines in the camera image.
+
+    Every image row is filled between the two lines' columns where both lines are inside their
+    fitted ranges (:func:`superlane_tools.lanes.columns_at_rows`), so the area ends where the
+    shorter line's support ends.
+
+    Args:
+        left: Ego-left line.
+        right: Ego-right line.
+        slope: Road slope ``b`` of the frame.
+        camera: Camera of the image.
+        vertical_curvature: Vertical-curve term ``c`` of the frame, 1/m.
+    """
+    rows = np.arange(camera.height, dtype=np.float64)
+    cols_l = columns_at_rows(left, slope, camera, rows, vertical_curvature)
+    cols_r = columns_at_rows(right, slope, camera, rows, vertical_curvature)
+    return lane_area_mask(cols_l, cols_r, rows.astype(np.int64), (camera.height, camera.width))

@@ -35,6 +35,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from superlane_tools.evaluation._files import read_text
 from superlane_tools.evaluation.errors import EvaluationError
 
 PIXEL_THRESH_PX = 20.0
@@ -55,12 +56,17 @@ class TuSimpleRecord(NamedTuple):
         lanes: Per lane, x in pixels at each ``h_samples`` row; negative = no point.
         h_samples: Image rows in pixels (may be empty in prediction files).
         run_time_ms: Processing time of the frame in milliseconds (0 if not given).
+        colors: Per lane ``white``/``yellow``/``unknown`` (the ``color`` extension; empty when
+            the file has none).
+        styles: Per lane ``solid``/``dashed``/``double``/``unknown`` (the ``style`` extension).
     """
 
     raw_file: str
     lanes: list[list[float]]
     h_samples: list[float]
     run_time_ms: float = 0.0
+    colors: tuple[str, ...] = ()
+    styles: tuple[str, ...] = ()
 
 
 class FrameScore(NamedTuple):
@@ -289,7 +295,19 @@ def parse_record(data: Any, require_h_samples: bool = True) -> TuSimpleRecord:
     run_time = data.get("run_time", 0.0)
     if isinstance(run_time, bool) or not isinstance(run_time, int | float):
         raise EvaluationError("'run_time' must be a number of milliseconds")
-    return TuSimpleRecord(raw_file, lanes, h_samples, float(run_time))
+    colors = _attribute(data.get("color"), "color", len(lanes))
+    styles = _attribute(data.get("style"), "style", len(lanes))
+    return TuSimpleRecord(raw_file, lanes, h_samples, float(run_time), colors, styles)
+
+
+def _attribute(value: Any, field: str, n_lanes: int) -> tuple[str, ...]:
+    if value is None:
+        return ()
+    if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+        raise EvaluationError(f"'{field}' must be a list of strings, one per lane")
+    if len(value) != n_lanes:
+        raise EvaluationError(f"'{field}' has {len(value)} entries for {n_lanes} lanes")
+    return tuple(value)
 
 
 def _numbers(value: Any, field: str) -> list[float]:
@@ -320,11 +338,7 @@ def load_jsonl(
         EvaluationError: If the file cannot be read, or naming the first bad line.
     """
     file = Path(path)
-    try:
-        text = file.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as err:
-        reason = err.strerror if isinstance(err, OSError) else "not UTF-8 text"
-        raise EvaluationError(f"cannot read {file}: {reason}") from err
+    text = read_text(file)
     records: list[TuSimpleRecord] = []
     for number, line in enumerate(text.splitlines(), start=1):
         if not line.strip():
@@ -345,15 +359,20 @@ def load_jsonl(
 def format_record(record: TuSimpleRecord) -> str:
     """Return ``record`` as one TuSimple JSON line (without the newline).
 
-    Whole-pixel x values are written as integers, like the official label files.
+    Whole-pixel x values are written as integers, like the official label files; ``color`` and
+    ``style`` are written when the record has them.
     """
     lanes = [[_compact(x) for x in lane] for lane in record.lanes]
-    data = {
+    data: dict[str, Any] = {
         "lanes": lanes,
         "h_samples": [_compact(h) for h in record.h_samples],
         "raw_file": record.raw_file,
         "run_time": _compact(record.run_time_ms),
     }
+    if record.colors:
+        data["color"] = list(record.colors)
+    if record.styles:
+        data["style"] = list(record.styles)
     return json.dumps(data, separators=(", ", ": "))
 
 

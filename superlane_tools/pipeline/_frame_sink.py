@@ -15,6 +15,7 @@ import pyarrow as pa
 
 from superlane_tools.pipeline._images import header_size, raw_pixels, safe_topic, sniff_format
 from superlane_tools.recording.base import SkipLog, field_value
+from superlane_tools.recording.video import DECODED_MSGTYPE, decoded_image
 from superlane_tools.records import Message
 from superlane_tools.reporting import OutputError, ParquetStreamWriter
 from superlane_tools.reporting.provenance import ProvenanceSource, resolve_provenance
@@ -133,7 +134,13 @@ class FrameSink:
         """Write one frame's file; return width, height, encoding and relative path."""
         data = msg.data
         wanted = _EXT.get(self.frame_format)
-        if msg.msgtype in RAW_TYPES:
+        if msg.msgtype == DECODED_MSGTYPE:  # video frame, decoded in order by recording.video
+            pixels, encoding = decoded_image(msg), str(data.format)
+            width, height = int(pixels.shape[1]), int(pixels.shape[0])
+            if wanted is None:
+                return width, height, encoding, ""
+            payload = _encode(pixels, wanted[1])
+        elif msg.msgtype in RAW_TYPES:
             width, height = int(data.width), int(data.height)
             encoding = str(data.encoding)
             if wanted is None:

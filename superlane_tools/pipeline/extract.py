@@ -17,6 +17,7 @@ from superlane_tools.pipeline._gnss_sink import GnssSink
 from superlane_tools.pipeline.errors import PipelineError
 from superlane_tools.recording.base import Recording, SkipLog
 from superlane_tools.recording.open import open_recording
+from superlane_tools.recording.video import VIDEO_MSGTYPES, read_with_video
 from superlane_tools.records import Skipped, TopicInfo
 from superlane_tools.reporting import Provenance
 from superlane_tools.reporting.provenance import PendingIdentities
@@ -27,6 +28,7 @@ FRAME_TYPES = frozenset(
         "sensor_msgs/msg/CompressedImage",
         "foxglove.CompressedImage",
         "foxglove.RawImage",
+        *VIDEO_MSGTYPES,
     }
 )
 CAMERA_INFO_TYPES = frozenset({"sensor_msgs/msg/CameraInfo", "foxglove.CameraCalibration"})
@@ -53,6 +55,8 @@ class ExtractConfig:
             e.g. from a YAML config; a kind listed here is not auto-detected.
         start_s: Start of the range, seconds after the recording's first message; None: start.
         end_s: End of the range (exclusive), seconds after the first message; None: end.
+        start_ns: Start as an absolute log time, ns (overrides ``start_s``).
+        end_ns: End (exclusive) as an absolute log time, ns (overrides ``end_s``).
         dbc_paths: DBC files to decode CAN frames with (none: raw frames only); ``BUS=FILE``
             binds a DBC to one bus (CAN topic or channel), a plain file applies to all.
         frame_format: ``jpg``, ``png`` (files) or ``none`` (index only).
@@ -64,6 +68,8 @@ class ExtractConfig:
     streams: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
     start_s: float | None = None
     end_s: float | None = None
+    start_ns: int | None = None
+    end_ns: int | None = None
     dbc_paths: tuple[Path, ...] = ()
     frame_format: str = "jpg"
     every: int = 1
@@ -230,6 +236,8 @@ def extract(
             if first is not None:
                 start_ns = None if config.start_s is None else first + round(config.start_s * _NS)
                 stop_ns = None if config.end_s is None else first + round(config.end_s * _NS)
+        start_ns = config.start_ns if config.start_ns is not None else start_ns
+        stop_ns = config.end_ns if config.end_ns is not None else stop_ns
         settings = asdict(config)
         settings["streams"] = {k: list(v) for k, v in selected.items()}
         provenance = _HashedProvenance(
@@ -249,7 +257,7 @@ def extract(
         done = 0
         ok = False
         try:
-            for msg in rec.messages(topics=list(kind_of), start_ns=start_ns, stop_ns=stop_ns):
+            for msg in read_with_video(rec, list(kind_of), start_ns, stop_ns):
                 kind = kind_of[msg.topic]
                 if kind == "can" and can_sink is not None:
                     can_sink.add(msg)

@@ -13,6 +13,7 @@ from pathlib import Path
 from superlane_tools.errors import UsageError
 from superlane_tools.pipeline.reprocess.inputs import decode_frame
 from superlane_tools.recording import open_recording
+from superlane_tools.recording.video import VIDEO_MSGTYPES, decode_video
 from superlane_tools.records import Skipped
 from superlane_tools.scene.image_folder import InputFrame, folder_frames, list_images
 
@@ -23,6 +24,7 @@ IMAGE_MSGTYPES = frozenset(
         "sensor_msgs/msg/Image",
         "foxglove.CompressedImage",
         "foxglove.RawImage",
+        *VIDEO_MSGTYPES,
     }
 )
 
@@ -61,7 +63,7 @@ class RecordingFrames:
 
     def __iter__(self) -> Iterator[InputFrame]:
         with open_recording(self.path) as rec:
-            for index, msg in enumerate(rec.messages([self.topic])):
+            for index, msg in enumerate(decode_video(rec.messages([self.topic]))):
                 name = f"{self._folder}/{index:06d}"
                 try:
                     image = decode_frame(msg)

@@ -1,38 +1,36 @@
-"""Lane fitting over a folder of class-id masks, and TuSimple export of the fitted lanes.
+"""Lane fitting over a folder of class-id masks (exports: :mod:`.lanes_export`).
 
-I/O edge of the lane stage: reads class-id PNGs (any folder depth, names sorted) and a
+I/O edge of the lane stage: reads class-id PNGs (any folder depth, natural order) and a
 ``classes.yaml`` that maps hierarchy nodes to the integer ids in the PNGs, fits every frame with
 :func:`superlane_tools.lanes.fit_frame`, and writes one Parquet row per frame with provenance.
 """
 
 from __future__ import annotations
 
-import json
+import csv
 import math
 import os
-from collections.abc import Callable, Sequence
+import re
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, NamedTuple
 
 import numpy as np
 import pyarrow as pa
-import pyarrow.parquet as pq
 import yaml
 from numpy.typing import NDArray
 
 from superlane_tools.camera.model import CameraModel
 from superlane_tools.errors import ConfigError
-from superlane_tools.lanes import CODE_OF, FitParams, Lane, LaneFit, fit_frame, lanes_at_rows
+from superlane_tools.lanes import CODE_OF, FitParams, Lane, LaneFit, fit_frame
 from superlane_tools.lanes.attributes import colour_codes_from_image
 from superlane_tools.pipeline.errors import PipelineError
 from superlane_tools.records import Skipped
 from superlane_tools.reporting import (
     Provenance,
     input_identity,
-    read_provenance,
     write_table,
-    write_text_atomic,
 )
 
 Progress = Callable[[int, int], None]
@@ -69,6 +67,8 @@ SCHEMA = pa.schema(
         ("fit_time_ms", pa.float64()),
         ("quality", pa.float64()),
         ("reason", pa.string()),
+        ("c", pa.float64()),
+        ("seg_time_ms", pa.float64()),
     ]
 )
 """Columns of ``lanes.parquet``: one row per mask; list columns hold one entry per lane."""
@@ -174,8 +174,17 @@ def mask_points(mask: NDArray[Any], classes: ClassMap, seed: int = 0) -> MaskPoi
     return MaskPoints(lane_uv, road_uv, codes)
 
 
+def natural_key(rel_path: str) -> tuple[tuple[int, int | str], ...]:
+    """Sort key that orders digit runs by value (``clip/2.png`` before ``clip/10.png``)."""
+    return tuple(
+        (0, int(part)) if part.isdigit() else (1, part)
+        for part in re.split(r"(\d+)", rel_path)
+        if part
+    )
+
+
 def find_masks(seg_dir: str | os.PathLike[str]) -> list[Path]:
-    """Return the PNG files under ``seg_dir`` (recursively), sorted by relative path.
+    """Return the PNG files under ``seg_dir`` (recursively), in natural order of relative path.
 
     Raises:
         PipelineError: If ``seg_dir`` is not a folder.
@@ -185,7 +194,7 @@ def find_masks(seg_dir: str | os.PathLike[str]) -> list[Path]:
         raise PipelineError(f"segmentation folder not found: {root}")
     return sorted(
         (p for p in root.rglob("*") if p.is_file() and p.suffix.lower() == ".png"),
-        key=lambda p: p.relative_to(root).as_posix(),
+        key=lambda p: natural_key(p.relative_to(root).as_posix()),
     )
 
 
@@ -201,7 +210,9 @@ def _read_mask(path: Path) -> NDArray[Any] | str:
     return mask
 
 
-def fit_row(name: str, width: int, height: int, fit: LaneFit) -> dict[str, Any]:
+def fit_row(
+    name: str, width: int, height: int, fit: LaneFit, seg_time_ms: float = math.nan
+) -> dict[str, Any]:
     """Return the ``lanes.parquet`` row of one frame's fit (see :data:`SCHEMA`)."""
     lanes = fit.lanes
     return {
@@ -229,6 +240,8 @@ def fit_row(name: str, width: int, height: int, fit: LaneFit) -> dict[str, Any]:
         "fit_time_ms": fit.fit_time_s * 1e3,
         "quality": fit.quality,
         "reason": fit.reason,
+        "c": fit.c,
+        "seg_time_ms": seg_time_ms,
     }
 
 
@@ -288,7 +301,8 @@ def fit_masks(
         out: Target Parquet path.
         classes: Class ids of lane markings and road.
         params: Fit parameters (paper defaults when None).
-        sequential: Warm-start each frame from the previous frame's fit.
+        sequential: Warm-start each frame from the previous frame's fit in the same folder (a
+            clip); the first frame of each folder starts cold.
         command: Command line recorded in the provenance.
         progress: Called with ``(done, total)`` after each mask.
         images_dir: Folder of the camera images (same relative paths as the masks, any of the
@@ -306,9 +320,13 @@ def fit_masks(
     rows: list[dict[str, Any]] = []
     skipped: list[Skipped] = []
     previous: LaneFit | None = None
+    clip = ""
+    seg_times = read_segment_times(root)
     cameras: dict[tuple[int, int], CameraModel] = {}
     for done, path in enumerate(paths, start=1):
         name = path.relative_to(root).as_posix()
+        if path.parent.as_posix() != clip:
+            previous, clip = None, path.parent.as_posix()
         mask = _read_mask(path)
         if isinstance(mask, str):
             skipped.append(Skipped("mask", f"{name}: {mask}", 1))
@@ -332,7 +350,8 @@ def fit_masks(
             init = previous if sequential and previous is not None and previous.ok else None
             fit = fit_frame(pts.lane_uv, pts.road_uv, cam, p, init=init, attributes=pts.codes)
             previous = fit
-            rows.append(fit_row(name, width, height, fit))
+            seg_ms = seg_times.get(path.relative_to(root).with_suffix("").as_posix(), math.nan)
+            rows.append(fit_row(name, width, height, fit, seg_ms))
         if progress is not None:
             progress(done, len(paths))
     if not rows:
@@ -376,14 +395,23 @@ def lanes_from_row(row: dict[str, Any]) -> tuple[list[Lane], float]:
     return lanes, float(b) if b is not None and math.isfinite(b) else 0.0
 
 
-def tusimple_lanes(
-    lanes: Sequence[Lane], slope: float, camera: CameraModel, h_samples: Sequence[float]
-) -> list[list[float]]:
-    """Return TuSimple lane lists: x (pixels) per h_sample, -2 outside each lane's range."""
-    cols = lanes_at_rows(list(lanes), slope, camera, np.asarray(h_samples, dtype=np.float64))
-    inside = np.isfinite(cols) & (cols >= 0) & (cols <= camera.width - 1)
-    out = np.where(inside, np.round(cols, 1), -2.0)
-    return [[float(v) if v != -2.0 else -2 for v in row] for row in out if (row != -2.0).any()]
+SEGMENT_TIMES_FILE = "segment_times.csv"
+"""Per-frame segmentation times written by ``slt segment`` beside the masks (``name,seg_ms``)."""
+
+
+def read_segment_times(seg_dir: Path) -> dict[str, float]:
+    """Return ``name -> segmentation ms`` from ``seg_dir/segment_times.csv`` (empty if absent)."""
+    path = seg_dir / SEGMENT_TIMES_FILE
+    if not path.is_file():
+        return {}
+    out: dict[str, float] = {}
+    with path.open(encoding="utf-8", newline="") as handle:
+        for row in csv.DictReader(handle):
+            try:
+                out[row["name"]] = float(row["seg_ms"])
+            except (KeyError, TypeError, ValueError):
+                continue
+    return out
 
 
 def parse_h_samples(spec: str) -> list[int]:
@@ -403,45 +431,3 @@ class ExportResult:
 
     out: Path
     n_records: int
-
-
-def export_tusimple(
-    lanes_parquet: str | os.PathLike[str],
-    camera: CameraModel,
-    h_samples: Sequence[int],
-    out: str | os.PathLike[str],
-    raw_ext: str = ".jpg",
-) -> ExportResult:
-    """Write TuSimple prediction JSON lines from ``lanes.parquet``.
-
-    ``raw_file`` is the mask's path relative to its folder with the extension replaced by
-    ``raw_ext``; ``run_time`` is the fit time in milliseconds.
-
-    Raises:
-        PipelineError: If the file is not a ``lanes.parquet`` written by ``slt lanes fit``.
-    """
-    src = Path(lanes_parquet)
-    try:
-        read_provenance(src)
-        table = pq.read_table(src)
-    except (OSError, pa.ArrowInvalid) as err:
-        raise PipelineError(f"cannot read {src}: {err}") from err
-    missing = [name for name in SCHEMA.names if name not in table.column_names]
-    if missing:
-        raise PipelineError(f"{src}: not a lanes.parquet file (missing {', '.join(missing)})")
-    ext = raw_ext if raw_ext.startswith(".") else f".{raw_ext}"
-    lines = []
-    for row in table.to_pylist():
-        cam = camera
-        if (row["width"], row["height"]) != (camera.width, camera.height):
-            cam = camera.resized(int(row["width"]), int(row["height"]))
-        lanes, slope = lanes_from_row(row)
-        record = {
-            "raw_file": Path(row["name"]).with_suffix(ext).as_posix(),
-            "lanes": tusimple_lanes(lanes, slope, cam, h_samples),
-            "h_samples": list(h_samples),
-            "run_time": round(float(row["fit_time_ms"]), 3),
-        }
-        lines.append(json.dumps(record))
-    path = write_text_atomic(out, "".join(f"{line}\n" for line in lines))
-    return ExportResult(path, len(lines))

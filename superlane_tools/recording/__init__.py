@@ -1,10 +1,18 @@
-"""Recordings: open MCAP, ROS 1 and ROS 2 bags (and CAN / NMEA logs), stream, summarize, write."""
+"""Recordings: open MCAP, ROS 1/2 bags, CAN/NMEA logs; stream, decode video, convert, write."""
 
 from superlane_tools.recording.base import Recording, SupportsStampPeek
+from superlane_tools.recording.convert import ConvertConfig, ConvertInput, convert
 from superlane_tools.recording.errors import RecordingError
 from superlane_tools.recording.open import open_recording
 from superlane_tools.recording.summary import RecordingSummary, TopicSummary, summarize
+from superlane_tools.recording.times import TimeSpec, parse_time
 from superlane_tools.recording.typestore import default_typestore
+from superlane_tools.recording.video import (
+    VideoDecoder,
+    VideoEncoder,
+    decode_video,
+    read_with_video,
+)
 from superlane_tools.recording.writers import (
     RecordingWriter,
     WriterFormat,
@@ -13,16 +21,25 @@ from superlane_tools.recording.writers import (
 )
 
 __all__ = [
+    "ConvertConfig",
+    "ConvertInput",
     "Recording",
     "RecordingError",
     "RecordingSummary",
     "RecordingWriter",
     "SupportsStampPeek",
+    "TimeSpec",
     "TopicSummary",
+    "VideoDecoder",
+    "VideoEncoder",
     "WriterFormat",
+    "convert",
+    "decode_video",
     "default_typestore",
     "open_recording",
     "open_writer",
+    "parse_time",
+    "read_with_video",
     "summarize",
     "write_protobuf_mcap",
 ]

@@ -8,7 +8,11 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from superlane_tools.recording.typestore import CAN_FRAME_MSGTYPE, default_typestore
+from superlane_tools.recording.typestore import (
+    CAN_FRAME_MSGTYPE,
+    COMPRESSED_VIDEO_MSGTYPE,
+    default_typestore,
+)
 
 _NS = 1_000_000_000
 
@@ -51,6 +55,23 @@ def compressed_image(stamp_ns: int, frame_id: str, fmt: str, data: bytes) -> Any
         header=header(stamp_ns, frame_id),
         format=fmt,
         data=np.frombuffer(bytes(data), dtype=np.uint8),
+    )
+
+
+def compressed_video(stamp_ns: int, frame_id: str, fmt: str, data: bytes) -> Any:
+    """Return a ``foxglove_msgs/msg/CompressedVideo`` holding one access unit.
+
+    Args:
+        stamp_ns: Capture time, ns since the epoch.
+        frame_id: Camera frame.
+        fmt: Video format: ``h264`` or ``h265`` (Annex B), ``av1``, ``vp9``.
+        data: One frame's encoded bytes (a keyframe carries its parameter sets).
+    """
+    return _cls(COMPRESSED_VIDEO_MSGTYPE)(
+        timestamp=time_msg(stamp_ns),
+        frame_id=frame_id,
+        data=np.frombuffer(bytes(data), dtype=np.uint8),
+        format=fmt,
     )
 
 

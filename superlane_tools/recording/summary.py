@@ -113,8 +113,12 @@ class _TopicStats:
         if duration_ns < 2 * _RATE_WINDOW_NS:
             return (self.count - 1) * _NS / duration_ns
         offsets = np.concatenate([[0], np.cumsum(np.frombuffer(self.intervals, dtype=np.int64))])
-        per_window = np.bincount(offsets // _RATE_WINDOW_NS)[:-1]  # the last window is partial
-        return float(np.median(per_window)) * _NS / _RATE_WINDOW_NS
+        window = offsets // _RATE_WINDOW_NS
+        whole = int(window[-1])  # windows 0 .. whole-1 are complete; the last one is partial
+        # counts of the non-empty windows only: memory follows the message count, not the
+        # time span (a clock jump of years would otherwise allocate one counter per 10 s)
+        ids, counts = np.unique(window[window < whole], return_counts=True)
+        return median_with_zeros(counts, whole - ids.size) * _NS / _RATE_WINDOW_NS
 
     def result(self, topic: str, msgtype: str, encoding: str) -> TopicSummary:
         return TopicSummary(
@@ -131,6 +135,20 @@ class _TopicStats:
             else 0.0,
             median_stamp_offset_ms=statistics.median(self.offsets) / 1e6 if self.offsets else None,
         )
+
+
+def median_with_zeros(counts: np.ndarray, zeros: int) -> float:
+    """Return the median of ``counts`` extended by ``zeros`` zero entries (not materialised)."""
+    values = np.sort(counts[counts > 0])
+    n = values.size + zeros
+    if n == 0:
+        return 0.0
+
+    def at(i: int) -> float:
+        return 0.0 if i < zeros else float(values[i - zeros])
+
+    mid = n // 2
+    return at(mid) if n % 2 else (at(mid - 1) + at(mid)) / 2.0
 
 
 def container_name(recording: Recording) -> str:

@@ -24,7 +24,21 @@ uint8[8] data
 """
 """Message definition of ``can_msgs/msg/Frame``, as shipped by ``can_msgs``."""
 
-EXTRA_MSGDEFS: dict[str, str] = {CAN_FRAME_MSGTYPE: CAN_FRAME_MSG}
+COMPRESSED_VIDEO_MSGTYPE = "foxglove_msgs/msg/CompressedVideo"
+"""ROS 2 name of Foxglove's compressed video message (``foxglove_msgs``)."""
+
+COMPRESSED_VIDEO_MSG = """\
+builtin_interfaces/Time timestamp
+string frame_id
+uint8[] data
+string format
+"""
+"""Message definition of ``foxglove_msgs/msg/CompressedVideo``, as shipped by ``foxglove_msgs``."""
+
+EXTRA_MSGDEFS: dict[str, str] = {
+    CAN_FRAME_MSGTYPE: CAN_FRAME_MSG,
+    COMPRESSED_VIDEO_MSGTYPE: COMPRESSED_VIDEO_MSG,
+}
 """Message types registered on top of ROS 2 Humble, by ROS 2 name."""
 
 

@@ -6,13 +6,18 @@ Output layout under ``out_dir``:
   input's relative path with the suffix replaced by ``.png``;
 * ``overlays/<relative path>.jpg`` (optional): the colourised labels blended over the image;
 * ``classes.yaml``: every hierarchy node name with the leaf ids under it, so that
-  ``slt lanes fit DIR --classes DIR/classes.yaml`` can find road and lane-marking pixels.
+  ``slt lanes fit DIR --classes DIR/classes.yaml`` can find road and lane-marking pixels;
+* ``segment_times.csv``: ``name,seg_ms`` per segmented frame (the backend call's wall time,
+  milliseconds), read by ``slt lanes fit`` so that a TuSimple ``run_time`` covers both stages.
 
 All files are written atomically.
 """
 
 from __future__ import annotations
 
+import csv
+import io
+import time
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import NamedTuple
@@ -29,6 +34,7 @@ from superlane_tools.scene.errors import SceneError
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg")
 OVERLAY_DIR = "overlays"
 CLASSES_FILE = "classes.yaml"
+TIMES_FILE = "segment_times.csv"
 
 
 class InputFrame(NamedTuple):
@@ -161,15 +167,21 @@ def segment_images(
     record and produce no output.
     """
     write_text_atomic(out_dir / CLASSES_FILE, classes_yaml(backend.name))
+    times = io.StringIO()
+    table = csv.writer(times, lineterminator="\n")
+    table.writerow(["name", "seg_ms"])
     for frame in frames:
         source = Path(frame.name)
         if frame.image is None:
             yield SegmentedImage(source, None, Skipped("unreadable image", frame.problem))
             continue
+        start = time.perf_counter()
         labels = backend.segment(frame.image)
+        table.writerow([frame.name, f"{(time.perf_counter() - start) * 1e3:.3f}"])
         target = out_dir / f"{frame.name}.png"
         write_bytes_atomic(target, _encode(".png", labels))
         if overlays:
             view = overlay(frame.image, labels)
             write_bytes_atomic(out_dir / OVERLAY_DIR / f"{frame.name}.jpg", _encode(".jpg", view))
         yield SegmentedImage(source, target, None)
+    write_text_atomic(out_dir / TIMES_FILE, times.getvalue())

@@ -157,6 +157,7 @@ def simulate_drive(
     *,
     fps: float = 15.0,
     jpeg_quality: int | None = None,
+    video: str | None = None,
     rtk: RtkParams | None = None,
     vehicle: VehicleOptions | None = None,
     start_ns: int = DEFAULT_START_NS,
@@ -176,6 +177,8 @@ def simulate_drive(
         out: Recording path; ground truth goes beside it (:class:`DriveOutputs`).
         fps: Camera frame rate, Hz.
         jpeg_quality: JPEG quality override (default: the scenario's conditions).
+        video: ``h264`` or ``h265``: write the camera as ``foxglove_msgs/msg/CompressedVideo``
+            (one access unit per frame, a keyframe every second) instead of JPEG images.
         rtk: GNSS simulation parameters (default RTK fixed at 10 Hz).
         vehicle: Speed unit, IMU topic and second CAN bus (default: m/s, no IMU, one bus).
         start_ns: Time of the first frame, ns since the epoch.
@@ -198,6 +201,15 @@ def simulate_drive(
     if jpeg_quality is not None and not 1 <= jpeg_quality <= 100:
         raise ScenarioError(f"JPEG quality must be 1-100, got {jpeg_quality}")
     camera = sim_camera(width, height)
+    encoder = None
+    if video is not None:
+        from superlane_tools.recording.errors import RecordingError
+        from superlane_tools.recording.video import VideoEncoder
+
+        try:
+            encoder = VideoEncoder(video, width, height, fps, gop=max(1, round(fps)))
+        except RecordingError as err:
+            raise ScenarioError(str(err)) from err
     rtk = rtk or RtkParams()
     rtk.validate()
     outputs = DriveOutputs.beside(Path(out))
@@ -263,6 +275,7 @@ def simulate_drive(
             "height": height,
             "fps": fps,
             "jpeg_quality": quality,
+            "video": video,
             "start_ns": start_ns,
             "rtk": asdict(rtk),
             "vehicle": asdict(vehicle),
@@ -286,7 +299,12 @@ def simulate_drive(
         for topic, msgtype in (
             (TOPIC_TF, "tf2_msgs/msg/TFMessage"),
             (TOPIC_INFO, "sensor_msgs/msg/CameraInfo"),
-            (TOPIC_IMAGE, "sensor_msgs/msg/CompressedImage"),
+            (
+                TOPIC_IMAGE,
+                "sensor_msgs/msg/CompressedImage"
+                if encoder is None
+                else "foxglove_msgs/msg/CompressedVideo",
+            ),
             (TOPIC_CAN, "can_msgs/msg/Frame"),
             (TOPIC_FIX, "sensor_msgs/msg/NavSatFix"),
             *([(TOPIC_CAN2, "can_msgs/msg/Frame")] if vehicle.second_bus else []),
@@ -325,12 +343,26 @@ def simulate_drive(
                 t_ns,
                 msgs.camera_info(t_ns, FRAME_CAMERA, k.width, k.height, k.matrix, list(k.dist)),
             )
-            writer.write(TOPIC_IMAGE, t_ns, msgs.compressed_image(t_ns, FRAME_CAMERA, "jpeg", jpeg))
+            writer.write(
+                TOPIC_IMAGE,
+                t_ns,
+                msgs.compressed_image(t_ns, FRAME_CAMERA, "jpeg", jpeg)
+                if encoder is None
+                else msgs.compressed_video(
+                    t_ns, FRAME_CAMERA, encoder.fmt, encoder.encode(frame.image_bgr)
+                ),
+            )
             written += 2
             name = f"{i:06d}"
             tus.write(
                 json.dumps(
-                    {"raw_file": f"frames/{name}.jpg", "lanes": lanes, "h_samples": rows},
+                    {
+                        "raw_file": f"frames/{name}.jpg",
+                        "lanes": lanes,
+                        "h_samples": rows,
+                        "color": list(truth.colors),
+                        "style": list(truth.styles),
+                    },
                     separators=(",", ":"),
                 )
                 + "\n"

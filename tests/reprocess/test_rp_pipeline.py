@@ -107,9 +107,13 @@ def test_annotations_are_foxglove_messages(run_dir: Path) -> None:
     with open_recording(run_dir / "annotations.mcap") as rec:
         types = {t.topic: t.msgtype for t in rec.topics()}
         assert types["/slt/annotations"] == "foxglove.ImageAnnotations"
-        assert types["/slt/lane_parameters"] == "google.protobuf.Struct"
+        assert types["/slt/lane_parameters"] == "slt.LaneParameters"  # JSON with a JSON schema
         n = sum(1 for _ in rec.raw_messages(topics=["/slt/annotations"]))
+        params = [m.data for m in rec.messages(topics=["/slt/lane_parameters"])]
     assert n == 60
+    assert len(params) == 60
+    assert any(isinstance(p.curvature_per_m, float) for p in params)
+    assert all(isinstance(p.quality, float) for p in params)
 
 
 def test_curvature_sign_and_scale_match_ground_truth(run_dir: Path, drive: Path) -> None:

@@ -15,6 +15,7 @@ from superlane_tools.pipeline._images import jpeg_size, raw_pixels, sniff_format
 from superlane_tools.pipeline.extract import ExtractConfig, select_streams
 from superlane_tools.pipeline.reprocess.config import ReprocessConfig
 from superlane_tools.recording.base import Recording, field_value
+from superlane_tools.recording.video import DECODED_MSGTYPE, decoded_image
 from superlane_tools.records import Message, TopicInfo
 
 TF_TYPES = frozenset({"tf2_msgs/msg/TFMessage"})
@@ -127,14 +128,24 @@ def _tf_extrinsics(rec: Recording, topic: str, frame_id: str) -> Extrinsics | No
     return None
 
 
+def camera_sidecar(path: Path) -> Path:
+    """Return where ``--camera auto`` looks for a profile beside a recording.
+
+    ``drive.mcap`` -> ``drive.camera.yaml`` (a ROS 2 bag folder ``drive/`` -> ``drive.camera.yaml``
+    next to it), as written by ``slt camera estimate -o``.
+    """
+    return path.parent / f"{path.name.removesuffix(path.suffix) or path.name}.camera.yaml"
+
+
 def resolve_camera(
     rec: Recording, path: Path, streams: Streams, camera: str
 ) -> tuple[CameraModel, str]:
     """Return the camera and a sentence saying where it came from.
 
     ``auto`` takes the intrinsics from the first CameraInfo and the extrinsics from the MCAP
-    ``slt_camera`` metadata record or from ``/tf_static``; anything else is a profile name or
-    a camera YAML file.
+    ``slt_camera`` metadata record or from ``/tf_static``; then a profile beside the recording
+    (:func:`camera_sidecar`, e.g. from ``slt camera estimate``); anything else is a profile name
+    or a camera YAML file.
 
     Raises:
         UsageError: If ``auto`` finds no calibration or no extrinsics.
@@ -145,10 +156,15 @@ def resolve_camera(
 
     if camera != "auto":
         return load_camera(camera), f"camera profile {camera}"
+    sidecar = camera_sidecar(path)
+    hint = (
+        f"pass --camera PROFILE|YAML, or make a profile with `slt camera calibrate` (chessboard "
+        f"photos) and `slt camera estimate` (this recording) saved as {sidecar.name}"
+    )
     if not streams.camera_info:
-        raise UsageError(
-            f"{path.name}: no CameraInfo topic for --camera auto; pass --camera PROFILE|YAML"
-        )
+        if sidecar.is_file():
+            return load_camera(sidecar), f"camera profile {sidecar.name} beside the recording"
+        raise UsageError(f"{path.name}: no CameraInfo topic for --camera auto; {hint}")
     info = next(iter(rec.messages(topics=[streams.camera_info])), None)
     if info is None:
         raise UsageError(f"{path.name}: {streams.camera_info} has no messages; pass --camera")
@@ -161,9 +177,11 @@ def resolve_camera(
         extr = _tf_extrinsics(rec, streams.tf, frame_id)
         source = f"{streams.tf} ({frame_id})"
     if extr is None:
+        if sidecar.is_file():
+            return load_camera(sidecar), f"camera profile {sidecar.name} beside the recording"
         raise UsageError(
             f"{path.name}: CameraInfo has no extrinsics and the recording holds neither an "
-            "slt_camera metadata record nor a /tf_static camera transform; pass --camera"
+            f"slt_camera metadata record nor a /tf_static camera transform; {hint}"
         )
     cam = from_camera_info(
         int(field_value(data, "width") or 0),
@@ -186,6 +204,8 @@ def decode_frame(msg: Message) -> NDArray[np.uint8]:
     import cv2
 
     data = msg.data
+    if msg.msgtype == DECODED_MSGTYPE:  # video, decoded in order by recording.video
+        return decoded_image(msg)
     if msg.msgtype in RAW_TYPES:
         pixels = raw_pixels(
             data.data,
@@ -239,7 +259,7 @@ def decode_reduced(
         recorded ``(width, height)``; None when the frame is not a JPEG, is not reducible for
         this target, or cannot be decoded this way (decode it with :func:`decode_frame`).
     """
-    if target_width <= 0 or msg.msgtype in RAW_TYPES:
+    if target_width <= 0 or msg.msgtype in RAW_TYPES or msg.msgtype == DECODED_MSGTYPE:
         return None
     payload = bytes(msg.data.data)
     if sniff_format(payload) != "jpeg":

@@ -37,6 +37,7 @@ from superlane_tools.pipeline.reprocess.lane_tracker import COV_INDEX, COV_KEYS
 from superlane_tools.pipeline.reprocess.signals import CanFrames, ImuSamples
 from superlane_tools.pipeline.reprocess.stages import Finished, FrameStages, Prepared
 from superlane_tools.recording.open import open_recording
+from superlane_tools.recording.video import decode_video
 from superlane_tools.records import Skipped
 from superlane_tools.reporting import ParquetStreamWriter, Provenance, input_identity
 from superlane_tools.reporting.plots import ExampleFrame
@@ -311,7 +312,7 @@ def reprocess(
 
             topics = [t for t in (streams.frames, streams.gnss, *can_topics, *imu_topics) if t]
             index = 0
-            for msg in rec.messages(topics=topics):
+            for msg in decode_video(rec.messages(topics=topics)):
                 if msg.topic == streams.frames:
                     pending.append(pool.submit(stages.prepare, index, msg))
                     index += 1

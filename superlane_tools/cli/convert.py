@@ -1,0 +1,114 @@
+"""`slt convert`: a dashcam video and GNSS/CAN/signal logs into one MCAP recording."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from superlane_tools.cli._common import EXIT_CODES_HELP, cli_errors, command_line, err_console
+from superlane_tools.errors import UsageError
+
+_KINDS = ("video", "nmea", "gpx", "can", "csv")
+
+
+def _per_file(values: list[str] | None, option: str) -> dict[str, str]:
+    """Parse repeated ``NAME=VALUE`` options (NAME: a file name or path given as INPUT)."""
+    out: dict[str, str] = {}
+    for value in values or []:
+        name, sep, rest = value.partition("=")
+        if not sep or not name or not rest:
+            raise UsageError(f"{option} takes FILE=VALUE, got {value!r}")
+        out[name] = rest
+    return out
+
+
+def convert_cmd(
+    inputs: Annotated[
+        list[Path],
+        typer.Argument(
+            help="Video (.mp4/.mkv), NMEA log, .gpx, CAN log (candump/.asc/.blf), .csv.",
+            show_default=False,
+        ),
+    ],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Output .mcap file (must not exist).")],
+    offset: Annotated[
+        list[str] | None,
+        typer.Option(
+            metavar="FILE=SECONDS",
+            help="Add SECONDS to FILE's times to align it (repeatable); default: a shared clock.",
+        ),
+    ] = None,
+    kind: Annotated[
+        list[str] | None,
+        typer.Option(
+            metavar="FILE=KIND",
+            help="What FILE holds when its name does not say: video, nmea, gpx, can or csv.",
+        ),
+    ] = None,
+    video_start: Annotated[
+        str | None,
+        typer.Option(
+            metavar="TIME",
+            help="Time of the first video frame (ISO 8601 or epoch ns); "
+            "default: the container's creation_time, else 0.",
+        ),
+    ] = None,
+    fps: Annotated[
+        float | None,
+        typer.Option(
+            help="Frame times from this rate (start + i/fps), not the container.", min=0.1
+        ),
+    ] = None,
+    camera: Annotated[
+        str | None,
+        typer.Option(
+            metavar="PROFILE",
+            help="Camera profile/YAML of the video: adds CameraInfo and the slt_camera record.",
+        ),
+    ] = None,
+) -> None:
+    """Convert a video and side logs, or any log alone, into one MCAP for slt and Foxglove."""
+    from superlane_tools.recording.convert import ConvertConfig, ConvertInput, convert
+
+    with cli_errors():
+        offsets = _per_file(offset, "--offset")
+        kinds = _per_file(kind, "--kind")
+        known = {p.name for p in inputs} | {str(p) for p in inputs}
+        for name in (*offsets, *kinds):
+            if name not in known:
+                raise UsageError(f"{name} is not one of the INPUT files")
+        items = []
+        for path in inputs:
+            k = kinds.get(str(path), kinds.get(path.name))
+            if k is not None and k not in _KINDS:
+                raise UsageError(f"--kind must be one of {', '.join(_KINDS)}, got {k!r}")
+            text = offsets.get(str(path), offsets.get(path.name, "0"))
+            try:
+                seconds = float(text)
+            except ValueError as err:
+                raise UsageError(f"--offset {path.name}: {text!r} is not seconds") from err
+            items.append(ConvertInput(path, k, seconds))  # type: ignore[arg-type]
+        result = convert(
+            items, out, ConvertConfig(video_start, fps, camera=camera), command=command_line()
+        )
+    for topic, count in sorted(result.counts.items()):
+        err_console.print(f"{topic}: {count} messages", markup=False)
+    for note in result.notes:
+        err_console.print(f"note: {note}", markup=False)
+    err_console.print(f"time alignment: {result.alignment.get('clock', '')}", markup=False)
+    err_console.print(f"wrote {result.path}", markup=False)
+
+
+def register(app: typer.Typer) -> None:
+    """Add ``slt convert`` to the root app."""
+    app.command(
+        "convert",
+        help=(
+            "Convert an MP4/MKV video with optional NMEA/GPX GNSS, CAN (candump/ASC/BLF) and "
+            "CSV signal logs, or any of those logs alone, into one MCAP (ROS 2 CDR: "
+            "foxglove_msgs/CompressedVideo, NavSatFix, can_msgs/Frame, std_msgs/Float64). The "
+            f"time alignment is written to the slt_convert metadata record.\n\n{EXIT_CODES_HELP}"
+        ),
+    )(convert_cmd)

@@ -1,0 +1,109 @@
+"""`slt cat` and `slt filter`: look at decoded messages, write a trimmed MCAP."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from superlane_tools.cli._common import (
+    EXIT_CODES_HELP,
+    cli_errors,
+    err_console,
+    exit_with,
+    report_skipped,
+)
+
+TIME_HELP = "seconds after the first message (12.5), ISO 8601 (2018-08-02T15:34:47Z) or epoch ns"
+
+
+def cat_cmd(
+    recording: Annotated[
+        Path,
+        typer.Argument(
+            help="MCAP file, ROS 1 .bag, ROS 2 bag folder, CAN log or NMEA log.",
+            show_default=False,
+        ),
+    ],
+    topics: Annotated[
+        str | None,
+        typer.Option("--topics", "-t", metavar="REGEX", help="Only topics matching REGEX."),
+    ] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="One JSON object per line.")] = False,
+    start: Annotated[str | None, typer.Option(metavar="TIME", help=f"Start: {TIME_HELP}.")] = None,
+    end: Annotated[
+        str | None, typer.Option(metavar="TIME", help=f"End (exclusive): {TIME_HELP}.")
+    ] = None,
+    limit: Annotated[
+        int | None, typer.Option("--limit", "-n", help="Stop after N messages.", min=1)
+    ] = None,
+    full_bytes: Annotated[
+        bool, typer.Option(help="Print whole byte arrays (base64), not just their length.")
+    ] = False,
+) -> None:
+    """Print decoded messages, one per line, in log-time order."""
+    from superlane_tools.recording import open_recording
+    from superlane_tools.recording.times import format_utc
+    from superlane_tools.recording.tools import cat_messages, message_record
+
+    with cli_errors(), open_recording(recording) as rec:
+        for count, msg in enumerate(cat_messages(rec, topics, start, end), start=1):
+            record = message_record(msg, full_bytes)
+            if as_json:
+                typer.echo(json.dumps(record, separators=(",", ":")))
+            else:
+                data = json.dumps(record["data"], separators=(",", ":"))
+                typer.echo(f"{format_utc(msg.log_time_ns)} {msg.topic} [{msg.msgtype}] {data}")
+            if limit is not None and count >= limit:
+                break
+        skipped = list(rec.skipped)
+    exit_with(report_skipped(skipped))
+
+
+def filter_cmd(
+    recording: Annotated[Path, typer.Argument(help="MCAP file.", show_default=False)],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Output MCAP (must not exist).")],
+    topics: Annotated[
+        str | None,
+        typer.Option("--topics", "-t", metavar="REGEX", help="Keep topics matching REGEX."),
+    ] = None,
+    exclude: Annotated[
+        str | None, typer.Option(metavar="REGEX", help="Drop topics matching REGEX.")
+    ] = None,
+    start: Annotated[str | None, typer.Option(metavar="TIME", help=f"Start: {TIME_HELP}.")] = None,
+    end: Annotated[
+        str | None, typer.Option(metavar="TIME", help=f"End (exclusive): {TIME_HELP}.")
+    ] = None,
+) -> None:
+    """Write a trimmed copy of an MCAP: schemas, channel metadata, metadata, attachments kept."""
+    from superlane_tools.recording.tools import filter_mcap
+
+    with cli_errors():
+        result = filter_mcap(recording, out, topics, exclude, start, end)
+    for topic, count in sorted(result.counts.items()):
+        err_console.print(f"{topic}: {count} messages", markup=False)
+    err_console.print(
+        f"wrote {result.path} ({result.metadata} metadata records, "
+        f"{result.attachments} attachments)",
+        markup=False,
+    )
+
+
+def register(app: typer.Typer) -> None:
+    """Add ``slt cat`` and ``slt filter`` to the root app."""
+    app.command(
+        "cat",
+        help=(
+            "Print a recording's decoded messages, one per line (--json: JSON lines), "
+            f"optionally only some topics and a time range.\n\n{EXIT_CODES_HELP}"
+        ),
+    )(cat_cmd)
+    app.command(
+        "filter",
+        help=(
+            "Write a trimmed MCAP: topics by regular expression, a time range; written "
+            f"atomically.\n\n{EXIT_CODES_HELP}"
+        ),
+    )(filter_cmd)

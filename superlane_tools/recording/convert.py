@@ -1,0 +1,434 @@
+"""Turn what engineers have (a dashcam video, GNSS/CAN/signal logs) into one MCAP recording.
+
+Inputs and what they become (ROS 2 CDR in MCAP, which ``slt`` and Foxglove both read):
+
+- MP4/MKV/MOV/AVI video -> ``foxglove_msgs/msg/CompressedVideo`` on ``/camera/video``. H.264 and
+  H.265 packets are copied (turned into Annex B by FFmpeg's ``*_mp4toannexb`` filters); a stream
+  with B-frames, or another codec, is re-encoded to H.264, since ``CompressedVideo`` has no
+  B-frames. Frame times come from the container (``pts``) or from a start time plus ``fps``.
+- NMEA 0183 (GGA/RMC) and GPX (``gpxpy``) -> ``sensor_msgs/msg/NavSatFix`` on ``/gnss/fix``.
+- candump / ASC / BLF / TRC CAN logs (python-can) -> ``can_msgs/msg/Frame`` on ``/can/<channel>``.
+- CSV with a time column and numeric columns -> ``std_msgs/msg/Float64`` per column on
+  ``/signals/<column>`` (plottable in Foxglove).
+
+Time alignment is explicit: every input's own clock plus its ``offset`` (seconds) gives the
+recording's time; the chosen alignment is written to the ``slt_convert`` metadata record.
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+import re
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+
+from superlane_tools.recording import messages as msgs
+from superlane_tools.recording.errors import RecordingError
+from superlane_tools.recording.times import format_utc, parse_time
+from superlane_tools.recording.typestore import COMPRESSED_VIDEO_MSGTYPE
+
+InputKind = Literal["video", "nmea", "gpx", "can", "csv"]
+VIDEO_SUFFIXES = frozenset({".mp4", ".mkv", ".mov", ".avi", ".webm", ".m4v", ".h264", ".h265"})
+CAN_SUFFIXES = frozenset({".asc", ".blf", ".trc", ".candump"})
+METADATA_NAME = "slt_convert"
+VIDEO_TOPIC = "/camera/video"
+CAMERA_INFO_TOPIC = "/camera/camera_info"
+CAMERA_FRAME = "camera"
+FIX_TOPIC = "/gnss/fix"
+_NS = 1_000_000_000
+_TIME_COLUMNS = ("time_ns", "t_ns", "timestamp_ns", "time", "t", "timestamp", "time_s", "t_s")
+_SAFE = re.compile(r"[^A-Za-z0-9_]+")
+
+
+@dataclass(frozen=True)
+class ConvertInput:
+    """One input file.
+
+    Attributes:
+        path: The file.
+        kind: ``video``, ``nmea``, ``gpx``, ``can`` or ``csv`` (None: from the name/content).
+        offset_s: Seconds added to this file's times to put them on the recording's clock.
+    """
+
+    path: Path
+    kind: InputKind | None = None
+    offset_s: float = 0.0
+
+
+@dataclass(frozen=True)
+class ConvertConfig:
+    """How to convert.
+
+    Attributes:
+        video_start: Time of the video's first frame (``parse_time`` syntax, absolute); None:
+            the container's ``creation_time``, else the Unix epoch (the times then only say
+            seconds into the video).
+        fps: Frame rate for frame times ``start + i / fps``; None: the container's times.
+        reencode_crf: CRF of the H.264 re-encode (used only when packets cannot be copied).
+        camera: Camera profile name or YAML of the video's camera; when given, every frame gets
+            a ``sensor_msgs/msg/CameraInfo`` (intrinsics scaled to the video size) and the file
+            an ``slt_camera`` metadata record (extrinsics), so ``--camera auto`` finds both.
+    """
+
+    video_start: str | None = None
+    fps: float | None = None
+    reencode_crf: int = 20
+    camera: str | None = None
+
+
+@dataclass
+class ConvertResult:
+    """What was written: message counts per topic, the alignment, and notes."""
+
+    path: Path
+    counts: dict[str, int] = field(default_factory=dict)
+    alignment: dict[str, str] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+
+
+def input_kind(path: Path) -> InputKind:
+    """Return what a file holds, from its suffix (and content for text logs).
+
+    Raises:
+        RecordingError: If it is none of the convertible kinds.
+    """
+    suffix = path.suffix.lower()
+    if suffix in VIDEO_SUFFIXES:
+        return "video"
+    if suffix == ".gpx":
+        return "gpx"
+    if suffix == ".csv":
+        return "csv"
+    if suffix in CAN_SUFFIXES:
+        return "can"
+    if suffix in {".nmea", ".log", ".txt", ""}:
+        from superlane_tools.recording.canlog_source import looks_like_canlog
+        from superlane_tools.recording.nmea_source import looks_like_nmea
+
+        if looks_like_nmea(path):
+            return "nmea"
+        if looks_like_canlog(path):
+            return "can"
+    raise RecordingError(
+        f"{path.name}: cannot tell what this file is (video .mp4/.mkv, NMEA, .gpx, "
+        "candump/.asc/.blf CAN log, .csv); name the kind with --kind"
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# Each source yields (time_ns, topic, msgtype, message) in time order.
+Item = tuple[int, str, str, Any]
+
+
+def _video_items(
+    path: Path, config: ConvertConfig, offset_ns: int, result: ConvertResult
+) -> Iterator[Item]:
+    import av
+
+    try:
+        container = av.open(str(path))
+    except (av.FFmpegError, OSError) as err:
+        raise RecordingError(f"{path.name}: cannot open the video: {err}") from err
+    with container:
+        if not container.streams.video:
+            raise RecordingError(f"{path.name}: has no video stream")
+        stream = container.streams.video[0]
+        start_ns, source = _video_start(container, config)
+        result.alignment[f"{path.name}.start"] = f"{format_utc(start_ns + offset_ns)} ({source})"
+        codec = stream.codec_context.name
+        fmt = {"h264": "h264", "hevc": "h265"}.get(codec)
+        copy = fmt is not None and not _has_reordering(path)
+        result.notes.append(
+            f"{path.name}: {codec} packets copied"
+            if copy
+            else f"{path.name}: {codec} re-encoded to H.264 (B-frames or codec not streamable)"
+        )
+        tb = stream.time_base
+        size = (int(stream.codec_context.width), int(stream.codec_context.height))
+        index = 0
+        first_pts: int | None = None
+
+        def frame_time(pts: int | None) -> int:
+            nonlocal first_pts
+            if config.fps is not None or pts is None or tb is None:
+                rate = config.fps or float(stream.average_rate or 30)
+                return start_ns + offset_ns + round(index * _NS / rate)
+            if first_pts is None:
+                first_pts = pts
+            return start_ns + offset_ns + round(float((pts - first_pts) * tb) * _NS)
+
+        if copy:
+            assert fmt is not None
+            bsf = av.bitstream.BitStreamFilterContext(f"{codec}_mp4toannexb", stream)
+            for packet in container.demux(stream):
+                for out in bsf.filter(packet if packet.size else None):
+                    t = frame_time(out.pts)
+                    index += 1
+                    yield t, VIDEO_TOPIC, COMPRESSED_VIDEO_MSGTYPE, (fmt, bytes(out), size)
+            return
+        from superlane_tools.recording.video import VideoEncoder
+
+        encoder: VideoEncoder | None = None
+        for frame in container.decode(stream):
+            image: np.ndarray = frame.to_ndarray(format="bgr24")
+            height, width = image.shape[:2]
+            if encoder is None:
+                rate = config.fps or float(stream.average_rate or 30)
+                encoder = VideoEncoder(
+                    "h264", width - width % 2, height - height % 2, rate, config.reencode_crf,
+                    max(1, round(rate)),
+                )  # fmt: skip
+            t = frame_time(frame.pts)
+            index += 1
+            unit = encoder.encode(image[: height - height % 2, : width - width % 2])
+            yield t, VIDEO_TOPIC, COMPRESSED_VIDEO_MSGTYPE, ("h264", unit, encoder.size)
+
+
+def _camera_info(camera: Any, t_ns: int, size: tuple[int, int]) -> Any:
+    k = camera.intrinsics
+    if (k.width, k.height) != size:
+        k = k.scaled(*size)
+    return msgs.camera_info(t_ns, CAMERA_FRAME, k.width, k.height, k.matrix, list(k.dist))
+
+
+def _camera_metadata(camera: Any) -> dict[str, str]:
+    """The ``slt_camera`` record ``--camera auto`` reads the extrinsics from."""
+    e = camera.extrinsics
+    return {
+        "name": str(camera.name),
+        "child_frame": CAMERA_FRAME,
+        "height_m": repr(e.height_m),
+        "pitch_rad": repr(e.pitch_rad),
+        "roll_rad": repr(e.roll_rad),
+        "yaw_rad": repr(e.yaw_rad),
+        "x_m": repr(e.x_m),
+        "y_m": repr(e.y_m),
+    }
+
+
+def _has_reordering(path: Path) -> bool:
+    """Return True when packets come out of presentation order (B-frames)."""
+    import av
+
+    with av.open(str(path)) as container:
+        stream = container.streams.video[0]
+        last = None
+        for packet in container.demux(stream):
+            if packet.pts is None:
+                continue
+            if last is not None and packet.pts < last:
+                return True
+            last = packet.pts
+    return False
+
+
+def _video_start(container: Any, config: ConvertConfig) -> tuple[int, str]:
+    if config.video_start is not None:
+        spec = parse_time(config.video_start, "--video-start")
+        if not spec.absolute:
+            raise RecordingError("--video-start must be an absolute time (ISO 8601 or epoch ns)")
+        return spec.ns, "--video-start"
+    created = container.metadata.get("creation_time")
+    if created:
+        try:
+            return parse_time(str(created)).ns, "container creation_time"
+        except Exception:  # an unreadable tag: fall back to the epoch
+            pass
+    return 0, "no start time known: seconds into the video"
+
+
+def _fix_items(path: Path, offset_ns: int) -> Iterator[Item]:
+    from superlane_tools.recording.nmea_source import NmeaRecording
+
+    with NmeaRecording(path) as rec:
+        for m in rec.messages():
+            d = m.data
+            cov = d.position_covariance if d.position_covariance_type else None
+            fix = msgs.navsatfix(
+                m.log_time_ns + offset_ns,
+                "gnss",
+                d.latitude,
+                d.longitude,
+                0.0 if math.isnan(d.altitude) else d.altitude,
+                d.status.status,
+                cov,
+            )
+            yield m.log_time_ns + offset_ns, FIX_TOPIC, "sensor_msgs/msg/NavSatFix", fix
+
+
+def _gpx_items(path: Path, offset_ns: int) -> Iterator[Item]:
+    import gpxpy
+
+    try:
+        with path.open(encoding="utf-8") as handle:
+            gpx = gpxpy.parse(handle)
+    except Exception as err:  # gpxpy raises its own and XML errors
+        raise RecordingError(f"{path.name}: not a readable GPX file: {err}") from err
+    points: list[Any] = [p for track in gpx.tracks for seg in track.segments for p in seg.points]
+    points += list(gpx.waypoints) + [p for route in gpx.routes for p in route.points]
+    timed = sorted((p for p in points if p.time is not None), key=lambda p: p.time)
+    if not timed:
+        raise RecordingError(f"{path.name}: no GPX point has a time")
+    for p in timed:
+        t = parse_time(p.time.isoformat()).ns + offset_ns
+        alt = float(p.elevation) if p.elevation is not None else 0.0
+        fix = msgs.navsatfix(t, "gnss", p.latitude, p.longitude, alt, 0)
+        yield t, FIX_TOPIC, "sensor_msgs/msg/NavSatFix", fix
+
+
+def _can_items(path: Path, offset_ns: int, result: ConvertResult) -> Iterator[Item]:
+    from superlane_tools.recording.canlog_source import CanLogRecording
+
+    with CanLogRecording(path) as rec:
+        for m in rec.messages():
+            f = m.data
+            if f.is_error or f.is_rtr or len(f.data) > 8:
+                result.notes.append(f"{path.name}: error/RTR/CAN FD frames are not written")
+                continue
+            topic = "/can/" + (_SAFE.sub("_", m.topic).strip("_") or "raw")
+            t = m.log_time_ns + offset_ns
+            yield t, topic, "can_msgs/msg/Frame", msgs.can_frame(t, f.id, f.data, f.is_extended)
+
+
+def _csv_items(path: Path, offset_ns: int) -> Iterator[Item]:
+    import pandas as pd
+
+    try:
+        table = pd.read_csv(path)
+    except Exception as err:  # pandas parser errors
+        raise RecordingError(f"{path.name}: not a readable CSV: {err}") from err
+    lower = {str(c).strip().lower(): c for c in table.columns}
+    time_col = next((lower[n] for n in _TIME_COLUMNS if n in lower), None)
+    if time_col is None:
+        raise RecordingError(
+            f"{path.name}: no time column (one of {', '.join(_TIME_COLUMNS)}) in the CSV"
+        )
+    times = _csv_times(table[time_col], str(time_col))
+    cls = _float64_cls()
+    columns = [
+        c for c in table.columns if c != time_col and pd.api.types.is_numeric_dtype(table[c])
+    ]
+    if not columns:
+        raise RecordingError(f"{path.name}: no numeric signal columns besides {time_col}")
+    for row in range(len(table)):
+        t = int(times[row]) + offset_ns
+        for c in columns:
+            value = float(table[c].iloc[row])
+            if math.isfinite(value):
+                topic = "/signals/" + (_SAFE.sub("_", str(c)).strip("_") or "value")
+                yield t, topic, "std_msgs/msg/Float64", cls(data=value)
+
+
+def _csv_times(column: Any, name: str) -> Any:
+    import pandas as pd
+
+    if pd.api.types.is_numeric_dtype(column):
+        values = column.to_numpy(dtype=np.float64)
+        if name.lower().endswith("_ns") or (len(values) and np.nanmedian(values) > 1e15):
+            return values.astype(np.int64)
+        return np.round(values * _NS).astype(np.int64)
+    return np.array([parse_time(str(v), name).ns for v in column], dtype=np.int64)
+
+
+def _float64_cls() -> Any:
+    from superlane_tools.recording.typestore import default_typestore
+
+    return default_typestore().types["std_msgs/msg/Float64"]
+
+
+def convert(
+    inputs: Sequence[ConvertInput],
+    out: str | Path,
+    config: ConvertConfig | None = None,
+    command: str = "",
+) -> ConvertResult:
+    """Convert the inputs into one new MCAP file, written atomically.
+
+    Args:
+        inputs: The files; at most one video.
+        out: Output ``.mcap`` path (must not exist).
+        config: Video timing options.
+        command: Command line for the metadata record.
+
+    Returns:
+        Counts per topic, the time alignment and notes.
+
+    Raises:
+        RecordingError: For unreadable inputs, two videos, or an existing output.
+    """
+    from superlane_tools.recording.writers import open_writer
+
+    cfg = config or ConvertConfig()
+    if not inputs:
+        raise RecordingError("nothing to convert: pass at least one input file")
+    result = ConvertResult(Path(out))
+    sources: list[Iterator[Item]] = []
+    kinds = []
+    for item in inputs:
+        if not item.path.is_file():
+            raise RecordingError(f"input not found: {item.path}")
+        kind = item.kind or input_kind(item.path)
+        kinds.append(kind)
+        offset_ns = round(item.offset_s * _NS)
+        result.alignment[f"{item.path.name}.kind"] = kind
+        result.alignment[f"{item.path.name}.offset_ns"] = str(offset_ns)
+        if kind == "video":
+            sources.append(_video_items(item.path, cfg, offset_ns, result))
+        elif kind == "nmea":
+            sources.append(_fix_items(item.path, offset_ns))
+        elif kind == "gpx":
+            sources.append(_gpx_items(item.path, offset_ns))
+        elif kind == "can":
+            sources.append(_can_items(item.path, offset_ns, result))
+        else:
+            sources.append(_csv_items(item.path, offset_ns))
+    if kinds.count("video") > 1:
+        raise RecordingError("one video per recording: convert each video on its own")
+    result.alignment["clock"] = (
+        "shared clock (no offsets)"
+        if all(i.offset_s == 0 for i in inputs)
+        else "each input's clock plus its --offset"
+    )
+    camera = None
+    if cfg.camera is not None:
+        from superlane_tools.camera import load_camera
+
+        if "video" not in kinds:
+            raise RecordingError("--camera describes a video's camera: give a video input")
+        camera = load_camera(cfg.camera)
+    topics: dict[str, str] = {}
+    with open_writer(out, "mcap", compression="none" if "video" in kinds else "zstd") as writer:
+        for t, topic, msgtype, payload in heapq.merge(*sources, key=lambda x: x[0]):
+            if topic not in topics:
+                writer.add_topic(topic, msgtype)
+                topics[topic] = msgtype
+            message = payload
+            if msgtype == COMPRESSED_VIDEO_MSGTYPE:
+                message = msgs.compressed_video(t, CAMERA_FRAME, payload[0], payload[1])
+                if camera is not None:
+                    info = _camera_info(camera, t, payload[2])
+                    if CAMERA_INFO_TOPIC not in topics:
+                        writer.add_topic(CAMERA_INFO_TOPIC, "sensor_msgs/msg/CameraInfo")
+                        topics[CAMERA_INFO_TOPIC] = "sensor_msgs/msg/CameraInfo"
+                        writer.add_metadata("slt_camera", _camera_metadata(camera))
+                    writer.write(CAMERA_INFO_TOPIC, t, info)
+                    result.counts[CAMERA_INFO_TOPIC] = result.counts.get(CAMERA_INFO_TOPIC, 0) + 1
+            writer.write(topic, t, message)
+            result.counts[topic] = result.counts.get(topic, 0) + 1
+        if not topics:
+            raise RecordingError("the inputs hold no messages to write")
+        writer.add_metadata(
+            METADATA_NAME,
+            {
+                "command": command,
+                **result.alignment,
+                "notes": "; ".join(dict.fromkeys(result.notes)),
+            },
+        )
+    result.notes = list(dict.fromkeys(result.notes))
+    return result

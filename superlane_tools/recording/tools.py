@@ -1,0 +1,270 @@
+"""``slt cat`` and ``slt filter``: decoded messages as JSON lines, and trimmed MCAP copies."""
+
+from __future__ import annotations
+
+import base64
+import re
+from collections.abc import Iterator
+from dataclasses import dataclass, fields, is_dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from superlane_tools.errors import UsageError
+from superlane_tools.recording.base import Recording
+from superlane_tools.recording.errors import RecordingError
+from superlane_tools.recording.times import parse_time
+from superlane_tools.records import Message
+
+MAX_INLINE_BYTES = 64
+"""Byte arrays longer than this are shown as their length (``--full-bytes`` shows them)."""
+
+
+def topic_matcher(include: str | None, exclude: str | None) -> Any:
+    """Return ``f(topic) -> bool`` for ``--topics`` / ``--exclude`` regular expressions.
+
+    Raises:
+        UsageError: For an invalid regular expression.
+    """
+    try:
+        inc = re.compile(include) if include else None
+        exc = re.compile(exclude) if exclude else None
+    except re.error as err:
+        raise UsageError(f"invalid topic regular expression: {err}") from err
+
+    def match(topic: str) -> bool:
+        return (inc is None or inc.search(topic) is not None) and (
+            exc is None or exc.search(topic) is None
+        )
+
+    return match
+
+
+def time_range(
+    first_ns: int | None, start: str | None, end: str | None
+) -> tuple[int | None, int | None]:
+    """Resolve ``--start`` / ``--end`` (``parse_time`` syntax) to absolute ns, ``[start, end)``.
+
+    Raises:
+        UsageError: For unreadable times or an end before the start.
+    """
+    base = first_ns or 0
+    start_ns = parse_time(start, "--start").resolve(base) if start else None
+    end_ns = parse_time(end, "--end").resolve(base) if end else None
+    if start_ns is not None and end_ns is not None and end_ns <= start_ns:
+        raise UsageError("--end must be after --start")
+    return start_ns, end_ns
+
+
+def to_plain(value: Any, full_bytes: bool = False, depth: int = 0) -> Any:
+    """Turn a decoded message (any source's objects) into JSON-ready data.
+
+    Byte arrays become ``{"bytes": N}`` (or base64 with ``full_bytes``); numeric arrays become
+    lists; nested messages become mappings of their fields.
+    """
+    if depth > 32:
+        return repr(value)
+    if value is None or isinstance(value, bool | int | str):
+        return value
+    if isinstance(value, float):
+        return value if np.isfinite(value) else str(value)
+    if isinstance(value, bytes | bytearray | memoryview):
+        return _bytes(bytes(value), full_bytes)
+    if isinstance(value, np.ndarray):
+        if value.dtype == np.uint8 and value.ndim == 1:
+            return _bytes(value.tobytes(), full_bytes)
+        return [to_plain(v, full_bytes, depth + 1) for v in value.tolist()]
+    if isinstance(value, np.generic):
+        return to_plain(value.item(), full_bytes, depth + 1)
+    if isinstance(value, list | tuple) and not hasattr(value, "_fields"):
+        return [to_plain(v, full_bytes, depth + 1) for v in value]
+    if isinstance(value, dict):
+        return {str(k): to_plain(v, full_bytes, depth + 1) for k, v in value.items()}
+    names = _field_names(value)
+    if names is None:
+        return repr(value)
+    return {n: to_plain(getattr(value, n, None), full_bytes, depth + 1) for n in names}
+
+
+def _bytes(data: bytes, full: bool) -> Any:
+    if full or len(data) <= MAX_INLINE_BYTES:
+        return {"base64": base64.b64encode(data).decode("ascii")} if full else data.hex()
+    return {"bytes": len(data)}
+
+
+def _field_names(value: Any) -> list[str] | None:
+    if hasattr(value, "_fields"):  # NamedTuple
+        return list(value._fields)
+    if is_dataclass(value):
+        return [f.name for f in fields(value) if not _is_constant(type(value), f.name)]
+    descriptor = getattr(value, "DESCRIPTOR", None)
+    if descriptor is not None and hasattr(descriptor, "fields"):  # protobuf
+        return [f.name for f in descriptor.fields]
+    slots = getattr(type(value), "__slots__", None)
+    if slots:
+        return [s for s in slots if not s.startswith("_") and not _is_constant(type(value), s)]
+    if hasattr(value, "__dict__"):
+        return [k for k in vars(value) if not k.startswith("_")]
+    return None
+
+
+def _is_constant(cls: type, name: str) -> bool:
+    """Return True for a message type's constant (a plain class attribute, not a field)."""
+    attr = getattr(cls, name, None)
+    return attr is not None and not hasattr(attr, "__get__")
+
+
+def message_record(msg: Message, full_bytes: bool = False) -> dict[str, Any]:
+    """Return one message as a JSON-ready mapping."""
+    return {
+        "topic": msg.topic,
+        "log_time_ns": msg.log_time_ns,
+        "stamp_ns": msg.stamp_ns,
+        "msgtype": msg.msgtype,
+        "data": to_plain(msg.data, full_bytes),
+    }
+
+
+def first_log_time(rec: Recording) -> int | None:
+    """Return the earliest log time (ns) of a recording (reads the first message)."""
+    first = next(iter(rec.raw_messages()), None)
+    return first.log_time_ns if first is not None else None
+
+
+def cat_messages(
+    rec: Recording,
+    topics: str | None = None,
+    start: str | None = None,
+    end: str | None = None,
+) -> Iterator[Message]:
+    """Yield the decoded messages of matching topics in ``[start, end)``."""
+    match = topic_matcher(topics, None)
+    names = [t.topic for t in rec.topics() if match(t.topic)]
+    if not names:
+        known = ", ".join(t.topic for t in rec.topics()) or "none"
+        raise UsageError(f"no topic matches {topics!r} (topics: {known})")
+    start_ns, end_ns = time_range(first_log_time(rec) if start or end else None, start, end)
+    return rec.messages(topics=names, start_ns=start_ns, stop_ns=end_ns)
+
+
+class McapCopier:
+    """Copies messages from an MCAP reader into an MCAP writer, byte for byte.
+
+    Schemas and channels (with their metadata) are registered in the writer the first time a
+    message of theirs is copied.
+    """
+
+    def __init__(self, writer: Any) -> None:
+        self._writer = writer
+        self._schemas: dict[int, int] = {}
+        self._channels: dict[int, int] = {}
+
+    def add(self, schema: Any, channel: Any, message: Any) -> None:
+        """Copy one ``(schema, channel, message)`` as the mcap reader yields them."""
+        cid = self._channels.get(channel.id)
+        if cid is None:
+            sid = 0
+            if schema is not None:
+                if schema.id not in self._schemas:
+                    self._schemas[schema.id] = self._writer.register_schema(
+                        schema.name, schema.encoding, schema.data
+                    )
+                sid = self._schemas[schema.id]
+            cid = self._writer.register_channel(
+                channel.topic, channel.message_encoding, sid, dict(channel.metadata)
+            )
+            self._channels[channel.id] = cid
+        self._writer.add_message(
+            cid, message.log_time, message.data, message.publish_time, message.sequence
+        )
+
+
+@dataclass(frozen=True)
+class FilterResult:
+    """What ``filter_mcap`` wrote: messages per topic, metadata and attachments kept."""
+
+    path: Path
+    counts: dict[str, int]
+    metadata: int
+    attachments: int
+
+
+def filter_mcap(
+    src: Path,
+    out: Path,
+    topics: str | None = None,
+    exclude: str | None = None,
+    start: str | None = None,
+    end: str | None = None,
+) -> FilterResult:
+    """Copy an MCAP's matching messages in ``[start, end)`` into a new MCAP, atomically.
+
+    Schemas, channels (with their metadata), metadata records and attachments are kept; payloads
+    are copied byte for byte; chunks use the source's compression.
+
+    Raises:
+        RecordingError: If ``src`` is not a readable MCAP or ``out`` exists.
+        UsageError: For bad regular expressions or times, or when nothing matches.
+    """
+    from mcap.exceptions import McapError
+    from mcap.reader import make_reader
+    from mcap.writer import CompressionType, Writer
+
+    if out.exists():
+        raise RecordingError(f"{out} exists already; not overwriting a recording")
+    if out.resolve() == src.resolve():
+        raise UsageError("-o must differ from the input")
+    match = topic_matcher(topics, exclude)
+    work = out.with_name(f".{out.name}.partial")
+    counts: dict[str, int] = {}
+    try:
+        with src.open("rb") as fin:
+            if fin.read(8) != b"\x89MCAP0\r\n":
+                raise RecordingError(f"{src.name}: slt filter reads MCAP files (convert first)")
+            fin.seek(0)
+            reader = make_reader(fin)
+            header = reader.get_header()
+            summary = reader.get_summary()
+            first = (
+                summary.statistics.message_start_time
+                if summary is not None and summary.statistics is not None
+                else None
+            )
+            if first is None and (start or end):
+                first = next((m.log_time for _, _, m in reader.iter_messages()), 0)
+            start_ns, end_ns = time_range(first, start, end)
+            compression = "zstd"
+            if summary is not None and summary.chunk_indexes:
+                compression = summary.chunk_indexes[0].compression or "none"
+            fin.seek(0)
+            reader = make_reader(fin)
+            with work.open("wb") as fout:
+                writer = Writer(fout, compression=CompressionType[compression.upper()])
+                writer.start(profile=header.profile, library=header.library)
+                copier = McapCopier(writer)
+                for schema, channel, message in reader.iter_messages(
+                    starting_at=start_ns, ending_before=end_ns, log_time_order=True
+                ):
+                    if not match(channel.topic):
+                        continue
+                    copier.add(schema, channel, message)
+                    counts[channel.topic] = counts.get(channel.topic, 0) + 1
+                fin.seek(0)
+                meta = list(make_reader(fin).iter_metadata())
+                for record in meta:
+                    writer.add_metadata(record.name, dict(record.metadata))
+                fin.seek(0)
+                attachments = list(make_reader(fin).iter_attachments())
+                for a in attachments:
+                    writer.add_attachment(a.create_time, a.log_time, a.name, a.media_type, a.data)
+                writer.finish()  # type: ignore[no-untyped-call]
+        if not counts:
+            raise UsageError("no message matches the topics and time range; nothing written")
+        work.replace(out)
+    except (OSError, ValueError, KeyError, McapError) as err:
+        raise RecordingError(f"cannot filter {src.name}: {err}") from err
+    finally:
+        if work.exists():
+            work.unlink()
+    return FilterResult(out, counts, len(meta), len(attachments))

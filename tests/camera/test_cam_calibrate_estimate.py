@@ -1,0 +1,116 @@
+"""Camera models for real cameras: chessboard calibration and extrinsics from lane lines."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from typer.testing import CliRunner
+
+from superlane_tools.camera import load_camera
+from superlane_tools.camera.calibration import calibrate_chessboard, parse_board
+from superlane_tools.camera.errors import CameraError
+from superlane_tools.camera.extrinsics_estimate import (
+    estimate_extrinsics,
+    frame_lines,
+    intrinsics_from_hfov,
+)
+from superlane_tools.camera.model import CameraModel, Extrinsics
+from superlane_tools.cli.app import app
+from superlane_tools.pipeline.camera_estimate import estimate_camera
+from superlane_tools.simulation.drive import sim_camera, simulate_drive
+
+runner = CliRunner()
+
+
+def test_udacity_chessboards_calibrate_into_a_profile(realdata: Path, tmp_path: Path) -> None:
+    folder = realdata / "udacity" / "advanced_lane_lines" / "camera_cal"
+    out = tmp_path / "udacity.yaml"
+    result = runner.invoke(
+        app, ["camera", "calibrate", str(folder), "--board", "9x6", "-o", str(out)]
+    )
+    assert result.exit_code == 0, result.output
+    data = yaml.safe_load(out.read_text(encoding="utf-8"))
+    cal = data["calibration"]
+    assert 0.1 < cal["reprojection_rms_px"] < 1.5
+    assert cal["views_used"] >= 12
+    cam = load_camera(out)
+    k = cam.intrinsics
+    assert (k.width, k.height) == (1280, 720)
+    assert 1000 < k.fx < 1300
+    assert abs(k.fx - k.fy) / k.fx < 0.02
+    assert k.dist[0] < -0.1  # a dashcam's barrel distortion
+    assert "reprojection error" in result.stderr
+    assert "skipped: calibration1.jpg" in result.stderr  # a corner is cut off in that photo
+
+
+def test_calibration_needs_boards(tmp_path: Path) -> None:
+    blank = tmp_path / "blank.png"
+    import cv2
+
+    cv2.imwrite(str(blank), np.full((60, 80), 128, np.uint8))
+    with pytest.raises(CameraError, match="complete 9x6 board"):
+        calibrate_chessboard([blank] * 3)
+    with pytest.raises(CameraError):
+        parse_board("9by6")
+    result = runner.invoke(app, ["camera", "calibrate", str(blank)])
+    assert result.exit_code == 1
+    assert result.stderr.startswith("slt: error: only 0 of 1 images")
+
+
+def _synthetic_lines(cam: CameraModel, width_m: float, left_m: float) -> np.ndarray:
+    xs = np.linspace(6.0, 40.0, 200)
+    pts = []
+    for y in (left_m, left_m - width_m, left_m + width_m):
+        ground = np.stack([xs, np.full_like(xs, y), np.zeros_like(xs)], 1)
+        uv, ok = cam.project(ground)
+        pts.append(uv[ok])
+    uv = np.concatenate(pts)
+    inside = (uv[:, 0] >= 0) & (uv[:, 0] < cam.width) & (uv[:, 1] >= 0) & (uv[:, 1] < cam.height)
+    return uv[inside]
+
+
+def test_vanishing_point_geometry_recovers_a_known_mount() -> None:
+    k = intrinsics_from_hfov(640, 360, 70.0)
+    truth = Extrinsics(1.4, pitch_rad=math.radians(2.5), yaw_rad=math.radians(1.0))
+    cam = CameraModel(k, truth)
+    lines = [frame_lines(_synthetic_lines(cam, 3.5, 1.6 + 0.05 * i), k, seed=i) for i in range(5)]
+    est = estimate_extrinsics(lines, k, lane_width_m=3.5)
+    assert est.frames_used == 5
+    assert abs(est.extrinsics.pitch_rad - truth.pitch_rad) < math.radians(0.02)
+    assert abs(est.extrinsics.yaw_rad - truth.yaw_rad) < math.radians(0.05)
+    assert abs(est.extrinsics.height_m - 1.4) < 0.01
+    with pytest.raises(CameraError, match="both ego lane lines"):
+        estimate_extrinsics([None, None], k)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("scenario", "seed"), [("highway_straight", 101), ("highway_curves", 102)])
+def test_estimate_recovers_pitch_and_height_of_held_out_drives(
+    tmp_path: Path, scenario: str, seed: int
+) -> None:
+    rec = tmp_path / "drive.mcap"
+    simulate_drive(scenario, 3.0, seed, "mcap", 320, 180, False, rec, fps=10.0)
+    truth = sim_camera(320, 180)
+    result = estimate_camera(rec, intrinsics=truth.intrinsics, lane_width_m=3.7, max_frames=30)
+    e = result.estimate.extrinsics
+    assert abs(math.degrees(e.pitch_rad - truth.extrinsics.pitch_rad)) < 0.3
+    assert abs(e.height_m / truth.extrinsics.height_m - 1.0) < 0.10
+    assert result.estimate.frames_used >= 20
+
+
+def test_estimate_cli_without_intrinsics_says_what_it_assumed(tmp_path: Path) -> None:
+    rec = tmp_path / "drive.mcap"
+    simulate_drive("highway_curves", 1.5, 103, "mcap", 320, 180, False, rec, fps=6.0)
+    out = tmp_path / "est.yaml"
+    result = runner.invoke(app, ["camera", "estimate", str(rec), "-o", str(out), "--frames", "9"])
+    assert result.exit_code == 0, result.output
+    assert "ASSUMED" in result.stderr
+    data = yaml.safe_load(out.read_text(encoding="utf-8"))
+    assert data["estimate"]["frames_used"] >= 3
+    assert "ASSUMED" in data["estimate"]["intrinsics"]
+    cam = load_camera(out)
+    assert abs(math.degrees(cam.extrinsics.pitch_rad) - 3.44) < 1.0  # sim camera: 3.44 deg
