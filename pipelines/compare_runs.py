@@ -2,9 +2,11 @@
 
 Every Parquet table must have the same columns, types and rows; float cells must be equal
 (NaN equals NaN) or, with ``--rtol``, close. Provenance metadata (command line, time, version)
-is ignored, and so are the measured stage times of ``frames.parquet`` (``*_ms`` columns: wall
-and CPU time differ from run to run by nature). ``annotations.mcap`` is compared message by
-message (topic, log time, payload bytes) and ``report.md`` line by line.
+is ignored, and so are measured times (``*_ms`` columns: the stage times of ``frames.parquet``
+and ``fit_time_ms`` of ``lanes.parquet``; wall and CPU time differ from run to run by nature).
+``annotations.mcap`` is compared message by message (topic, log time, and the payload bytes, or
+the decoded message where the bytes differ: protobuf serialises a ``Struct``'s map fields in no
+fixed order), and ``report.md`` line by line.
 
 Usage:
     python pipelines/compare_runs.py RUN_A RUN_B [--rtol 0]
@@ -23,15 +25,13 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-TIMING_COLUMN = re.compile(r"_(cpu_)?ms$")
-"""Stage-time columns of frames.parquet: measured, never reproducible."""
+TIMING_COLUMN = re.compile(r"_ms$")
+"""Measured-time columns (stage times, fit time): never reproducible."""
 
 
 def _columns(table: pa.Table, name: str) -> list[str]:
-    cols = table.column_names
-    if name == "frames.parquet":
-        cols = [c for c in cols if not TIMING_COLUMN.search(c)]
-    return cols
+    del name
+    return [c for c in table.column_names if not TIMING_COLUMN.search(c)]
 
 
 def _cells_differ(a: pa.ChunkedArray, b: pa.ChunkedArray, rtol: float) -> list[int]:
@@ -84,20 +84,29 @@ def compare_table(path_a: Path, path_b: Path, rtol: float = 0.0) -> list[str]:
 
 
 def compare_mcap(path_a: Path, path_b: Path) -> list[str]:
-    """Return the differences between two MCAP files' messages (topic, log time, payload)."""
+    """Return the differences between two MCAP files' messages (topic, log time, content)."""
+    from google.protobuf.json_format import MessageToDict
     from mcap.reader import make_reader
+    from mcap_protobuf.decoder import DecoderFactory
 
-    def messages(path: Path) -> list[tuple[str, int, bytes]]:
+    def messages(path: Path) -> list[tuple[str, int, bytes, object]]:
         with path.open("rb") as handle:
+            reader = make_reader(handle, decoder_factories=[DecoderFactory()])
             return [
-                (channel.topic, message.log_time, bytes(message.data))
-                for _, channel, message in make_reader(handle).iter_messages(log_time_order=True)
+                (channel.topic, message.log_time, bytes(message.data), decoded)
+                for _, channel, message, decoded in reader.iter_decoded_messages(
+                    log_time_order=True
+                )
             ]
 
     ma, mb = messages(path_a), messages(path_b)
     if len(ma) != len(mb):
         return [f"{path_a.name}: {len(ma)} vs {len(mb)} messages"]
-    bad = [i for i, (x, y) in enumerate(zip(ma, mb, strict=True)) if x != y]
+    bad = [
+        i
+        for i, (x, y) in enumerate(zip(ma, mb, strict=True))
+        if x[:2] != y[:2] or (x[2] != y[2] and not _equal(MessageToDict(x[3]), MessageToDict(y[3])))
+    ]
     if bad:
         return [f"{path_a.name}: {len(bad)} of {len(ma)} messages differ, first {bad[0]}"]
     return []

@@ -53,8 +53,8 @@ def fit_cmd(
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeRemainingColumn
 
     from superlane_tools.camera import load_camera
+    from superlane_tools.commands.lanes_fit import fit_masks, load_classes
     from superlane_tools.lanes import FitParams
-    from superlane_tools.pipeline.lanes_fit import fit_masks, load_classes
 
     with cli_errors():
         cam = load_camera(camera)
@@ -104,7 +104,7 @@ def export_cmd(
 ) -> None:
     """Project fitted lanes into the image at the h_samples rows; write TuSimple JSON lines."""
     from superlane_tools.camera import load_camera
-    from superlane_tools.pipeline.lanes_fit import export_tusimple, parse_h_samples
+    from superlane_tools.commands.lanes_fit import export_tusimple, parse_h_samples
 
     with cli_errors():
         rows = parse_h_samples(h_samples)

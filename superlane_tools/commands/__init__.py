@@ -1,23 +1,6 @@
-"""Pipelines that wire recordings, decoding and stages together (extract, reprocess)."""
+"""Thin orchestration, one unit per command: ``extract``, ``reprocess``, ``lanes_fit``, ``batch``.
 
-from superlane_tools.pipeline.errors import PipelineError
-from superlane_tools.pipeline.extract import (
-    FRAME_FORMATS,
-    STREAM_KINDS,
-    ExtractConfig,
-    ExtractResult,
-    extract,
-    load_stream_config,
-    select_streams,
-)
-
-__all__ = [
-    "FRAME_FORMATS",
-    "STREAM_KINDS",
-    "ExtractConfig",
-    "ExtractResult",
-    "PipelineError",
-    "extract",
-    "load_stream_config",
-    "select_streams",
-]
+Each command wires the layers below it (recordings, CAN, geometry, lane fit, scene, reporting)
+into one run; commands never import each other, except ``batch``, which runs the others as jobs
+(see ``docs/architecture.md``).
+"""

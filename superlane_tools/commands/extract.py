@@ -9,38 +9,30 @@ from pathlib import Path
 from typing import Any
 
 from superlane_tools.can import LoadedDbc, load_dbc
+from superlane_tools.commands.errors import PipelineError
 from superlane_tools.errors import ConfigError, UsageError
 from superlane_tools.geo import GeodeticOrigin
-from superlane_tools.pipeline._can_sink import CanSink
-from superlane_tools.pipeline._frame_sink import FrameSink
-from superlane_tools.pipeline._gnss_sink import GnssSink
-from superlane_tools.pipeline.errors import PipelineError
 from superlane_tools.recording.base import Recording, SkipLog
 from superlane_tools.recording.open import open_recording
+from superlane_tools.recording.streams import STREAM_KINDS, load_stream_config, select_streams
 from superlane_tools.records import Skipped, TopicInfo
 from superlane_tools.reporting import Provenance
+from superlane_tools.reporting.can_sink import CanSink
+from superlane_tools.reporting.frame_sink import FrameSink
+from superlane_tools.reporting.gnss_sink import GnssSink
 from superlane_tools.reporting.provenance import PendingIdentities
 
-FRAME_TYPES = frozenset(
-    {
-        "sensor_msgs/msg/Image",
-        "sensor_msgs/msg/CompressedImage",
-        "foxglove.CompressedImage",
-        "foxglove.RawImage",
-    }
-)
-CAMERA_INFO_TYPES = frozenset({"sensor_msgs/msg/CameraInfo", "foxglove.CameraCalibration"})
-CAN_TYPES = frozenset({"can_msgs/msg/Frame"})
-GNSS_TYPES = frozenset({"sensor_msgs/msg/NavSatFix", "foxglove.LocationFix"})
-STREAM_KINDS = ("frames", "camera_info", "can", "gnss")
 FRAME_FORMATS = ("jpg", "png", "none")
-_KIND_TYPES = {
-    "frames": FRAME_TYPES,
-    "camera_info": CAMERA_INFO_TYPES,
-    "can": CAN_TYPES,
-    "gnss": GNSS_TYPES,
-}
 _NS = 1_000_000_000
+__all__ = [
+    "FRAME_FORMATS",
+    "STREAM_KINDS",
+    "ExtractConfig",
+    "ExtractResult",
+    "extract",
+    "load_stream_config",
+    "select_streams",
+]
 
 
 @dataclass(frozen=True)
@@ -105,65 +97,6 @@ class ExtractResult:
     origin: GeodeticOrigin | None
 
 
-def load_stream_config(path: str | os.PathLike[str]) -> dict[str, tuple[str, ...]]:
-    """Read a YAML config ``{frames: [...], camera_info: [...], can: [...], gnss: [...]}``.
-
-    Raises:
-        ConfigError: If the file is unreadable, not a mapping, or has unknown keys or non-list
-            values.
-    """
-    import yaml
-
-    src = Path(path)
-    try:
-        raw = yaml.safe_load(src.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, yaml.YAMLError) as err:
-        raise ConfigError(f"{src}: cannot read extract config: {err}") from err
-    if raw is None:
-        return {}
-    if not isinstance(raw, dict):
-        raise ConfigError(f"{src}: extract config must be a mapping of {STREAM_KINDS} to topics")
-    streams: dict[str, tuple[str, ...]] = {}
-    for key, value in raw.items():
-        if key not in STREAM_KINDS:
-            raise ConfigError(f"{src}: unknown key {key!r}; expected {STREAM_KINDS}")
-        items = [value] if isinstance(value, str) else value
-        if not isinstance(items, list) or not all(isinstance(t, str) for t in items):
-            raise ConfigError(f"{src}: {key} must be a list of topic names")
-        streams[key] = tuple(items)
-    return streams
-
-
-def select_streams(
-    topics: Sequence[TopicInfo], config: ExtractConfig
-) -> dict[str, tuple[str, ...]]:
-    """Assign topics to kinds by message type, honouring ``config.topics`` and ``streams``.
-
-    Raises:
-        UsageError: If a requested topic is not in the recording.
-    """
-    available = {t.topic: t.msgtype for t in topics}
-    wanted = [*config.topics, *(t for ts in config.streams.values() for t in ts)]
-    missing = sorted({t for t in wanted if t not in available})
-    if missing:
-        listing = ", ".join(sorted(available)) or "none"
-        raise UsageError(f"topics not in the recording: {', '.join(missing)} (it has: {listing})")
-    allowed = set(config.topics) if config.topics else set(available)
-    selected: dict[str, tuple[str, ...]] = {}
-    claimed = {t for ts in config.streams.values() for t in ts}
-    for kind in STREAM_KINDS:
-        if kind in config.streams:
-            selected[kind] = tuple(config.streams[kind])
-            continue
-        types = _KIND_TYPES[kind]
-        selected[kind] = tuple(
-            sorted(
-                t for t, m in available.items() if m in types and t in allowed and t not in claimed
-            )
-        )
-    return selected
-
-
 def _first_log_time_ns(rec: Recording, topics: Sequence[str]) -> int | None:
     for raw in rec.raw_messages(topics=topics):
         return raw.log_time_ns
@@ -214,7 +147,7 @@ def extract(
             on_dbc(Path(dbc_path).name, loaded)
     skips = SkipLog()
     with open_recording(src) as rec:
-        selected = select_streams(rec.topics(), config)
+        selected = select_streams(rec.topics(), config.topics, config.streams)
         kind_of = {t: kind for kind, ts in selected.items() for t in ts}
         if not any(selected[k] for k in ("frames", "can", "gnss")):
             listing = ", ".join(f"{t.topic} ({t.msgtype})" for t in rec.topics()) or "no topics"

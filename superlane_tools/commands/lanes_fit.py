@@ -22,10 +22,13 @@ import yaml
 from numpy.typing import NDArray
 
 from superlane_tools.camera.model import CameraModel
+from superlane_tools.commands.errors import PipelineError
 from superlane_tools.errors import ConfigError
 from superlane_tools.lanes import CODE_OF, FitParams, Lane, LaneFit, fit_frame, lanes_at_rows
 from superlane_tools.lanes.attributes import colour_codes_from_image
-from superlane_tools.pipeline.errors import PipelineError
+from superlane_tools.lanes.points import ClassLookup, LabelPoints, label_points
+from superlane_tools.lanes.table import LANES_SCHEMA as SCHEMA
+from superlane_tools.lanes.table import fit_row
 from superlane_tools.records import Skipped
 from superlane_tools.reporting import (
     Provenance,
@@ -37,41 +40,6 @@ from superlane_tools.reporting import (
 
 Progress = Callable[[int, int], None]
 """Progress callback ``(done, total)``."""
-
-MAX_LANE_PIXELS = 50_000
-"""Lane pixels per frame passed to the fit at most (deterministic subsample above it)."""
-MAX_ROAD_PIXELS = 20_000
-"""Road pixels per frame passed to the fit at most."""
-
-SCHEMA = pa.schema(
-    [
-        ("name", pa.string()),
-        ("width", pa.int32()),
-        ("height", pa.int32()),
-        ("a1", pa.float64()),
-        ("a2", pa.float64()),
-        ("curvature", pa.float64()),
-        ("b", pa.float64()),
-        ("offsets", pa.list_(pa.float64())),
-        ("lane_a1", pa.list_(pa.float64())),
-        ("lane_a2", pa.list_(pa.float64())),
-        ("colours", pa.list_(pa.string())),
-        ("styles", pa.list_(pa.string())),
-        ("range_min", pa.list_(pa.float64())),
-        ("range_max", pa.list_(pa.float64())),
-        ("n_lane_points", pa.list_(pa.int64())),
-        ("ego_left", pa.int32()),
-        ("ego_right", pa.int32()),
-        ("lane_width", pa.float64()),
-        ("cost", pa.float64()),
-        ("iterations", pa.int32()),
-        ("converged", pa.bool_()),
-        ("fit_time_ms", pa.float64()),
-        ("quality", pa.float64()),
-        ("reason", pa.string()),
-    ]
-)
-"""Columns of ``lanes.parquet``: one row per mask; list columns hold one entry per lane."""
 
 
 class ClassMap(NamedTuple):
@@ -132,46 +100,16 @@ def load_classes(path: str | os.PathLike[str]) -> ClassMap:
     return parse_classes(data, str(path))
 
 
-class MaskPoints(NamedTuple):
-    """Pixels of one mask that the fit uses.
-
-    Attributes:
-        lane_uv: ``(N, 2)`` lane-marking pixels ``(u, v)``.
-        road_uv: ``(M, 2)`` road pixels.
-        codes: ``(N,)`` level-4 attribute codes of the lane pixels.
-    """
-
-    lane_uv: NDArray[np.float64]
-    road_uv: NDArray[np.float64]
-    codes: NDArray[np.intp]
-
-
-def mask_points(mask: NDArray[Any], classes: ClassMap, seed: int = 0) -> MaskPoints:
-    """Return the lane and road pixels of a class-id mask (deterministic caps on their number).
+def mask_points(mask: NDArray[Any], classes: ClassMap, seed: int = 0) -> LabelPoints:
+    """Return the lane and road pixels of a class-id mask (see :func:`lanes.points.label_points`).
 
     Args:
         mask: ``(H, W)`` integer class ids.
         classes: Which ids are lane markings and road.
-        seed: Seed of the subsampling above :data:`MAX_LANE_PIXELS` / :data:`MAX_ROAD_PIXELS`.
+        seed: Seed of the deterministic subsampling of each kind.
     """
-    lut = np.zeros(max(int(mask.max(initial=0)), *classes.road_ids, *classes.lane_ids) + 1, np.intp)
-    for class_id, code in classes.code_of_id.items():
-        lut[class_id] = code + 1
-    label = lut[mask]
-    rows, cols = np.nonzero(label)
-    rng = np.random.default_rng(seed)
-    if rows.size > MAX_LANE_PIXELS:
-        keep = np.sort(rng.choice(rows.size, MAX_LANE_PIXELS, replace=False))
-        rows, cols = rows[keep], cols[keep]
-    lane_uv = np.stack([cols, rows], axis=1).astype(np.float64)
-    codes = label[rows, cols] - 1
-    road = np.isin(mask, classes.road_ids)
-    r_rows, r_cols = np.nonzero(road)
-    if r_rows.size > MAX_ROAD_PIXELS:
-        keep = np.sort(rng.choice(r_rows.size, MAX_ROAD_PIXELS, replace=False))
-        r_rows, r_cols = r_rows[keep], r_cols[keep]
-    road_uv = np.stack([r_cols, r_rows], axis=1).astype(np.float64)
-    return MaskPoints(lane_uv, road_uv, codes)
+    lookup = ClassLookup.from_ids(classes.code_of_id, classes.road_ids)
+    return label_points(mask, lookup, seed)
 
 
 def find_masks(seg_dir: str | os.PathLike[str]) -> list[Path]:
@@ -199,37 +137,6 @@ def _read_mask(path: Path) -> NDArray[Any] | str:
     if mask.ndim != 2:
         return f"not a single-channel class-id image (shape {mask.shape})"
     return mask
-
-
-def fit_row(name: str, width: int, height: int, fit: LaneFit) -> dict[str, Any]:
-    """Return the ``lanes.parquet`` row of one frame's fit (see :data:`SCHEMA`)."""
-    lanes = fit.lanes
-    return {
-        "name": name,
-        "width": width,
-        "height": height,
-        "a1": fit.a1,
-        "a2": fit.a2,
-        "curvature": fit.curvature,
-        "b": fit.b,
-        "offsets": [ln.offset_m for ln in lanes],
-        "lane_a1": [ln.a1 for ln in lanes],
-        "lane_a2": [ln.a2 for ln in lanes],
-        "colours": [ln.colour for ln in lanes],
-        "styles": [ln.style for ln in lanes],
-        "range_min": [ln.range_min_m for ln in lanes],
-        "range_max": [ln.range_max_m for ln in lanes],
-        "n_lane_points": [ln.n_points for ln in lanes],
-        "ego_left": fit.ego_left,
-        "ego_right": fit.ego_right,
-        "lane_width": fit.lane_width_m,
-        "cost": fit.cost,
-        "iterations": fit.iterations,
-        "converged": fit.converged,
-        "fit_time_ms": fit.fit_time_s * 1e3,
-        "quality": fit.quality,
-        "reason": fit.reason,
-    }
 
 
 @dataclass(frozen=True)

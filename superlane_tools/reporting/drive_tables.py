@@ -1,10 +1,8 @@
-"""Output tables of ``slt reprocess``: streamed per-frame schemas and the derived KPI tables."""
+"""Tables of a reprocessed drive: the streamed per-frame schemas and the derived KPI tables."""
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
-from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -19,9 +17,7 @@ from superlane_tools.corridor import (
     sequence_availability,
 )
 from superlane_tools.evaluation.curvature import curvature_errors
-from superlane_tools.pipeline.lanes_fit import SCHEMA as LANES_FIT_SCHEMA
-from superlane_tools.pipeline.lanes_fit import fit_row
-from superlane_tools.pipeline.reprocess.stages import Finished
+from superlane_tools.lanes.table import LANES_SCHEMA as LANES_FIT_SCHEMA
 
 FloatArray = NDArray[np.float64]
 METHODS = ("super", "corridor_net", "hough")
@@ -84,54 +80,6 @@ BASELINE_SCHEMA = pa.schema(
         ("right_line_px", pa.list_(pa.float64())),
     ]
 )
-
-
-def frame_rows(done: Finished, corridor_status: str, mean_frames: int) -> dict[str, dict[str, Any]]:
-    """Return one row per streamed table (frames, lanes, corridor, baseline) for a frame."""
-    prep = done.prepared
-    image = prep.image
-    ph, pw = (image.shape[:2]) if image is not None else (0, 0)
-    frames = {
-        "frame_index": prep.index,
-        "log_time_ns": prep.log_time_ns,
-        "stamp_ns": prep.stamp_ns,
-        "width": prep.source_size[0],
-        "height": prep.source_size[1],
-        "process_width": pw,
-        "process_height": ph,
-        "ok": not prep.error,
-        "error": prep.error,
-        **{f"{s}_ms": prep.seconds.get(s, 0.0) * 1e3 for s in STAGES},
-        **{f"{s}_cpu_ms": prep.cpu_seconds.get(s, 0.0) * 1e3 for s in STAGES},
-    }
-    lanes = {
-        "frame_index": prep.index,
-        "log_time_ns": prep.log_time_ns,
-        **fit_row(f"{prep.index:06d}", pw, ph, done.fit),
-        "c": done.fit.c if done.fit.ok else math.nan,
-    }
-    net = done.net_corridor
-    corridor = {
-        "frame_index": prep.index,
-        "log_time_ns": prep.log_time_ns,
-        "width_m": net.width_m,
-        "length_m": net.length_m,
-        "n_rows": net.n_rows,
-        "mean_frames": mean_frames,
-        "status": corridor_status or ("" if prep.image is not None else "frame not decoded"),
-    }
-    h = prep.hough
-    baseline = {
-        "frame_index": prep.index,
-        "log_time_ns": prep.log_time_ns,
-        "ok": bool(h.ok) if h else False,
-        "width_m": h.width_m if h else math.nan,
-        "range_m": h.range_m if h else math.nan,
-        "reason": h.reason if h else "frame not decoded",
-        "left_line_px": list(h.left_line) if h and h.left_line else None,
-        "right_line_px": list(h.right_line) if h and h.right_line else None,
-    }
-    return {"frames": frames, "lanes": lanes, "corridor": corridor, "baseline": baseline}
 
 
 def availability_tables(

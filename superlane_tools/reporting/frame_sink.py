@@ -13,8 +13,8 @@ from typing import Any
 import numpy as np
 import pyarrow as pa
 
-from superlane_tools.pipeline._images import header_size, raw_pixels, safe_topic, sniff_format
 from superlane_tools.recording.base import SkipLog, field_value
+from superlane_tools.recording.images import header_size, raw_pixels, safe_topic, sniff_format
 from superlane_tools.records import Message
 from superlane_tools.reporting import OutputError, ParquetStreamWriter
 from superlane_tools.reporting.provenance import ProvenanceSource, resolve_provenance

@@ -11,20 +11,11 @@ from collections.abc import Iterator
 from pathlib import Path
 
 from superlane_tools.errors import UsageError
-from superlane_tools.pipeline.reprocess.inputs import decode_frame
 from superlane_tools.recording import open_recording
+from superlane_tools.recording.images import decode_frame
+from superlane_tools.recording.streams import FRAME_TYPES
 from superlane_tools.records import Skipped
 from superlane_tools.scene.image_folder import InputFrame, folder_frames, list_images
-
-#: Message types holding camera images.
-IMAGE_MSGTYPES = frozenset(
-    {
-        "sensor_msgs/msg/CompressedImage",
-        "sensor_msgs/msg/Image",
-        "foxglove.CompressedImage",
-        "foxglove.RawImage",
-    }
-)
 
 
 def is_image_folder(path: Path) -> bool:
@@ -48,7 +39,7 @@ class RecordingFrames:
         self.path = path
         self.skipped: list[Skipped] = []
         with open_recording(path) as rec:
-            topics = sorted(t for t in rec.topics() if t.msgtype in IMAGE_MSGTYPES)
+            topics = sorted(t for t in rec.topics() if t.msgtype in FRAME_TYPES)
         if not topics:
             raise UsageError(f"{path.name}: no camera image topic")
         names = [t.topic for t in topics]

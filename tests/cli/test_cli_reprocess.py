@@ -10,7 +10,7 @@ import yaml
 from typer.testing import CliRunner
 
 from superlane_tools.cli import reprocess, tables
-from superlane_tools.pipeline.reprocess import ReprocessConfig
+from superlane_tools.commands.reprocess import ReprocessConfig
 from superlane_tools.reporting import read_provenance
 from superlane_tools.simulation.drive import simulate_drive
 
@@ -47,7 +47,7 @@ def test_print_config_round_trips() -> None:
     data = yaml.safe_load(out)
     assert data["kpi"]["min_width_m"] == 2.0
     assert data["corridor"]["mean_frames"] == 3
-    from superlane_tools.pipeline.reprocess import config_from_mapping
+    from superlane_tools.commands.reprocess import config_from_mapping
 
     assert config_from_mapping(data) == ReprocessConfig()
 

@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from superlane_tools.pipeline.reprocess.curvature_align import (
+from superlane_tools.lanes.lookahead import (
     align_super_curvature,
     lateral_in_lane,
 )

@@ -10,7 +10,7 @@ from types import ModuleType
 
 import yaml
 
-from superlane_tools.pipeline.lanes_fit import parse_classes
+from superlane_tools.commands.lanes_fit import parse_classes
 
 SCRIPT = Path(__file__).resolve().parents[2] / "pipelines" / "sim_lane_accuracy.py"
 

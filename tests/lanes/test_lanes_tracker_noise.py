@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from superlane_tools.commands.reprocess.config import TrackingConfig
 from superlane_tools.errors import ConfigError
-from superlane_tools.pipeline.reprocess.config import TrackingConfig
-from superlane_tools.pipeline.reprocess.lane_tracker import (
+from superlane_tools.lanes.tracker import (
     TrackerParams,
     cov_from_columns,
     fit_noise,

@@ -1,14 +1,14 @@
 """Batch reprocessing of many recordings: local process pool or Ray, idempotent, resumable."""
 
-from superlane_tools.pipeline.batch.engine import (
+from superlane_tools.commands.batch.engine import (
     BatchEngine,
     Job,
     JobOutcome,
     JobStatus,
     OnDone,
 )
-from superlane_tools.pipeline.batch.errors import BatchError, EngineUnavailableError
-from superlane_tools.pipeline.batch.jobs import (
+from superlane_tools.commands.batch.errors import BatchError, EngineUnavailableError
+from superlane_tools.commands.batch.jobs import (
     JobKind,
     JobResult,
     default_kind,
@@ -16,25 +16,25 @@ from superlane_tools.pipeline.batch.jobs import (
     load_config_file,
     reprocess_available,
 )
-from superlane_tools.pipeline.batch.local import LocalEngine, default_workers
-from superlane_tools.pipeline.batch.manifest import (
+from superlane_tools.commands.batch.local import LocalEngine, default_workers
+from superlane_tools.commands.batch.manifest import (
     BatchEntry,
     expand_inputs,
     find_recordings,
     read_manifest,
     recording_id,
 )
-from superlane_tools.pipeline.batch.ray_engine import RayEngine
-from superlane_tools.pipeline.batch.run import (
+from superlane_tools.commands.batch.ray_engine import RayEngine
+from superlane_tools.commands.batch.run import (
     BatchParams,
     BatchProgress,
     BatchReport,
     clean_stale_tmp,
     run_batch,
 )
-from superlane_tools.pipeline.batch.status import STATUS_FILE, read_status
-from superlane_tools.pipeline.batch.summary import write_summary
-from superlane_tools.pipeline.batch.worker import MARKER, read_marker
+from superlane_tools.commands.batch.status import STATUS_FILE, read_status
+from superlane_tools.commands.batch.summary import write_summary
+from superlane_tools.commands.batch.worker import MARKER, read_marker
 
 __all__ = [
     "MARKER",

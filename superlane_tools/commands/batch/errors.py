@@ -1,6 +1,6 @@
 """Errors of the batch engine (a part of the pipeline layer)."""
 
-from superlane_tools.pipeline.errors import PipelineError
+from superlane_tools.commands.errors import PipelineError
 
 
 class BatchError(PipelineError):

@@ -56,7 +56,7 @@ _EXTRACT_KEYS = frozenset(
 
 
 def _extract_config(config: Mapping[str, Any]) -> Any:
-    from superlane_tools.pipeline.extract import ExtractConfig
+    from superlane_tools.commands.extract import ExtractConfig
 
     unknown = set(config) - _EXTRACT_KEYS
     if unknown:
@@ -101,7 +101,7 @@ def _extract_run(
 ) -> JobResult:
     from dataclasses import replace
 
-    from superlane_tools.pipeline.extract import extract
+    from superlane_tools.commands.extract import extract
 
     settings = replace(loaded, start_s=config.get("start_s"), end_s=config.get("end_s"))
     t0 = time.perf_counter()
@@ -126,7 +126,7 @@ EXTRACT = JobKind("extract", _extract_check, _extract_identities, _extract_load,
 def reprocess_available() -> bool:
     """Return True when the ``reprocess`` pipeline is part of this installation."""
     try:
-        spec = importlib.util.find_spec("superlane_tools.pipeline.reprocess")
+        spec = importlib.util.find_spec("superlane_tools.commands.reprocess")
     except ImportError:
         return False
     # A folder without __init__.py (work in progress) is a namespace package: origin None.
@@ -149,7 +149,7 @@ def job_kind(name: str) -> JobKind:
     if name == "reprocess":
         if not reprocess_available():
             raise UsageError("job kind 'reprocess' is not available in this installation")
-        from superlane_tools.pipeline.batch import _reprocess_job
+        from superlane_tools.commands.batch.kinds import reprocess as _reprocess_job
 
         return _reprocess_job.REPROCESS
     raise UsageError(f"unknown job kind {name!r}: use 'reprocess' or 'extract'")
@@ -161,27 +161,6 @@ def load_config_file(path: str | Path) -> dict[str, Any]:
     Raises:
         ConfigError: If the file cannot be read or is not a mapping.
     """
-    import json
+    from superlane_tools.config_files import load_mapping
 
-    src = Path(path)
-    try:
-        text = src.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as err:
-        raise ConfigError(f"cannot read config {src}: {err}") from err
-    suffix = src.suffix.lower()
-    try:
-        if suffix == ".toml":
-            import tomllib
-
-            data: Any = tomllib.loads(text)
-        elif suffix == ".json":
-            data = json.loads(text)
-        else:
-            import yaml
-
-            data = yaml.safe_load(text) or {}
-    except Exception as err:  # TOMLDecodeError, JSONDecodeError, YAMLError
-        raise ConfigError(f"{src}: cannot parse config: {err}") from err
-    if not isinstance(data, dict):
-        raise ConfigError(f"{src}: the config must be a mapping")
-    return data
+    return load_mapping(path)

@@ -11,17 +11,17 @@ from concurrent.futures.process import BrokenProcessPool
 from types import TracebackType
 from typing import Any, Self
 
-from superlane_tools.errors import UsageError
-from superlane_tools.pipeline.batch.engine import (
+from superlane_tools.commands.batch.engine import (
     TMP_DIR,
     Job,
     OnDone,
     error_line,
     failed_outcome,
 )
-from superlane_tools.pipeline.batch.worker import execute, init_worker
+from superlane_tools.commands.batch.worker import execute, init_worker
+from superlane_tools.errors import UsageError
 
-WORKER_MODULE = "superlane_tools.pipeline.batch.worker"
+WORKER_MODULE = "superlane_tools.commands.batch.worker"
 """Imported once by the fork server; every worker forked from it starts with it loaded."""
 THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 """Native thread-pool sizes set for the workers (unless already set), so N workers share the

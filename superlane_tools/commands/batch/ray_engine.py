@@ -21,10 +21,10 @@ from collections.abc import Mapping, Sequence
 from types import TracebackType
 from typing import Any, Self
 
+from superlane_tools.commands.batch.engine import Job, JobOutcome, OnDone, failed_outcome
+from superlane_tools.commands.batch.errors import BatchError, EngineUnavailableError
+from superlane_tools.commands.batch.worker import execute, init_worker
 from superlane_tools.errors import UsageError
-from superlane_tools.pipeline.batch.engine import Job, JobOutcome, OnDone, failed_outcome
-from superlane_tools.pipeline.batch.errors import BatchError, EngineUnavailableError
-from superlane_tools.pipeline.batch.worker import execute, init_worker
 
 RAY_EXTRA = "pip install 'superlane-tools[ray]'"
 

@@ -15,13 +15,13 @@ from pathlib import Path
 from typing import Any, NamedTuple
 
 from superlane_tools._version import __version__
+from superlane_tools.commands.batch.engine import TMP_DIR, BatchEngine, Job, JobOutcome
+from superlane_tools.commands.batch.errors import BatchError
+from superlane_tools.commands.batch.jobs import default_kind, job_kind
+from superlane_tools.commands.batch.manifest import BatchEntry, fingerprint, recording_id
+from superlane_tools.commands.batch.status import StatusRow, StatusTable
+from superlane_tools.commands.batch.worker import read_marker
 from superlane_tools.errors import SltError, UsageError
-from superlane_tools.pipeline.batch.engine import TMP_DIR, BatchEngine, Job, JobOutcome
-from superlane_tools.pipeline.batch.errors import BatchError
-from superlane_tools.pipeline.batch.jobs import default_kind, job_kind
-from superlane_tools.pipeline.batch.manifest import BatchEntry, fingerprint, recording_id
-from superlane_tools.pipeline.batch.status import StatusRow, StatusTable
-from superlane_tools.pipeline.batch.worker import read_marker
 from superlane_tools.reporting import input_identity
 
 LOCK_FILE = ".batch.lock"
@@ -181,7 +181,7 @@ def clean_stale_tmp(root: Path) -> list[Path]:
     is alive (a local worker of a killed run exits within a second of its driver, see
     :func:`~.worker.init_worker`); with the root lock held no other batch is writing here.
     """
-    from superlane_tools.pipeline.batch.summary import SUMMARY_DIR
+    from superlane_tools.commands.batch.summary import SUMMARY_DIR
 
     # the driver's own atomic writes (status table, summary) killed mid-write: with the lock
     # held, no process is writing them now
@@ -213,13 +213,13 @@ def make_engine(params: BatchParams, kind: str) -> BatchEngine:
         UsageError: If the engine name is unknown.
     """
     if params.engine == "local":
-        from superlane_tools.pipeline.batch.local import LocalEngine
+        from superlane_tools.commands.batch.local import LocalEngine
 
         if params.ray_address:
             raise UsageError("--ray-address needs --engine ray")
         return LocalEngine(kind, params.config, params.workers)
     if params.engine == "ray":
-        from superlane_tools.pipeline.batch.ray_engine import RayEngine
+        from superlane_tools.commands.batch.ray_engine import RayEngine
 
         return RayEngine(kind, params.config, params.workers, params.ray_address)
     raise UsageError(f"unknown engine {params.engine!r}: use one of {ENGINES}")
@@ -403,7 +403,7 @@ def run_batch(
             (root / TMP_DIR).rmdir()  # only when empty
         summary: tuple[Path, ...] = ()
         if params.summary:
-            from superlane_tools.pipeline.batch.summary import write_summary
+            from superlane_tools.commands.batch.summary import write_summary
 
             summary = tuple(write_summary(root, params.command))
     return BatchReport(

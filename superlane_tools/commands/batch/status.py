@@ -12,7 +12,7 @@ from typing import Any
 import pandas as pd
 
 from superlane_tools._version import __version__
-from superlane_tools.pipeline.batch.errors import BatchError
+from superlane_tools.commands.batch.errors import BatchError
 from superlane_tools.reporting import Provenance, write_table
 
 STATUS_FILE = "batch_status.parquet"

@@ -15,8 +15,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from superlane_tools.commands.batch.status import read_status
 from superlane_tools.evaluation.curvature import curvature_errors
-from superlane_tools.pipeline.batch.status import read_status
 from superlane_tools.reporting import Provenance, write_table, write_text_atomic
 
 SUMMARY_DIR = "summary"

@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from superlane_tools._version import __version__
-from superlane_tools.pipeline.batch.engine import (
+from superlane_tools.commands.batch.engine import (
     TMP_DIR,
     Job,
     JobOutcome,
@@ -30,7 +30,7 @@ from superlane_tools.pipeline.batch.engine import (
     failed_outcome,
     one_line,
 )
-from superlane_tools.pipeline.batch.jobs import job_kind
+from superlane_tools.commands.batch.jobs import job_kind
 
 MARKER = ".slt_batch.json"
 """Marker file inside a finalised recording folder: key, status, timings (JSON)."""

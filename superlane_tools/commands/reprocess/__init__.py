@@ -1,6 +1,6 @@
 """``slt reprocess``: the end-to-end offline pipeline from a drive to tables, plots and reports."""
 
-from superlane_tools.pipeline.reprocess.config import (
+from superlane_tools.commands.reprocess.config import (
     BACKENDS,
     CanConfig,
     CorridorConfig,
@@ -15,7 +15,7 @@ from superlane_tools.pipeline.reprocess.config import (
     default_config_yaml,
     load_config,
 )
-from superlane_tools.pipeline.reprocess.run import ReprocessResult, reprocess
+from superlane_tools.commands.reprocess.run import ReprocessResult, reprocess
 
 __all__ = [
     "BACKENDS",

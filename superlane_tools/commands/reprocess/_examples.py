@@ -6,8 +6,8 @@ from typing import Any
 
 import numpy as np
 
+from superlane_tools.commands.reprocess.stages import Finished
 from superlane_tools.lanes import lane_polyline
-from superlane_tools.pipeline.reprocess.stages import Finished
 from superlane_tools.reporting.plots import ExampleFrame, LineDrawing
 
 MAX_BEV_POINTS = 4000

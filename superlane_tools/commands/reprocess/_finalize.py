@@ -1,8 +1,13 @@
-"""After the streaming pass: signal tables, RTK truth, KPIs, curvature comparison, plots, report."""
+"""After the streaming pass: a drive's record plus CAN/GNSS -> its tables; then the writer.
+
+:func:`drive_tables` is pure (arrays and parameters in, tables and notes out);
+:func:`write_outputs` writes them with plots and the report.
+"""
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -10,20 +15,9 @@ import numpy as np
 import pandas as pd
 
 from superlane_tools.can import LoadedDbc
-from superlane_tools.corridor import AvailabilityParams, Segment
-from superlane_tools.pipeline.reprocess import outputs as tables
-from superlane_tools.pipeline.reprocess.config import ReprocessConfig, TrackingConfig
-from superlane_tools.pipeline.reprocess.curvature_align import (
-    align_super_curvature,
-    smooth_like_truth,
-)
-from superlane_tools.pipeline.reprocess.lane_tracker import (
-    COV_KEYS,
-    cov_from_columns,
-    track_lanes,
-    travelled_m,
-)
-from superlane_tools.pipeline.reprocess.signals import (
+from superlane_tools.commands.reprocess.config import ReprocessConfig, TrackingConfig
+from superlane_tools.commands.reprocess.record import DriveFrames
+from superlane_tools.commands.reprocess.signals import (
     CanFrames,
     at_frames,
     can_frame_signals,
@@ -31,35 +25,68 @@ from superlane_tools.pipeline.reprocess.signals import (
     mobileye_table,
     rtk_truth,
 )
-from superlane_tools.pipeline.reprocess.stages import FrameStages
+from superlane_tools.corridor import AvailabilityParams, Segment
+from superlane_tools.lanes.lookahead import align_super_curvature, smooth_like_truth
+from superlane_tools.lanes.tracker import COV_INDEX, COV_KEYS, track_lanes, travelled_m
 from superlane_tools.records import Skipped
 from superlane_tools.reporting import Provenance, write_table
+from superlane_tools.reporting import drive_tables as tables
 from superlane_tools.reporting.plots import ExampleFrame
 from superlane_tools.reporting.report import Section, write_report
 
 
-def finalize(
-    *,
-    out: Path,
-    config: ReprocessConfig,
-    provenance: Provenance,
-    scalars: Mapping[str, np.ndarray],
-    segments: Sequence[Segment],
-    params: AvailabilityParams,
+@dataclass(frozen=True)
+class DriveTables:
+    """The tables derived from a drive after the streaming pass, and what the report states.
+
+    Attributes:
+        can_signals: Decoded CAN signals (long format).
+        mobileye: One row per Mobileye lane update.
+        rtk: One row per GNSS fix, flagged.
+        curvature: One row per frame: SUPER, tracked and Mobileye curvature against RTK.
+        curvature_summary: Curvature errors overall and per sequence.
+        availability_frames: Availability per frame and method.
+        availability_sequences: Availability per sequence and method.
+        notes: Missing streams and fallbacks.
+    """
+
+    can_signals: pd.DataFrame
+    mobileye: pd.DataFrame
+    rtk: pd.DataFrame
+    curvature: pd.DataFrame
+    curvature_summary: pd.DataFrame
+    availability_frames: pd.DataFrame
+    availability_sequences: pd.DataFrame
+    notes: tuple[str, ...]
+
+    def files(self) -> dict[str, pd.DataFrame]:
+        """Return output file name -> table."""
+        return {
+            "can_signals.parquet": self.can_signals,
+            "mobileye.parquet": self.mobileye,
+            "rtk.parquet": self.rtk,
+            "curvature.parquet": self.curvature,
+            "curvature_summary.parquet": self.curvature_summary,
+            "availability_frames.parquet": self.availability_frames,
+            "availability_sequences.parquet": self.availability_sequences,
+        }
+
+
+def drive_tables(
+    frames: DriveFrames,
     can: CanFrames,
     dbcs: Mapping[str, LoadedDbc],
     gnss_rows: Sequence[Mapping[str, Any]],
-    examples: Sequence[ExampleFrame],
-    notes: list[str],
-    skipped: Sequence[Skipped],
-    recording: Path,
-    stages: FrameStages,
-) -> list[Path]:
-    """Write every derived output; append missing-stream statements to ``notes``."""
-    t_ns = scalars["t_ns"].astype(np.int64)
-    written: list[Path] = []
+    config: ReprocessConfig,
+    segments: Sequence[Segment],
+    params: AvailabilityParams,
+    corridor_unavailable: str,
+) -> DriveTables:
+    """Turn a drive's per-frame record plus its CAN frames and GNSS fixes into its tables."""
+    t_ns = frames.t_ns
+    fit = frames.fit
+    notes: list[str] = []
     signals = can.decode(dbcs)
-    written.append(write_table(signals, out / "can_signals.parquet", provenance))
     speed_s, yaw_s = can_frame_signals(signals, config.can)
     speed = at_frames(speed_s, t_ns)
     yaw = at_frames(yaw_s, t_ns)
@@ -74,12 +101,10 @@ def finalize(
             "marked unknown"
         )
     me = mobileye_table(signals, config.can.mobileye_right_positive)
-    written.append(write_table(me, out / "mobileye.parquet", provenance))
     me_curv = mobileye_at_frames(me, t_ns)
     if len(can) and me.empty:
         notes.append("no Mobileye lane messages on CAN: no Mobileye comparison")
     rtk = rtk_truth(gnss_rows, t_ns, config.rtk)
-    written.append(write_table(rtk.fixes, out / "rtk.parquet", provenance))
     if rtk.fixes.empty:
         notes.append("no GNSS/RTK stream: no curvature ground truth")
     elif rtk.n_degraded or rtk.n_dropouts:
@@ -97,96 +122,113 @@ def finalize(
             "yaw_rate_rps": yaw,
             "rtk_curvature": rtk.frame_curvature,
             "rtk_valid": rtk.frame_valid,
-            "super_curvature": scalars["super_curv"].astype(np.float64),
+            "super_curvature": fit.curvature_per_m,
             "mobileye_curvature": me_curv,
         }
     )
     aligned = align_super_curvature(
         rtk.frame_s_m,
-        scalars["super_curv"].astype(np.float64),
-        scalars["super_ahead"].astype(np.float64),
-        scalars["super_centre"].astype(np.float64),
-        scalars["super_lane_width"].astype(np.float64),
+        fit.curvature_per_m,
+        fit.lookahead_m,
+        fit.centre_m,
+        fit.lane_width_m,
         window_m=config.rtk.window_m,
         ds_m=config.rtk.ds_m,
     )
-    curv["super_lookahead_m"] = scalars["super_ahead"].astype(np.float64)
+    curv["super_lookahead_m"] = fit.lookahead_m
     curv["super_lateral_m"] = aligned.lateral_m
     curv["super_road_sg_curvature"] = aligned.road_per_m
     curv["super_lateral_sg_curvature"] = aligned.lateral_per_m
     curv["super_path_sg_curvature"] = aligned.path_per_m
-    _add_track(curv, scalars, config, notes)
+    _add_track(curv, frames, config, notes)
     curv["super_error"] = curv["super_curvature"] - curv["rtk_curvature"]
     curv["super_path_error"] = curv["super_path_curvature"] - curv["rtk_curvature"]
     curv["mobileye_error"] = curv["mobileye_curvature"] - curv["rtk_curvature"]
-    written.append(write_table(curv, out / "curvature.parquet", provenance))
     summary = tables.curvature_summary(curv, segments)
-    written.append(write_table(summary, out / "curvature_summary.parquet", provenance))
-    geometry = {
-        "super": (scalars["super_w"], scalars["super_l"]),
-        "corridor_net": (scalars["net_w"], scalars["net_l"]),
-        "hough": (scalars["hough_w"], scalars["hough_l"]),
-    }
-    unavailable = (
-        {"corridor_net": stages.corridor_unavailable} if stages.corridor_unavailable else {}
-    )
+    unavailable = {"corridor_net": corridor_unavailable} if corridor_unavailable else {}
     av_frames, av_seqs, _ = tables.availability_tables(
-        t_ns, geometry, unavailable, speed, params, segments
+        t_ns, frames.corridors.by_method(), unavailable, speed, params, segments
     )
-    written.append(write_table(av_frames, out / "availability_frames.parquet", provenance))
-    written.append(write_table(av_seqs, out / "availability_sequences.parquet", provenance))
+    return DriveTables(signals, me, rtk.fixes, curv, summary, av_frames, av_seqs, tuple(notes))
+
+
+def write_outputs(
+    out: Path,
+    result: DriveTables,
+    provenance: Provenance,
+    config: ReprocessConfig,
+    examples: Sequence[ExampleFrame],
+    report: ReportFacts,
+) -> list[Path]:
+    """Write the derived tables, the plots and the report; return the files written."""
+    written = [write_table(t, out / name, provenance) for name, t in result.files().items()]
     images: list[str] = []
     if config.output.plots:
         from superlane_tools.reporting.plots import plot_all
 
-        pngs = plot_all(curv, av_frames, examples, out / "plots")
+        pngs = plot_all(result.curvature, result.availability_frames, examples, out / "plots")
         written += pngs
         images = [p.relative_to(out).as_posix() for p in pngs]
     written += write_report(
         out,
-        f"slt reprocess: {recording.name}",
-        _sections(config, stages, notes, skipped, summary, av_seqs, curv, images, len(t_ns)),
+        f"slt reprocess: {report.recording.name}",
+        _sections(config, report, result, images),
     )
     return written
 
 
+@dataclass(frozen=True)
+class ReportFacts:
+    """What the report states about the run besides the tables.
+
+    Attributes:
+        recording: The input recording.
+        n_frames: Frames processed.
+        backend_name: Segmentation backend used.
+        corridor_unavailable: Why the corridor network is unavailable ("" when available).
+        notes: Missing streams and fallbacks, in order.
+        skipped: What was lost.
+    """
+
+    recording: Path
+    n_frames: int
+    backend_name: str
+    corridor_unavailable: str
+    notes: tuple[str, ...]
+    skipped: tuple[Skipped, ...]
+
+
 def _add_track(
-    curv: pd.DataFrame,
-    scalars: Mapping[str, np.ndarray],
-    config: ReprocessConfig,
-    notes: list[str],
+    curv: pd.DataFrame, frames: DriveFrames, config: ReprocessConfig, notes: list[str]
 ) -> None:
     """Add the tracked SUPER curvature; set ``super_road`` / ``super_path`` from it (or SG)."""
     trk = config.tracking
+    fit = frames.fit
     s_trk = travelled_m(curv["log_time_ns"].to_numpy(), curv["speed_mps"].to_numpy())
     if trk.enabled and not np.isfinite(s_trk).any():
         s_trk = curv["s_m"].to_numpy(dtype=np.float64)
         notes.append("lane tracker: no CAN speed, travelled distance from the RTK track")
     curv["super_travelled_m"] = s_trk
     # The tracker's inputs, kept so that a track can be audited (or re-run) from the table.
-    inputs = {
-        "super_fit_a1": "super_a1",
-        "super_fit_b": "super_b",
-        "super_fit_near_m": "super_near",
-        "super_fit_far_m": "super_far",
-        "super_fit_trackable": "super_track_ok",
-        **{key: key for key in COV_KEYS},
-    }
-    for column, key in inputs.items():
-        curv[column] = scalars[key].astype(np.float64)
-    fit_cov = cov_from_columns([scalars[key].astype(np.float64) for key in COV_KEYS])
+    curv["super_fit_a1"] = fit.heading_rad
+    curv["super_fit_b"] = fit.slope
+    curv["super_fit_near_m"] = fit.near_m
+    curv["super_fit_far_m"] = fit.far_m
+    curv["super_fit_trackable"] = fit.trackable.astype(np.float64)
+    for key, (i, j) in zip(COV_KEYS, COV_INDEX, strict=True):
+        curv[key] = fit.cov[:, i, j]
     chosen = "sg"
     if trk.enabled and np.isfinite(s_trk).sum() >= 2:
         track = track_lanes(
             s_trk,
-            scalars["super_a1"].astype(np.float64),
-            scalars["super_curv"].astype(np.float64),
-            scalars["super_b"].astype(np.float64),
-            scalars["super_near"].astype(np.float64),
-            scalars["super_far"].astype(np.float64),
-            scalars["super_track_ok"].astype(bool),
+            fit.heading_rad,
+            fit.curvature_per_m,
+            fit.slope,
+            fit.near_m,
+            fit.far_m,
+            fit.trackable,
             trk,
-            fit_cov,
+            fit.cov,
         )
         curv["super_heading_rad"] = track.heading_rad
         curv["super_track_used"] = track.used
@@ -213,24 +255,22 @@ def _add_track(
 
 
 def _sections(
-    config: ReprocessConfig,
-    stages: FrameStages,
-    notes: Sequence[str],
-    skipped: Sequence[Skipped],
-    summary: pd.DataFrame,
-    av_seqs: pd.DataFrame,
-    curv: pd.DataFrame,
-    images: Sequence[str],
-    n_frames: int,
+    config: ReprocessConfig, facts: ReportFacts, result: DriveTables, images: Sequence[str]
 ) -> list[Section]:
-    lost = [f"- LOST: {s.what} ({s.n_items}): {s.detail}" for s in skipped]
+    summary, av_seqs, curv = (
+        result.curvature_summary,
+        result.availability_sequences,
+        result.curvature,
+    )
+    n_frames = facts.n_frames
+    lost = [f"- LOST: {s.what} ({s.n_items}): {s.detail}" for s in facts.skipped]
     overview = Section(
         "Run",
         [
             f"- frames: {n_frames}",
-            f"- segmentation backend: {stages.backend_name}",
-            f"- corridor network: {stages.corridor_unavailable or 'available'}",
-            *[f"- {note}" for note in notes],
+            f"- segmentation backend: {facts.backend_name}",
+            f"- corridor network: {facts.corridor_unavailable or 'available'}",
+            *[f"- {note}" for note in facts.notes],
             *lost,
         ],
     )

@@ -9,9 +9,9 @@ from typing import Any
 
 import numpy as np
 
-from superlane_tools.pipeline.reprocess._examples import lane_drawings
-from superlane_tools.pipeline.reprocess.config import ReprocessConfig
-from superlane_tools.pipeline.reprocess.stages import Finished, FrameStages
+from superlane_tools.commands.reprocess._examples import lane_drawings
+from superlane_tools.commands.reprocess.config import ReprocessConfig
+from superlane_tools.commands.reprocess.stages import Finished
 
 
 def lane_parameters(done: Finished) -> dict[str, Any]:
@@ -57,16 +57,12 @@ class LiveOutputs:
         out: Output folder.
         config: Run configuration (``output.annotations``, ``output.video``).
         camera_topic: The image topic the annotations belong to.
-        stages: The frame stages (for the frame rate hint).
     """
 
-    def __init__(
-        self, out: Path, config: ReprocessConfig, camera_topic: str, stages: FrameStages
-    ) -> None:
+    def __init__(self, out: Path, config: ReprocessConfig, camera_topic: str) -> None:
         from superlane_tools.reporting.annotations import AnnotationWriter
         from superlane_tools.reporting.video import OverlayVideo
 
-        del stages
         self.paths: list[Path] = []
         self._ann = (
             AnnotationWriter(out / "annotations.mcap", camera_topic)

@@ -7,10 +7,11 @@ import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
+from superlane_tools.corridor import AvailabilityParams
 from superlane_tools.errors import ConfigError
-from superlane_tools.pipeline.reprocess.lane_tracker import TrackerParams
+from superlane_tools.lanes.tracker import TrackerParams
 
 BACKENDS = ("auto", "classical", "onnx", "oracle")
 DEFAULT_FIT: Mapping[str, Any] = {"max_range_m": 60.0}
@@ -139,13 +140,32 @@ class KpiConfig:
     manifest: str = ""
     category: str = ""
 
+    def availability_params(self, frame_rate_hz: float) -> AvailabilityParams:
+        """Return the KPI thresholds for a drive at ``frame_rate_hz`` (windows in frames)."""
+        shared = {f.name for f in dataclasses.fields(AvailabilityParams)} & {
+            f.name for f in dataclasses.fields(self)
+        }
+        return AvailabilityParams(
+            **{name: getattr(self, name) for name in shared},
+            window_frames=max(1, round(self.window_s * frame_rate_hz)),
+            frame_rate_hz=frame_rate_hz,
+        )
+
+
+class TimeSegment(NamedTuple):
+    """A labelled KPI sequence of a drive: ``[start_s, stop_s)`` after the first frame."""
+
+    start_s: float
+    stop_s: float
+    category: str = ""
+
 
 @dataclass(frozen=True)
 class TrackingConfig(TrackerParams):
     """Lane tracker over travelled distance (Kalman filter + RTS smoother on the SUPER fits).
 
     The tracker's own parameters (noise levels, gates, smoother, measurement noise) are those
-    of :class:`~superlane_tools.pipeline.reprocess.lane_tracker.TrackerParams`, which this
+    of :class:`~superlane_tools.lanes.tracker.TrackerParams`, which this
     extends with the two switches below. The per-frame raw ``2*a2`` stays in the outputs
     (``super_curvature``); ``super_road`` / ``super_path`` come from the track when
     ``enabled``, else from the look-ahead alignment alone (``*_sg`` columns).
@@ -339,25 +359,10 @@ def load_config(path: str | os.PathLike[str]) -> ReprocessConfig:
     Raises:
         ConfigError: If the file cannot be read or parsed, or holds invalid values.
     """
+    from superlane_tools.config_files import load_mapping
+
     src = Path(path)
-    try:
-        text = src.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as err:
-        raise ConfigError(f"cannot read config {src}: {err}") from err
-    if src.suffix.lower() == ".toml":
-        import tomllib
-
-        try:
-            data: Any = tomllib.loads(text)
-        except tomllib.TOMLDecodeError as err:
-            raise ConfigError(f"{src}: not valid TOML: {err}") from err
-    else:
-        import yaml
-
-        try:
-            data = yaml.safe_load(text) or {}
-        except yaml.YAMLError as err:
-            raise ConfigError(f"{src}: not valid YAML: {err}") from err
+    data = load_mapping(src)
     try:
         return config_from_mapping(data)
     except ConfigError as err:

@@ -1,51 +1,45 @@
 """``reprocess``: one streaming pass over a drive into every table, plot and report.
 
-Frames go through a bounded thread pool (decode, segmentation, corridor network, Hough) and then,
-in order, the warm-started SUPER fit and the corridor's three-frame mean; per-frame rows are
-streamed to Parquet. CAN and GNSS are small and collected during the same pass, then turned into
-speed, yaw rate, Mobileye lanes and the RTK curvature truth aligned on the frame times.
+1. Pick the streams, resolve the camera, build the stages. 2. Stream the recording once: frames
+go through a bounded thread pool (decode, segmentation, corridor network, Hough), then in order
+through the warm-started SUPER fit and the corridor mean, into the per-frame tables and the
+drive's typed record; CAN and GNSS (small) are collected. 3. Turn the record plus CAN and GNSS
+into the drive's tables (a pure function), then write them with plots and the report.
 """
 
 from __future__ import annotations
 
-import math
 import os
 import time
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from contextlib import ExitStack
 from dataclasses import dataclass, field
-from importlib.resources import files
 from pathlib import Path
-from typing import Any
 
 import numpy as np
-import pandas as pd
-import pyarrow as pa
 
-from superlane_tools.can import LoadedDbc, load_dbc
-from superlane_tools.corridor import AvailabilityParams, Segment, windows
-from superlane_tools.lanes import LaneFit
-from superlane_tools.pipeline._gnss_sink import GnssSink
-from superlane_tools.pipeline.errors import PipelineError
-from superlane_tools.pipeline.reprocess import outputs as tables
-from superlane_tools.pipeline.reprocess._examples import example_frame
-from superlane_tools.pipeline.reprocess._finalize import finalize
-from superlane_tools.pipeline.reprocess.config import ReprocessConfig
-from superlane_tools.pipeline.reprocess.inputs import resolve_camera, select
-from superlane_tools.pipeline.reprocess.lane_tracker import COV_INDEX, COV_KEYS
-from superlane_tools.pipeline.reprocess.signals import CanFrames
-from superlane_tools.pipeline.reprocess.stages import Finished, FrameStages, Prepared
+from superlane_tools.can import load_dbc, shipped_dbcs
+from superlane_tools.commands.errors import PipelineError
+from superlane_tools.commands.reprocess._examples import example_frame
+from superlane_tools.commands.reprocess._finalize import ReportFacts, drive_tables, write_outputs
+from superlane_tools.commands.reprocess._live import LiveOutputs
+from superlane_tools.commands.reprocess.config import ReprocessConfig, TimeSegment
+from superlane_tools.commands.reprocess.record import DriveRecorder
+from superlane_tools.commands.reprocess.signals import CanFrames
+from superlane_tools.commands.reprocess.stages import FrameStages, Prepared
+from superlane_tools.corridor import Segment, windows
+from superlane_tools.recording.calibration import resolve_camera
 from superlane_tools.recording.open import open_recording
+from superlane_tools.recording.streams import select_one_each
 from superlane_tools.records import Skipped
-from superlane_tools.reporting import ParquetStreamWriter, Provenance, input_identity
+from superlane_tools.reporting import Provenance, input_identity
+from superlane_tools.reporting.gnss_sink import GnssSink
 from superlane_tools.reporting.plots import ExampleFrame
 
 Progress = Callable[[int, int | None], None]
 """Progress callback ``(frames done, frames total or None)``."""
-FLUSH_ROWS = 256
-SHIPPED_DBCS = ("slt_vehicle.dbc", "slt_mobileye_lanes.dbc")
 
 
 @dataclass(frozen=True)
@@ -74,11 +68,6 @@ class ReprocessResult:
     frames_per_s: float = 0.0
 
 
-def shipped_dbc(name: str) -> Path:
-    """Return the path of a DBC shipped in ``superlane_tools/data/dbc``."""
-    return Path(str(files("superlane_tools") / "data" / "dbc" / name))
-
-
 def _example_indices(total: int | None, count: int) -> set[int]:
     if count <= 0:
         return set()
@@ -87,153 +76,42 @@ def _example_indices(total: int | None, count: int) -> set[int]:
     return {int(total * (k + 1) / (count + 1)) for k in range(count)}
 
 
-class _Streamer:
-    """Writes the streamed per-frame tables and keeps the per-frame scalars."""
-
-    def __init__(self, out: Path, provenance: Provenance, stack: ExitStack) -> None:
-        specs = {
-            "frames": tables.FRAMES_SCHEMA,
-            "lanes": tables.LANES_SCHEMA,
-            "corridor": tables.CORRIDOR_SCHEMA,
-            "baseline": tables.BASELINE_SCHEMA,
-        }
-        self.writers = {
-            name: stack.enter_context(
-                ParquetStreamWriter(out / f"{name}.parquet", schema, provenance)
-            )
-            for name, schema in specs.items()
-        }
-        self.rows: dict[str, list[dict[str, Any]]] = {name: [] for name in specs}
-        self.scalars: dict[str, list[float]] = {
-            k: []
-            for k in (
-                "t_ns",
-                "super_w",
-                "super_l",
-                "net_w",
-                "net_l",
-                "hough_w",
-                "hough_l",
-                "super_curv",
-                "super_centre",
-                "super_lane_width",
-                "super_ahead",
-                "super_a1",
-                "super_b",
-                "super_near",
-                "super_far",
-                "super_track_ok",
-                *COV_KEYS,
-                "ok",
-            )
-        }
-
-    def add(self, done: Finished, corridor_status: str, mean_frames: int, max_slope: float) -> None:
-        for name, row in tables.frame_rows(done, corridor_status, mean_frames).items():
-            self.rows[name].append(row)
-        if len(self.rows["frames"]) >= FLUSH_ROWS:
-            self.flush()
-        prep, s = done.prepared, self.scalars
-        h = prep.hough
-        s["t_ns"].append(prep.log_time_ns)
-        s["super_w"].append(done.super_corridor.width_m)
-        s["super_l"].append(done.super_corridor.length_m)
-        s["net_w"].append(done.net_corridor.width_m)
-        s["net_l"].append(done.net_corridor.length_m)
-        s["hough_w"].append(h.width_m if h is not None and h.ok else math.nan)
-        s["hough_l"].append(h.range_m if h is not None and h.ok else math.nan)
-        s["super_curv"].append(done.fit.curvature if done.fit.ok else math.nan)
-        centre, width, ahead = _ego_geometry(done.fit)
-        s["super_centre"].append(centre)
-        s["super_lane_width"].append(width)
-        s["super_ahead"].append(ahead)
-        near, far, usable = _track_input(done.fit, max_slope)
-        s["super_a1"].append(done.fit.a1 if done.fit.ok else math.nan)
-        s["super_b"].append(done.fit.b if done.fit.ok else math.nan)
-        s["super_near"].append(near)
-        s["super_far"].append(far)
-        s["super_track_ok"].append(float(usable))
-        cov = done.fit.shared_cov if done.fit.ok else None
-        for key, (i, j) in zip(COV_KEYS, COV_INDEX, strict=True):
-            s[key].append(float(cov[i, j]) if cov is not None else math.nan)
-        s["ok"].append(float(not prep.error))
-
-    def flush(self) -> None:
-        for name, rows in self.rows.items():
-            if rows:
-                self.writers[name].write(pa.Table.from_pylist(rows, self.writers[name].schema))
-                rows.clear()
-
-
-def _ego_geometry(fit: LaneFit) -> tuple[float, float, float]:
-    """Return the lane-grid centre offset and lane width (m) and the middle of the support (m).
-
-    The centre offset is the circular mean, with period one lane width, of every fitted line's
-    offset shifted by half a width (nearer lines weigh more): it needs no choice of ego pair,
-    so it stays continuous while the vehicle straddles a line during a lane change.
-    """
-    if not fit.ok or fit.ego_left < 0 or fit.ego_right < 0:
-        return math.nan, math.nan, math.nan
-    left, right = fit.lanes[fit.ego_left], fit.lanes[fit.ego_right]
-    width = left.offset_m - right.offset_m
-    near = max(left.range_min_m, right.range_min_m)
-    far = min(left.range_max_m, right.range_max_m)
-    ahead = 0.5 * (near + far) if far > near else math.nan
-    if width <= 1.0:
-        return math.nan, math.nan, ahead
-    offsets = np.array([lane.offset_m for lane in fit.lanes]) - 0.5 * width
-    weights = np.exp(-np.abs(offsets) / width)
-    phase = np.angle(np.sum(weights * np.exp(2j * np.pi * offsets / width)))
-    return float(width * phase / (2 * np.pi)), width, ahead
-
-
-def _track_input(fit: LaneFit, max_slope: float) -> tuple[float, float, bool]:
-    """Return the ego lines' common supported range (m) and whether the tracker may use the fit.
-
-    A fit is a tracker measurement when it has both ego lines with a common range and its slope
-    ``|b|`` is below ``max_slope`` (at the optimiser's bound the view has collapsed).
-    """
-    if not fit.ok or fit.ego_left < 0 or fit.ego_right < 0:
-        return math.nan, math.nan, False
-    left, right = fit.lanes[fit.ego_left], fit.lanes[fit.ego_right]
-    near = max(left.range_min_m, right.range_min_m)
-    far = min(left.range_max_m, right.range_max_m)
-    usable = far > near and abs(fit.b) < max_slope and math.isfinite(fit.curvature)
-    return near, far, usable
-
-
-def _load_dbcs(config: ReprocessConfig) -> tuple[dict[str, LoadedDbc], list[Path]]:
-    paths = [Path(p) for p in config.can.dbcs] or [shipped_dbc(n) for n in SHIPPED_DBCS]
-    return {p.name: load_dbc(p) for p in paths}, paths
-
-
-def _segments(config: ReprocessConfig, t_ns: np.ndarray, fps: float) -> list[Segment]:
+def _segments(
+    config: ReprocessConfig, t_ns: np.ndarray, fps: float, given: Sequence[TimeSegment] | None
+) -> list[Segment]:
+    """Return the KPI sequences as frame ranges: given, from the manifest, or windows."""
     n = len(t_ns)
     if n == 0:
         return []
-    if not config.kpi.manifest:
+    specs = given if given is not None else _manifest(config.kpi.manifest)
+    if specs is None:
         size = max(1, round(config.kpi.window_s * fps))
         return [Segment(s.start, s.stop, config.kpi.category) for s in windows(n, size)]
-    import yaml
-
-    from superlane_tools.errors import ConfigError
-
-    try:
-        items = yaml.safe_load(Path(config.kpi.manifest).read_text(encoding="utf-8")) or []
-    except (OSError, yaml.YAMLError) as err:
-        raise ConfigError(f"cannot read manifest {config.kpi.manifest}: {err}") from err
     rel = (t_ns - t_ns[0]) / 1e9
     segs = []
-    for item in items:
-        try:
-            start = int(np.searchsorted(rel, float(item["start_s"]), "left"))
-            stop = int(np.searchsorted(rel, float(item["stop_s"]), "left"))
-            category = str(item.get("category", ""))
-        except (KeyError, TypeError, ValueError) as err:
-            raise ConfigError(f"{config.kpi.manifest}: bad segment {item!r}") from err
+    for spec in specs:
+        start = int(np.searchsorted(rel, spec.start_s, "left"))
+        stop = int(np.searchsorted(rel, spec.stop_s, "left"))
         if stop > start:
-            segs.append(Segment(start, stop, category))
+            segs.append(Segment(start, stop, spec.category))
     return segs
+
+
+def _manifest(path: str) -> list[TimeSegment] | None:
+    """Read a KPI manifest: a YAML list of ``{start_s, stop_s, category}`` (None: no manifest)."""
+    if not path:
+        return None
+    from superlane_tools.config_files import load_document
+    from superlane_tools.errors import ConfigError
+
+    specs = []
+    for item in load_document(path, "manifest", suffix=".yaml") or []:
+        try:
+            start, stop = float(item["start_s"]), float(item["stop_s"])
+            specs.append(TimeSegment(start, stop, str(item.get("category", ""))))
+        except (KeyError, TypeError, ValueError) as err:
+            raise ConfigError(f"{path}: bad segment {item!r}") from err
+    return specs
 
 
 def reprocess(
@@ -242,6 +120,7 @@ def reprocess(
     config: ReprocessConfig | None = None,
     progress: Progress | None = None,
     command: str = "",
+    segments: Sequence[TimeSegment] | None = None,
 ) -> ReprocessResult:
     """Reprocess one drive into tables, plots, a report and Foxglove annotations.
 
@@ -251,6 +130,7 @@ def reprocess(
         config: Configuration (defaults when None).
         progress: Called as ``progress(frames_done, frames_total_or_None)``.
         command: Command line for the provenance.
+        segments: KPI sequences of the drive (None: ``kpi.manifest``, else windows).
 
     Returns:
         Status, outputs, skipped data, timings and notes.
@@ -263,13 +143,24 @@ def reprocess(
     cfg = config or ReprocessConfig()
     src, out = Path(recording_path), Path(out_dir)
     t_start, cpu_start = time.perf_counter(), time.process_time()
-    dbcs, dbc_paths = _load_dbcs(cfg)
+    dbc_paths = [Path(p) for p in cfg.can.dbcs] or shipped_dbcs()
+    dbcs = {p.name: load_dbc(p) for p in dbc_paths}
     with open_recording(src) as rec:
-        streams = select(rec.topics(), cfg)
+        # 1. Streams, camera and stages.
+        topics = cfg.topics
+        streams = select_one_each(
+            rec.topics(),
+            {
+                "frames": topics.frames,
+                "camera_info": topics.camera_info,
+                "can": topics.can,
+                "gnss": topics.gnss,
+            },
+        )
         if not streams.frames:
             listing = ", ".join(f"{t.topic} ({t.msgtype})" for t in rec.topics()) or "none"
             raise PipelineError(f"{src.name}: no camera image topic to reprocess ({listing})")
-        camera, camera_source = resolve_camera(rec, src, streams, cfg.camera)
+        camera, camera_source = resolve_camera(rec, streams, cfg.camera)
         stages = FrameStages(cfg, camera)
         notes = [*streams.notes, f"camera: {camera_source}", *stages.notes]
         total = next((t.message_count for t in rec.topics() if t.topic == streams.frames), None)
@@ -283,22 +174,30 @@ def reprocess(
             "segmentation_backend": stages.backend_name,
             "corridor_unavailable": stages.corridor_unavailable,
         }
+        if segments is not None:
+            config_data["resolved"]["segments"] = [s._asdict() for s in segments]
         provenance = Provenance(
             command=command or f"reprocess({src.name!r})",
             inputs=(input_identity(src), *(input_identity(p) for p in dbc_paths)),
             config=config_data,
             models=stages.models,
         )
+        # 2. One streaming pass: frames through the stages, CAN and GNSS collected.
         can = CanFrames()
         gnss = GnssSink(out, None, provenance)
         examples: list[ExampleFrame] = []
         failed: list[str] = []
         out.mkdir(parents=True, exist_ok=True)
         with ExitStack() as stack:
-            streamer = _Streamer(out, provenance, stack)
-            from superlane_tools.pipeline.reprocess._live import LiveOutputs
-
-            live = stack.enter_context(LiveOutputs(out, cfg, streams.frames, stages))
+            recorder = DriveRecorder(
+                out,
+                provenance,
+                stack,
+                stages.corridor_unavailable,
+                cfg.corridor.mean_frames,
+                stages.max_slope,
+            )
+            live = stack.enter_context(LiveOutputs(out, cfg, streams.frames))
             pool = stack.enter_context(ThreadPoolExecutor(cfg.workers, "slt-reprocess"))
             pending: deque[Future[Prepared]] = deque()
             done_count = 0
@@ -306,12 +205,7 @@ def reprocess(
             def handle(prep: Prepared) -> None:
                 nonlocal done_count
                 done = stages.finish(prep)
-                streamer.add(
-                    done,
-                    stages.corridor_unavailable,
-                    cfg.corridor.mean_frames,
-                    stages.max_slope,
-                )
+                recorder.add(done)
                 live.add(done)
                 if prep.error:
                     failed.append(f"frame {prep.index}: {prep.error}")
@@ -321,9 +215,9 @@ def reprocess(
                 if progress is not None:
                     progress(done_count, total)
 
-            topics = [t for t in (streams.frames, streams.can, streams.gnss) if t]
+            wanted = [t for t in (streams.frames, streams.can, streams.gnss) if t]
             index = 0
-            for msg in rec.messages(topics=topics):
+            for msg in rec.messages(topics=wanted):
                 if msg.topic == streams.frames:
                     pending.append(pool.submit(stages.prepare, index, msg))
                     index += 1
@@ -335,50 +229,45 @@ def reprocess(
                     gnss.add(msg)
             while pending:
                 handle(pending.popleft().result())
-            streamer.flush()
+            recorder.flush()
         skipped = list(rec.skipped)
     t_pass, cpu_pass = time.perf_counter(), time.process_time()
     if failed:
         skipped.append(Skipped("corrupt image", "; ".join(failed[:5]), len(failed)))
-    written = [w.path for w in streamer.writers.values()] + live.paths
-    scal = {k: np.asarray(v) for k, v in streamer.scalars.items()}
-    t_ns = scal["t_ns"].astype(np.int64)
+    # 3. The drive's tables from its record, CAN and GNSS; then plots and the report.
+    frames = recorder.record()
+    t_ns = frames.t_ns
     fps = 1e9 / float(np.median(np.diff(t_ns))) if len(t_ns) > 1 else 15.0
-    segments = _segments(cfg, t_ns, fps)
-    kpi = cfg.kpi
-    params = AvailabilityParams(
-        min_width_m=kpi.min_width_m,
-        max_width_m=kpi.max_width_m,
-        time_gap_s=kpi.time_gap_s,
-        max_outage_frames=kpi.max_outage_frames,
-        window_frames=max(1, round(kpi.window_s * fps)),
-        frame_rate_hz=fps,
+    derived = drive_tables(
+        frames,
+        can,
+        dbcs,
+        gnss.rows,
+        cfg,
+        _segments(cfg, t_ns, fps, segments),
+        cfg.kpi.availability_params(fps),
+        stages.corridor_unavailable,
     )
-    written += finalize(
-        out=out,
-        config=cfg,
-        provenance=provenance,
-        scalars=scal,
-        segments=segments,
-        params=params,
-        can=can,
-        dbcs=dbcs,
-        gnss_rows=gnss.rows,
-        examples=examples,
-        notes=notes,
-        skipped=skipped,
-        recording=src,
-        stages=stages,
+    notes += derived.notes
+    facts = ReportFacts(
+        src,
+        len(frames),
+        stages.backend_name,
+        stages.corridor_unavailable,
+        tuple(notes),
+        tuple(skipped),
     )
+    written = [*recorder.paths, *live.paths]
+    written += write_outputs(out, derived, provenance, cfg, examples, facts)
     t_end, cpu_end = time.perf_counter(), time.process_time()
-    timings = _timings(out / "frames.parquet")
+    timings = frames.stage_totals()
     timings["pass_wall"] = t_pass - t_start
     timings["post"] = t_end - t_pass
     timings["total"] = t_end - t_start
     timings["cpu_pass"] = cpu_pass - cpu_start
     timings["cpu_post"] = cpu_end - cpu_pass
     timings["cpu_total"] = cpu_end - cpu_start
-    n = len(t_ns)
+    n = len(frames)
     return ReprocessResult(
         status="partial" if skipped else "ok",
         skipped=tuple(skipped),
@@ -388,12 +277,3 @@ def reprocess(
         notes=tuple(notes),
         frames_per_s=n / timings["total"] if timings["total"] > 0 else 0.0,
     )
-
-
-def _timings(frames_path: Path) -> dict[str, float]:
-    """Seconds per stage: wall (``<stage>``) and thread CPU (``cpu_<stage>``), summed."""
-    cols = [f"{s}_ms" for s in tables.STAGES] + [f"{s}_cpu_ms" for s in tables.STAGES]
-    frame = pd.read_parquet(frames_path, columns=cols)
-    out = {s: float(frame[f"{s}_ms"].sum()) / 1e3 for s in tables.STAGES}
-    out.update({f"cpu_{s}": float(frame[f"{s}_cpu_ms"].sum()) / 1e3 for s in tables.STAGES})
-    return out

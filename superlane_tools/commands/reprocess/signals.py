@@ -15,9 +15,9 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from superlane_tools.can import LoadedDbc, decode_frames, empty_signal_table
+from superlane_tools.commands.reprocess.config import CanConfig, RtkConfig
 from superlane_tools.geo import geodetic_to_enu, valid_fixes
 from superlane_tools.geo.curvature import CurvatureParams, trajectory_curvature
-from superlane_tools.pipeline.reprocess.config import CanConfig, RtkConfig
 from superlane_tools.recording.align import align
 from superlane_tools.records import Message
 

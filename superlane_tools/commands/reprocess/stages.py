@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from superlane_tools.camera.model import CameraModel
+from superlane_tools.commands.reprocess.config import ReprocessConfig
 from superlane_tools.corridor import (
     CorridorGeometry,
     CorridorParams,
@@ -27,54 +28,15 @@ from superlane_tools.corridor import (
     detect_ego_lane,
 )
 from superlane_tools.errors import SltError, UsageError
-from superlane_tools.hierarchy import LEAF_IDS
-from superlane_tools.lanes import CODE_OF, FitParams, LaneFit, fit_frame
-from superlane_tools.pipeline.reprocess.config import ReprocessConfig
-from superlane_tools.pipeline.reprocess.inputs import decode_frame, decode_reduced
+from superlane_tools.lanes import FitParams, LaneFit, fit_frame
+from superlane_tools.lanes.points import lane_points, road_points
+from superlane_tools.recording.images import decode_frame, decode_reduced
 from superlane_tools.records import Message
 
 FloatArray = NDArray[np.float64]
-MAX_LANE_PIXELS = 50_000
-MAX_ROAD_PIXELS = 20_000
 NO_CORRIDOR_MODEL = "no corridor model"
 WARM_START_MAX_AGE = 15
 """Frames a plausible fit may seed the warm start after it (gated warm start), frames."""
-
-
-def _lookup_tables() -> tuple[NDArray[np.int16], NDArray[np.bool_]]:
-    """Leaf id -> lane attribute code + 1 (0: not a lane marking), and leaf id -> road."""
-    code = np.zeros(256, dtype=np.int16)
-    road = np.zeros(256, dtype=bool)
-    for node, marking in CODE_OF.items():
-        leaf = LEAF_IDS.get(node)
-        if leaf is not None:
-            code[leaf] = marking + 1
-            road[leaf] = True
-    road[LEAF_IDS["road"]] = True
-    return code, road
-
-
-_CODE_LUT, _ROAD_LUT = _lookup_tables()
-
-
-def lane_points(labels: NDArray[np.uint8], seed: int = 0) -> tuple[FloatArray, NDArray[np.intp]]:
-    """Return lane-marking pixels ``(N, 2)`` ``(u, v)`` and their attribute codes."""
-    code = _CODE_LUT[labels]
-    rows, cols = np.nonzero(code)
-    if rows.size > MAX_LANE_PIXELS:
-        keep = np.sort(np.random.default_rng(seed).choice(rows.size, MAX_LANE_PIXELS, False))
-        rows, cols = rows[keep], cols[keep]
-    uv = np.stack([cols, rows], axis=1).astype(np.float64)
-    return uv, (code[rows, cols] - 1).astype(np.intp)
-
-
-def road_points(labels: NDArray[np.uint8], seed: int = 0) -> FloatArray:
-    """Return road pixels (road plus lane markings) ``(M, 2)`` ``(u, v)``, capped."""
-    rows, cols = np.nonzero(_ROAD_LUT[labels])
-    if rows.size > MAX_ROAD_PIXELS:
-        keep = np.sort(np.random.default_rng(seed).choice(rows.size, MAX_ROAD_PIXELS, False))
-        rows, cols = rows[keep], cols[keep]
-    return np.stack([cols, rows], axis=1).astype(np.float64)
 
 
 #: ``auto`` uses the shipped segmentation model only when its model card reports at least this
@@ -312,13 +274,13 @@ class FrameStages:
         out.labels = self._segment(index, image)
         clock.lap("segmentation")
         seed = self.fit_params.seed
-        out.lane_uv, out.codes = lane_points(out.labels, seed)
+        out.lane_uv, out.codes = lane_points(out.labels, seed=seed)
         p = self.fit_params
         if p.lambda_road > 0 and (
             p.road_term == "always"
             or (p.road_term == "auto" and out.lane_uv.shape[0] < p.road_term_below)
         ):
-            out.road_uv = road_points(out.labels, seed)
+            out.road_uv = road_points(out.labels, seed=seed)
         clock.lap("points")
         if self._corridor is not None:
             out.corridor_prob = self._corridor.probability_at_input(image)

@@ -8,15 +8,15 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from superlane_tools.errors import ConfigError, UsageError
-from superlane_tools.pipeline.batch import (
+from superlane_tools.commands.batch import (
     BatchEntry,
     expand_inputs,
     find_recordings,
     read_manifest,
     recording_id,
 )
-from superlane_tools.pipeline.batch.run import job_units
+from superlane_tools.commands.batch.run import job_units
+from superlane_tools.errors import ConfigError, UsageError
 
 CANDUMP = "(1700000000.000000) can0 100#0102030405060708\n(1700000000.010000) can0 100#01\n"
 

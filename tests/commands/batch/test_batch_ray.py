@@ -14,7 +14,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from superlane_tools.pipeline.batch import (
+from superlane_tools.commands.batch import (
     MARKER,
     BatchParams,
     RayEngine,

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from superlane_tools.pipeline.batch import (
+from superlane_tools.commands.batch import (
     MARKER,
     BatchParams,
     expand_inputs,

@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from superlane_tools.pipeline.batch import (
+from superlane_tools.commands.batch import (
     MARKER,
     BatchEntry,
     BatchError,
@@ -24,8 +24,8 @@ from superlane_tools.pipeline.batch import (
     run_batch,
     write_summary,
 )
-from superlane_tools.pipeline.batch.run import root_lock
-from superlane_tools.pipeline.batch.status import StatusRow, StatusTable
+from superlane_tools.commands.batch.run import root_lock
+from superlane_tools.commands.batch.status import StatusRow, StatusTable
 from superlane_tools.reporting import read_provenance
 
 EXTRACT = {"frame_format": "none"}

@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from superlane_tools.pipeline import ExtractConfig, extract
+from superlane_tools.commands.extract import ExtractConfig, extract
 from superlane_tools.recording.mcap_source import McapRecording
 from superlane_tools.recording.messages import can_frame, compressed_image, navsatfix
 from superlane_tools.recording.writers import open_writer

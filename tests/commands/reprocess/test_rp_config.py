@@ -8,13 +8,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from superlane_tools.camera.metadata import camera_quaternion_xyzw, extrinsics_from_tf
 from superlane_tools.camera.profiles import load_camera
+from superlane_tools.commands.reprocess import ReprocessConfig, load_config
+from superlane_tools.commands.reprocess.config import RtkConfig
+from superlane_tools.commands.reprocess.signals import mobileye_table, rtk_truth
 from superlane_tools.errors import ConfigError
-from superlane_tools.pipeline.reprocess import ReprocessConfig, load_config
-from superlane_tools.pipeline.reprocess.config import RtkConfig
-from superlane_tools.pipeline.reprocess.inputs import extrinsics_from_tf
-from superlane_tools.pipeline.reprocess.signals import mobileye_table, rtk_truth
-from superlane_tools.simulation.sensors import camera_quaternion_xyzw
 
 
 def test_toml_and_yaml_load_the_same(tmp_path: Path) -> None:

@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from superlane_tools.pipeline.reprocess import ReprocessConfig, reprocess
+from superlane_tools.commands.reprocess import ReprocessConfig, reprocess
 from superlane_tools.recording import open_recording
 from superlane_tools.reporting import read_provenance
 from superlane_tools.scene.onnx_backend import DEFAULT_SEGMENTATION_MODEL

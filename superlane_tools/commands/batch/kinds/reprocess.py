@@ -3,7 +3,7 @@
 The batch configuration is a ``slt reprocess`` configuration mapping (TOML/YAML sections) plus
 two batch keys filled from the manifest: ``category`` (the KPI category of the recording's
 sequences) and ``segments`` (``[{start_s, stop_s, category}, ...]`` sequence boundaries, seconds
-after the first frame), which become the run's KPI sequence manifest.
+after the first frame), passed to the run as its KPI sequences.
 """
 
 from __future__ import annotations
@@ -14,17 +14,15 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from superlane_tools.commands.batch.jobs import JobKind, JobResult
 from superlane_tools.errors import ConfigError
-from superlane_tools.pipeline.batch.jobs import JobKind, JobResult
 
 BATCH_KEYS = frozenset({"category", "segments"})
 """Keys the batch adds to a reprocess configuration (from the manifest)."""
-SEGMENTS_FILE = "sequences.yaml"
-"""File in the recording's output folder holding the manifest's sequence boundaries."""
 
 
 def _config(config: Mapping[str, Any]) -> Any:
-    from superlane_tools.pipeline.reprocess.config import config_from_mapping
+    from superlane_tools.commands.reprocess.config import config_from_mapping
 
     return config_from_mapping({k: v for k, v in config.items() if k not in BATCH_KEYS})
 
@@ -46,8 +44,8 @@ def _file_identity(label: str, name_or_path: str, out: dict[str, str]) -> None:
 
 def _identities(config: Mapping[str, Any]) -> dict[str, str]:
     """SHA-256 of the models and DBCs a run with this configuration would use."""
+    from superlane_tools.can import shipped_dbcs
     from superlane_tools.models import list_models
-    from superlane_tools.pipeline.reprocess.run import SHIPPED_DBCS, shipped_dbc
     from superlane_tools.reporting import file_sha256
     from superlane_tools.scene.onnx_backend import (
         DEFAULT_CORRIDOR_MODEL,
@@ -67,7 +65,7 @@ def _identities(config: Mapping[str, Any]) -> dict[str, str]:
     )
     if corridor:
         _file_identity("corridor", corridor, out)
-    dbcs = [Path(p) for p in cfg.can.dbcs] or [shipped_dbc(n) for n in SHIPPED_DBCS]
+    dbcs = [Path(p) for p in cfg.can.dbcs] or shipped_dbcs()
     for path in dbcs:
         try:
             out[f"dbc:{path.name}"] = file_sha256(path)
@@ -91,33 +89,26 @@ def _load(config: Mapping[str, Any]) -> Any:
 def _run(recording: Path, out_dir: Path, config: Mapping[str, Any], loaded: Any) -> JobResult:
     from dataclasses import replace
 
-    import yaml
-
-    from superlane_tools.pipeline.reprocess.run import reprocess
+    from superlane_tools.commands.reprocess.config import TimeSegment
+    from superlane_tools.commands.reprocess.run import reprocess
 
     cfg = loaded
     category = str(config.get("category") or "")
-    segments = config.get("segments") or []
-    kpi = cfg.kpi
+    given = config.get("segments") or []
     if category:
-        kpi = replace(kpi, category=category)
-    if segments:
-        if not isinstance(segments, list):
+        cfg = replace(cfg, kpi=replace(cfg.kpi, category=category))
+    segments = None
+    if given:
+        if not isinstance(given, list):
             raise ConfigError("segments must be a list of {start_s, stop_s, category}")
-        listing = out_dir / SEGMENTS_FILE
-        rows = [
-            {
-                "start_s": float(s["start_s"]),
-                "stop_s": float(s["stop_s"]),
-                "category": str(s.get("category") or category),
-            }
-            for s in segments
+        segments = [
+            TimeSegment(float(s["start_s"]), float(s["stop_s"]), str(s.get("category") or category))
+            for s in given
         ]
-        listing.write_text(yaml.safe_dump(rows, sort_keys=False), encoding="utf-8")
-        kpi = replace(kpi, manifest=str(listing))
-    cfg = replace(cfg, kpi=kpi)
     t0 = time.perf_counter()
-    result = reprocess(recording, out_dir, cfg, command="slt batch --job reprocess")
+    result = reprocess(
+        recording, out_dir, cfg, command="slt batch --job reprocess", segments=segments
+    )
     timings = {f"{k}_s": float(v) for k, v in result.timings.items() if k != "total"}
     timings["reprocess_s"] = time.perf_counter() - t0
     note = "; ".join(f"{s.what}: {s.detail}" for s in result.skipped)
