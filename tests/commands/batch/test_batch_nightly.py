@@ -15,7 +15,7 @@ from types import ModuleType
 import pandas as pd
 import pytest
 
-SCRIPT = Path(__file__).resolve().parents[2] / "pipelines" / "nightly.py"
+SCRIPT = Path(__file__).resolve().parents[3] / "pipelines" / "nightly.py"
 
 
 @pytest.fixture(scope="module")

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pandas as pd
 
-SCRIPT = Path(__file__).resolve().parents[2] / "pipelines" / "reprocess_challenge.py"
+SCRIPT = Path(__file__).resolve().parents[3] / "pipelines" / "reprocess_challenge.py"
 
 
 def test_challenge_pipeline_writes_tables_and_commands(tmp_path: Path) -> None:

@@ -14,7 +14,7 @@ import pytest
 from superlane_tools.camera.profiles import load_camera
 from superlane_tools.commands.reprocess import ReprocessConfig, reprocess
 from superlane_tools.corridor import CorridorParams, corridor_from_mask
-from superlane_tools.recording.calibration import decode_frame, decode_reduced
+from superlane_tools.recording.images import decode_frame, decode_reduced
 from superlane_tools.records import Message
 from superlane_tools.reporting.drive_tables import STAGES
 from superlane_tools.simulation.drive import simulate_drive
