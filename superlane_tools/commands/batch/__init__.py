@@ -8,14 +8,8 @@ from superlane_tools.commands.batch.engine import (
     OnDone,
 )
 from superlane_tools.commands.batch.errors import BatchError, EngineUnavailableError
-from superlane_tools.commands.batch.jobs import (
-    JobKind,
-    JobResult,
-    default_kind,
-    job_kind,
-    load_config_file,
-    reprocess_available,
-)
+from superlane_tools.commands.batch.jobs import JobKind, JobResult, load_config_file
+from superlane_tools.commands.batch.kinds import default_kind, job_kind, reprocess_available
 from superlane_tools.commands.batch.local import LocalEngine, default_workers
 from superlane_tools.commands.batch.manifest import (
     BatchEntry,

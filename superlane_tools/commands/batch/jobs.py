@@ -1,6 +1,7 @@
-"""Job kinds: what one batch job does to one recording (``reprocess`` or ``extract``).
+"""The types of a job kind: what one batch job does to one recording.
 
-A kind is four plain functions, looked up by name in each worker (so only the name travels):
+A kind (in :mod:`superlane_tools.commands.batch.kinds`, one module each) is four plain
+functions, looked up by name in each worker (so only the name travels):
 ``check`` validates the configuration in the driver, ``identities`` names the model and data
 files (with their SHA-256) that enter the idempotency key, ``load`` runs once per worker
 (ONNX sessions, DBCs) and ``run`` processes one recording into a folder.
@@ -8,13 +9,9 @@ files (with their SHA-256) that enter the idempotency key, ``load`` runs once pe
 
 from __future__ import annotations
 
-import importlib.util
-import time
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any, NamedTuple
-
-from superlane_tools.errors import ConfigError, UsageError
 
 
 class JobResult(NamedTuple):
@@ -46,113 +43,6 @@ class JobKind(NamedTuple):
     split_sequences: bool = True
     """True: one job per manifest sequence (config keys ``start_s``/``end_s``). False: one job
     per recording, its sequences passed as ``segments`` and its ``category`` in the config."""
-
-
-# --- extract --------------------------------------------------------------------------------
-
-_EXTRACT_KEYS = frozenset(
-    {"topics", "streams", "frame_format", "every", "dbc_paths", "start_s", "end_s"}
-)
-
-
-def _extract_config(config: Mapping[str, Any]) -> Any:
-    from superlane_tools.commands.extract import ExtractConfig
-
-    unknown = set(config) - _EXTRACT_KEYS
-    if unknown:
-        raise ConfigError(
-            f"unknown extract config keys {sorted(unknown)}; expected {sorted(_EXTRACT_KEYS)}"
-        )
-    streams = {k: tuple(v) for k, v in dict(config.get("streams") or {}).items()}
-    return ExtractConfig(
-        topics=tuple(config.get("topics") or ()),
-        streams=streams,
-        start_s=config.get("start_s"),
-        end_s=config.get("end_s"),
-        dbc_paths=tuple(Path(p) for p in config.get("dbc_paths") or ()),
-        frame_format=str(config.get("frame_format", "jpg")),
-        every=int(config.get("every", 1)),
-    )
-
-
-def _extract_check(config: Mapping[str, Any]) -> None:
-    _extract_config(config)
-
-
-def _extract_identities(config: Mapping[str, Any]) -> dict[str, str]:
-    from superlane_tools.reporting import file_sha256
-
-    out: dict[str, str] = {}
-    for item in config.get("dbc_paths") or ():
-        path = Path(item)
-        try:
-            out[f"dbc:{path.name}"] = file_sha256(path)
-        except OSError as err:
-            raise UsageError(f"cannot read DBC {path}: {err.strerror}") from err
-    return out
-
-
-def _extract_load(config: Mapping[str, Any]) -> Any:
-    return _extract_config(config)
-
-
-def _extract_run(
-    recording: Path, out_dir: Path, config: Mapping[str, Any], loaded: Any
-) -> JobResult:
-    from dataclasses import replace
-
-    from superlane_tools.commands.extract import extract
-
-    settings = replace(loaded, start_s=config.get("start_s"), end_s=config.get("end_s"))
-    t0 = time.perf_counter()
-    result = extract(recording, out_dir, settings, command="slt batch --job extract")
-    elapsed = time.perf_counter() - t0
-    note = "; ".join(f"{s.what}: {s.detail}" for s in result.skipped)
-    return JobResult(
-        status="partial" if result.skipped else "ok",
-        note=note,
-        outputs=len(result.outputs),
-        frames=int(result.counts.get("frames", 0)),
-        timings={"extract_s": elapsed},
-    )
-
-
-EXTRACT = JobKind("extract", _extract_check, _extract_identities, _extract_load, _extract_run, True)
-
-
-# --- registry -------------------------------------------------------------------------------
-
-
-def reprocess_available() -> bool:
-    """Return True when the ``reprocess`` pipeline is part of this installation."""
-    try:
-        spec = importlib.util.find_spec("superlane_tools.commands.reprocess")
-    except ImportError:
-        return False
-    # A folder without __init__.py (work in progress) is a namespace package: origin None.
-    return spec is not None and spec.origin is not None
-
-
-def default_kind() -> str:
-    """Return the default job kind: ``reprocess`` when available, else ``extract``."""
-    return "reprocess" if reprocess_available() else "extract"
-
-
-def job_kind(name: str) -> JobKind:
-    """Return the job kind called ``name``.
-
-    Raises:
-        UsageError: If the kind is unknown or not available in this installation.
-    """
-    if name == "extract":
-        return EXTRACT
-    if name == "reprocess":
-        if not reprocess_available():
-            raise UsageError("job kind 'reprocess' is not available in this installation")
-        from superlane_tools.commands.batch.kinds import reprocess as _reprocess_job
-
-        return _reprocess_job.REPROCESS
-    raise UsageError(f"unknown job kind {name!r}: use 'reprocess' or 'extract'")
 
 
 def load_config_file(path: str | Path) -> dict[str, Any]:

@@ -17,7 +17,7 @@ from typing import Any, NamedTuple
 from superlane_tools._version import __version__
 from superlane_tools.commands.batch.engine import TMP_DIR, BatchEngine, Job, JobOutcome
 from superlane_tools.commands.batch.errors import BatchError
-from superlane_tools.commands.batch.jobs import default_kind, job_kind
+from superlane_tools.commands.batch.kinds import default_kind, job_kind
 from superlane_tools.commands.batch.manifest import BatchEntry, fingerprint, recording_id
 from superlane_tools.commands.batch.status import StatusRow, StatusTable
 from superlane_tools.commands.batch.worker import read_marker

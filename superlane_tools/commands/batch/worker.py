@@ -30,7 +30,7 @@ from superlane_tools.commands.batch.engine import (
     failed_outcome,
     one_line,
 )
-from superlane_tools.commands.batch.jobs import job_kind
+from superlane_tools.commands.batch.kinds import job_kind
 
 MARKER = ".slt_batch.json"
 """Marker file inside a finalised recording folder: key, status, timings (JSON)."""

@@ -27,7 +27,7 @@ from superlane_tools.corridor import (
     corridor_from_mask,
     detect_ego_lane,
 )
-from superlane_tools.errors import SltError, UsageError
+from superlane_tools.errors import UsageError
 from superlane_tools.lanes import FitParams, LaneFit, fit_frame
 from superlane_tools.lanes.points import lane_points, road_points
 from superlane_tools.recording.images import decode_frame, decode_reduced
@@ -37,24 +37,6 @@ FloatArray = NDArray[np.float64]
 NO_CORRIDOR_MODEL = "no corridor model"
 WARM_START_MAX_AGE = 15
 """Frames a plausible fit may seed the warm start after it (gated warm start), frames."""
-
-
-#: ``auto`` uses the shipped segmentation model only when its model card reports at least this
-#: lane-marking IoU on held-out data; otherwise the classical backend, which is better for lanes.
-AUTO_MIN_LANE_IOU = 0.5
-
-
-def _card_lane_iou(model_name: str) -> float:
-    """Return the held-out lane-marking IoU stated in a shipped model's card (0 if absent)."""
-    from superlane_tools.scene.model_card import load_card
-    from superlane_tools.scene.onnx_backend import resolve_model
-
-    try:
-        card = load_card(resolve_model(model_name)[1])
-        value = card.metrics.get("sim_heldout", {}).get("lane_marking_iou", 0.0)
-        return float(value)
-    except (SltError, AttributeError, TypeError, ValueError):
-        return 0.0
 
 
 @dataclass
@@ -179,30 +161,13 @@ class FrameStages:
                 "(measures the lane stage on its own)"
             )
             return "oracle", None
-        from superlane_tools.models import list_models
-        from superlane_tools.scene import backend_from_name
+        from superlane_tools.scene.backends import auto_backend, backend_from_name
 
         name = seg.backend
         if name == "auto":
-            from superlane_tools.scene.onnx_backend import DEFAULT_SEGMENTATION_MODEL
-
-            if seg.model:
-                name = "onnx"
-            elif DEFAULT_SEGMENTATION_MODEL not in list_models():
-                name = "classical"
-                self.notes.append(
-                    f"no shipped segmentation model ({DEFAULT_SEGMENTATION_MODEL}): "
-                    "fell back to the classical backend"
-                )
-            else:
-                iou = _card_lane_iou(DEFAULT_SEGMENTATION_MODEL)
-                name = "onnx" if iou >= AUTO_MIN_LANE_IOU else "classical"
-                if name == "classical":
-                    self.notes.append(
-                        f"shipped model {DEFAULT_SEGMENTATION_MODEL} measured lane-marking IoU "
-                        f"{iou:.2f} < {AUTO_MIN_LANE_IOU} on held-out simulator data (model card): "
-                        "the classical backend feeds the lane fit (--backend onnx forces the model)"
-                    )
+            name, note = auto_backend(seg.model)
+            if note:
+                self.notes.append(note)
         if name == "onnx":
             from superlane_tools.scene.onnx_backend import OnnxSegmentationBackend
 
