@@ -165,12 +165,27 @@ def extract(
         )
         total = _total(rec.topics(), set(kind_of)) if start_ns is None and stop_ns is None else None
         frame_sink = (
-            FrameSink(out, config.frame_format, config.every, provenance, skips)
+            FrameSink(
+                out,
+                config.frame_format,
+                config.every,
+                provenance,
+                skips,
+                index_name="frames.parquet",
+                images_name="frames",
+                camera_info_name="camera_info.parquet",
+            )
             if selected["frames"] or selected["camera_info"]
             else None
         )
-        can_sink = CanSink(out, dbcs, provenance) if selected["can"] else None
-        gnss_sink = GnssSink(out, config.origin, provenance) if selected["gnss"] else None
+        can_sink = (
+            CanSink(out / "can_raw.parquet", out / "can_signals.parquet", dbcs, provenance)
+            if selected["can"]
+            else None
+        )
+        gnss_sink = (
+            GnssSink(out / "rtk.parquet", config.origin, provenance) if selected["gnss"] else None
+        )
         sinks: list[Any] = [s for s in (frame_sink, can_sink, gnss_sink) if s is not None]
         done = 0
         ok = False

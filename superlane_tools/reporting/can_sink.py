@@ -43,17 +43,24 @@ class CanSink:
     """Buffers CAN frames, writes them in row groups, and decodes each chunk with the DBCs.
 
     Args:
-        out_dir: Output folder.
+        raw_path: Table of the raw frames.
+        signals_path: Table of the decoded signals (written with DBCs only).
         dbcs: Loaded DBCs by name (file name); empty for raw frames only.
         provenance: Provenance for the Parquet files (or a function returning it, called when
             the first row group is written).
     """
 
-    def __init__(self, out_dir: Path, dbcs: dict[str, LoadedDbc], provenance: ProvenanceSource):
+    def __init__(
+        self,
+        raw_path: Path,
+        signals_path: Path,
+        dbcs: dict[str, LoadedDbc],
+        provenance: ProvenanceSource,
+    ) -> None:
         self.dbcs = dbcs
         self.frames = 0
         self.signal_rows = 0
-        self._out_dir = out_dir
+        self._raw_path, self._signals_path = raw_path, signals_path
         self._provenance = provenance
         self._raw: ParquetStreamWriter | None = None
         self._signals: ParquetStreamWriter | None = None
@@ -63,10 +70,10 @@ class CanSink:
         """Open the Parquet writers on first use (the provenance may still be computing)."""
         if self._raw is None:
             provenance = resolve_provenance(self._provenance)
-            path = self._out_dir / "can_raw.parquet"
+            path = self._raw_path
             self._raw = ParquetStreamWriter(path, CAN_RAW_SCHEMA, provenance).__enter__()
             if self.dbcs:
-                path = self._out_dir / "can_signals.parquet"
+                path = self._signals_path
                 self._signals = ParquetStreamWriter(
                     path, CAN_SIGNALS_SCHEMA, provenance
                 ).__enter__()

@@ -67,7 +67,10 @@ class FrameSink:
     extraction's folder of the same topic is replaced.
 
     Args:
-        out_dir: Output folder (files go to ``frames/<topic>/``).
+        out_dir: Output folder.
+        index_name: File name of the frame index (``frames.parquet`` for ``slt extract``).
+        images_name: Folder of the image files (``<images_name>/<topic>/``).
+        camera_info_name: File name of the camera calibration table.
         frame_format: ``jpg``, ``png`` or ``none`` (index only, no image files).
         every: Keep every Nth frame of each topic (N >= 1).
         provenance: Provenance for ``frames.parquet`` (or a function returning it, called when
@@ -82,8 +85,15 @@ class FrameSink:
         every: int,
         provenance: ProvenanceSource,
         skips: SkipLog,
+        *,
+        index_name: str,
+        images_name: str,
+        camera_info_name: str,
     ) -> None:
         self.out_dir = out_dir
+        self.index_path = out_dir / index_name
+        self.images_dir = out_dir / images_name
+        self.camera_info_path = out_dir / camera_info_name
         self.frame_format = frame_format
         self.every = every
         self.skips = skips
@@ -162,7 +172,7 @@ class FrameSink:
         known = self._folders.get(topic)
         if known is None:
             name = safe_topic(topic)
-            parent = self.out_dir / "frames"
+            parent = self.images_dir
             try:
                 parent.mkdir(parents=True, exist_ok=True)
                 staging = tempfile.mkdtemp(prefix=f".{name}.", suffix=".tmp", dir=parent)
@@ -213,7 +223,7 @@ class FrameSink:
             return
         if self._writer is None:
             provenance = resolve_provenance(self._provenance)
-            path = self.out_dir / "frames.parquet"
+            path = self.index_path
             self._writer = ParquetStreamWriter(path, FRAMES_SCHEMA, provenance).__enter__()
         self._writer.write(self._rows)
         self._rows = {name: [] for name in FRAMES_SCHEMA.names}
@@ -231,7 +241,7 @@ class FrameSink:
                 if self._writer is None:  # no frame kept: still write the (empty) index
                     provenance = resolve_provenance(self._provenance)
                     self._writer = ParquetStreamWriter(
-                        self.out_dir / "frames.parquet", FRAMES_SCHEMA, provenance
+                        self.index_path, FRAMES_SCHEMA, provenance
                     ).__enter__()
         except BaseException:
             ok = False
@@ -249,7 +259,7 @@ class FrameSink:
         if self._info_rows:
             table = pa.Table.from_pylist(self._info_rows, schema=CAMERA_INFO_SCHEMA)
             provenance = resolve_provenance(self._provenance)
-            written.append(write_table(table, self.out_dir / "camera_info.parquet", provenance))
+            written.append(write_table(table, self.camera_info_path, provenance))
         return written
 
     def _finish_folders(self, ok: bool) -> None:

@@ -51,16 +51,16 @@ class GnssSink:
     need both neighbours, and the ENU origin is the first valid fix of the whole recording.
 
     Args:
-        out_dir: Output folder.
+        path: The fixes table (None: collect the rows only, :meth:`close` writes nothing).
         origin: ENU origin; None for the first valid fix (by log time over all GNSS topics).
         provenance: Provenance for the Parquet file (or a function returning it, called at
             :meth:`close`).
     """
 
     def __init__(
-        self, out_dir: Path, origin: GeodeticOrigin | None, provenance: ProvenanceSource
+        self, path: Path | None, origin: GeodeticOrigin | None, provenance: ProvenanceSource
     ) -> None:
-        self.path = out_dir / "rtk.parquet"
+        self.path = path
         self.origin = origin
         self.provenance = provenance
         self.rows: list[dict[str, Any]] = []
@@ -90,7 +90,7 @@ class GnssSink:
 
     def close(self, ok: bool) -> list[Path]:
         """Compute ENU, speed and heading and write the table; return the files written."""
-        if not ok or not self.rows:
+        if not ok or not self.rows or self.path is None:
             return []
         frame = pd.DataFrame(self.rows)
         frame = frame.sort_values("log_time_ns", kind="stable", ignore_index=True)

@@ -7,7 +7,6 @@ contribute to the status table only. Everything goes to ``ROOT/summary/``.
 
 from __future__ import annotations
 
-import html
 import math
 from collections.abc import Sequence
 from pathlib import Path
@@ -17,7 +16,8 @@ import pandas as pd
 
 from superlane_tools.commands.batch.status import read_status
 from superlane_tools.evaluation.curvature import curvature_errors
-from superlane_tools.reporting import Provenance, write_table, write_text_atomic
+from superlane_tools.reporting import Provenance, write_table
+from superlane_tools.reporting.report import Section, write_report
 
 SUMMARY_DIR = "summary"
 UNCATEGORISED = "uncategorised"
@@ -148,35 +148,6 @@ def curvature_by_recording(root: Path, status: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=columns)
 
 
-def _cell(value: object) -> str:
-    if isinstance(value, float):
-        if math.isnan(value):
-            return "-"
-        return f"{value:.3g}" if abs(value) < 1e-2 and value != 0 else f"{value:.3f}"
-    return str(value).replace("|", "\\|")
-
-
-def markdown_table(frame: pd.DataFrame) -> str:
-    """Return ``frame`` as a GitHub-flavoured Markdown table (floats to 3 significant places)."""
-    if frame.empty:
-        return "(none)\n"
-    head = "| " + " | ".join(map(str, frame.columns)) + " |"
-    rule = "|" + "|".join("---" for _ in frame.columns) + "|"
-    body = ["| " + " | ".join(_cell(v) for v in row) + " |" for row in frame.itertuples(False)]
-    return "\n".join([head, rule, *body]) + "\n"
-
-
-def _html_table(frame: pd.DataFrame) -> str:
-    if frame.empty:
-        return "<p>(none)</p>"
-    head = "".join(f"<th>{html.escape(str(c))}</th>" for c in frame.columns)
-    body = "".join(
-        "<tr>" + "".join(f"<td>{html.escape(_cell(v))}</td>" for v in row) + "</tr>"
-        for row in frame.itertuples(False)
-    )
-    return f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
-
-
 def _sections(
     status: pd.DataFrame, fleet: pd.DataFrame, avail: pd.DataFrame, curv: pd.DataFrame
 ) -> list[tuple[str, pd.DataFrame, str]]:
@@ -195,8 +166,8 @@ def _sections(
 
 def _paper_tables(root: Path, status: pd.DataFrame) -> list[tuple[str, pd.DataFrame, str]]:
     """The ``slt tables`` layouts (corridor paper Table II, curvature) over reprocess runs."""
+    from superlane_tools.commands.reprocess.run_tables import availability_table, curvature_table
     from superlane_tools.reporting import OutputError
-    from superlane_tools.reporting.tables import availability_table, curvature_table
 
     runs = [root / str(r) for r in _done(root, status)["recording_id"]]
     sections = []
@@ -215,30 +186,13 @@ def _paper_tables(root: Path, status: pd.DataFrame) -> list[tuple[str, pd.DataFr
     return sections
 
 
-def write_report(
-    out: Path, sections: Sequence[tuple[str, pd.DataFrame, str]], title: str
-) -> list[Path]:
+def _report(out: Path, sections: Sequence[tuple[str, pd.DataFrame, str]], title: str) -> list[Path]:
     """Write ``report.md`` and ``report.html`` with one table per section."""
-    md = [f"# {title}\n"]
-    body = [f"<h1>{html.escape(title)}</h1>"]
-    for heading, frame, note in sections:
-        md.append(f"\n## {heading}\n\n" + (f"{note}\n\n" if note else "") + markdown_table(frame))
-        body.append(f"<h2>{html.escape(heading)}</h2>")
-        if note:
-            body.append(f"<p>{html.escape(note)}</p>")
-        body.append(_html_table(frame))
-    style = (
-        "body{font-family:sans-serif;margin:2em}table{border-collapse:collapse}"
-        "td,th{border:1px solid #ccc;padding:2px 8px;text-align:right}"
+    return write_report(
+        out / "report.md",
+        title,
+        [Section(heading, [note] if note else [], [frame]) for heading, frame, note in sections],
     )
-    page = (
-        f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title>"
-        f"<style>{style}</style></head><body>{''.join(body)}</body></html>\n"
-    )
-    return [
-        write_text_atomic(out / "report.md", "".join(md)),
-        write_text_atomic(out / "report.html", page),
-    ]
 
 
 def write_summary(root: str | Path, command: str = "") -> list[Path]:
@@ -263,5 +217,5 @@ def write_summary(root: str | Path, command: str = "") -> list[Path]:
     sections[2:2] = _paper_tables(base, status)
     total = len(status)
     title = f"Fleet summary: {total} recording{'s' if total != 1 else ''} in {base.name}"
-    written += write_report(out, sections, title)
+    written += _report(out, sections, title)
     return written

@@ -170,7 +170,7 @@ def write_outputs(
         written += pngs
         images = [p.relative_to(out).as_posix() for p in pngs]
     written += write_report(
-        out,
+        out / "report.md",
         f"slt reprocess: {report.recording.name}",
         _sections(config, report, result, images),
     )

@@ -184,7 +184,7 @@ def reprocess(
         )
         # 2. One streaming pass: frames through the stages, CAN and GNSS collected.
         can = CanFrames()
-        gnss = GnssSink(out, None, provenance)
+        gnss = GnssSink(None, None, provenance)
         examples: list[ExampleFrame] = []
         failed: list[str] = []
         out.mkdir(parents=True, exist_ok=True)
