@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+import pandas as pd
 import pytest
 import typer
 import yaml
@@ -114,12 +116,29 @@ def test_reprocess_and_tables(drives: list[Path], tmp_path: Path) -> None:
     assert "not a reprocess run folder" in text
 
 
+@pytest.mark.slow
 def test_sample_drive_with_no_options(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     if not SAMPLE.is_file():
         pytest.skip("fixtures/sample_drive.mcap not generated yet")
     monkeypatch.chdir(tmp_path)
     code, text = run_cli("reprocess", str(SAMPLE))
     assert code == 0, text
+    assert "reprocessed 240 frames" in text
     run = tmp_path / "runs" / "sample_drive"
-    assert (run / "report.html").is_file()
-    assert (run / "annotations.mcap").is_file()
+    for name in ("report.md", "report.html", "annotations.mcap", "plots/curvature_time.png"):
+        assert (run / name).is_file(), name
+    frames = pd.read_parquet(run / "frames.parquet")
+    assert len(frames) == 240
+    assert frames["ok"].all()
+    # The quick start's numbers, against the simulator's ground truth (fixture: 16 s highway).
+    gt = pd.read_parquet(SAMPLE.with_name("sample_drive.gt.parquet"))
+    lanes = pd.read_parquet(run / "lanes.parquet")
+    assert lanes["lane_width"].notna().mean() > 0.95
+    assert np.nanmedian(np.abs(lanes["b"] - gt["road_slope"])) < 0.005
+    summary = pd.read_parquet(run / "curvature_summary.parquet")
+    path = summary[(summary["scope"] == "overall") & (summary["source"] == "super_path")].iloc[0]
+    assert path["rmse"] < 1e-3  # measured 5.0e-4 1/m
+    assert path["correlation"] > 0.95  # measured 0.993
+    seqs = pd.read_parquet(run / "availability_sequences.parquet").set_index("method")
+    assert seqs.loc["super", "ratio"] > 0.95  # measured 1.0
+    assert seqs.loc["hough", "ratio"] < seqs.loc["super", "ratio"]

@@ -126,7 +126,14 @@ def test_reprocess_reduced_decode_and_cpu_timings(tmp_path: Path) -> None:
     assert (frames["process_width"] == 160).all()
     assert (frames["process_height"] == 90).all()
     for stage in STAGES:
-        assert (frames[f"{stage}_cpu_ms"] >= 0).all()
-        assert result.timings[f"cpu_{stage}"] >= 0
+        wall_ms, cpu_ms = frames[f"{stage}_ms"], frames[f"{stage}_cpu_ms"]
+        # The totals come from the in-memory record: they must add up to the table's columns.
+        assert result.timings[stage] == pytest.approx(wall_ms.sum() / 1e3, rel=1e-9, abs=1e-12)
+        assert result.timings[f"cpu_{stage}"] == pytest.approx(cpu_ms.sum() / 1e3, abs=1e-12)
+        # One thread's CPU time cannot exceed its wall time (2 ms for the clocks' granularity).
+        assert (cpu_ms <= wall_ms + 2.0).all(), stage
+    # The stages' thread CPU times are part of the process CPU time of the pass.
+    stage_cpu = sum(result.timings[f"cpu_{stage}"] for stage in STAGES)
+    assert stage_cpu <= result.timings["cpu_pass"] + 0.05
     assert frames["segmentation_cpu_ms"].sum() > 0
     assert 0 < result.timings["cpu_pass"] <= result.timings["cpu_total"]
