@@ -16,11 +16,10 @@ from superlane_tools.recording.base import Recording, SkipLog
 from superlane_tools.recording.open import open_recording
 from superlane_tools.recording.streams import STREAM_KINDS, load_stream_config, select_streams
 from superlane_tools.records import Skipped, TopicInfo
-from superlane_tools.reporting import Provenance
 from superlane_tools.reporting.can_sink import CanSink
 from superlane_tools.reporting.frame_sink import FrameSink
 from superlane_tools.reporting.gnss_sink import GnssSink
-from superlane_tools.reporting.provenance import PendingIdentities
+from superlane_tools.reporting.provenance import HashedProvenance, PendingIdentities
 
 FRAME_FORMATS = ("jpg", "png", "none")
 _NS = 1_000_000_000
@@ -160,7 +159,7 @@ def extract(
                 stop_ns = None if config.end_s is None else first + round(config.end_s * _NS)
         settings = asdict(config)
         settings["streams"] = {k: list(v) for k, v in selected.items()}
-        provenance = _HashedProvenance(
+        provenance = HashedProvenance(
             PendingIdentities((src, *config.dbc_paths)), command=command, config=settings
         )
         total = _total(rec.topics(), set(kind_of)) if start_ns is None and stop_ns is None else None
@@ -227,38 +226,6 @@ def extract(
         skipped=(*read_skips, *skips.items()),
         origin=gnss_sink.used_origin if gnss_sink else None,
     )
-
-
-class _HashedProvenance:
-    """The extraction's provenance, finished once the inputs' background hashing is done.
-
-    The recording is hashed (SHA-256) in a background thread while it is extracted; the
-    Parquet writers call this object when they first need the provenance.
-    """
-
-    def __init__(self, pending: PendingIdentities, command: str, config: dict[str, Any]) -> None:
-        self._pending = pending
-        self._command = command
-        self._config = config
-        self._provenance: Provenance | None = None
-
-    def __call__(self) -> Provenance:
-        """Return the provenance, waiting for the hashes if needed.
-
-        Raises:
-            PipelineError: If an input could not be read for hashing.
-        """
-        if self._provenance is None:
-            try:
-                inputs = self._pending.result()
-            except OSError as err:
-                raise PipelineError(f"cannot hash input {err.filename}: {err.strerror}") from err
-            self._provenance = Provenance(command=self._command, inputs=inputs, config=self._config)
-        return self._provenance
-
-    def cancel(self) -> None:
-        """Stop hashing (the extraction failed)."""
-        self._pending.cancel()
 
 
 def _total(topics: Sequence[TopicInfo], selected: set[str]) -> int | None:

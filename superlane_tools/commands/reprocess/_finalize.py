@@ -15,10 +15,10 @@ import numpy as np
 import pandas as pd
 
 from superlane_tools.can import LoadedDbc
+from superlane_tools.can.collect import CanFrames
 from superlane_tools.commands.reprocess.config import ReprocessConfig, TrackingConfig
 from superlane_tools.commands.reprocess.record import DriveFrames
 from superlane_tools.commands.reprocess.signals import (
-    CanFrames,
     at_frames,
     can_frame_signals,
     mobileye_at_frames,

@@ -7,9 +7,9 @@ import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import Any
 
-from superlane_tools.corridor import AvailabilityParams
+from superlane_tools.corridor import AvailabilityParams, TimeSegment
 from superlane_tools.errors import ConfigError
 from superlane_tools.lanes.tracker import TrackerParams
 
@@ -150,14 +150,6 @@ class KpiConfig:
             window_frames=max(1, round(self.window_s * frame_rate_hz)),
             frame_rate_hz=frame_rate_hz,
         )
-
-
-class TimeSegment(NamedTuple):
-    """A labelled KPI sequence of a drive: ``[start_s, stop_s)`` after the first frame."""
-
-    start_s: float
-    stop_s: float
-    category: str = ""
 
 
 @dataclass(frozen=True)
@@ -378,3 +370,21 @@ def default_config_yaml() -> str:
         "# slt reprocess configuration (YAML; the same sections work as TOML tables).\n"
         "# Empty topics are auto-detected by message type. See docs/reprocess.md.\n" + body
     )
+
+
+def load_manifest(path: str | os.PathLike[str]) -> list[TimeSegment]:
+    """Read a KPI manifest: a YAML list of ``{start_s, stop_s, category}`` (seconds).
+
+    Raises:
+        ConfigError: If the file cannot be read or a segment is malformed.
+    """
+    from superlane_tools.config_files import load_document
+
+    specs = []
+    for item in load_document(path, "manifest", suffix=".yaml") or []:
+        try:
+            start, stop = float(item["start_s"]), float(item["stop_s"])
+            specs.append(TimeSegment(start, stop, str(item.get("category", ""))))
+        except (KeyError, TypeError, ValueError) as err:
+            raise ConfigError(f"{path}: bad segment {item!r}") from err
+    return specs

@@ -21,15 +21,15 @@ from pathlib import Path
 import numpy as np
 
 from superlane_tools.can import load_dbc, shipped_dbcs
+from superlane_tools.can.collect import CanFrames
 from superlane_tools.commands.errors import PipelineError
 from superlane_tools.commands.reprocess._examples import example_frame
 from superlane_tools.commands.reprocess._finalize import ReportFacts, drive_tables, write_outputs
 from superlane_tools.commands.reprocess._live import LiveOutputs
-from superlane_tools.commands.reprocess.config import ReprocessConfig, TimeSegment
+from superlane_tools.commands.reprocess.config import ReprocessConfig, load_manifest
 from superlane_tools.commands.reprocess.record import DriveRecorder
-from superlane_tools.commands.reprocess.signals import CanFrames
 from superlane_tools.commands.reprocess.stages import FrameStages, Prepared
-from superlane_tools.corridor import Segment, windows
+from superlane_tools.corridor import Segment, TimeSegment, segments_at_times, windows
 from superlane_tools.recording.calibration import resolve_camera
 from superlane_tools.recording.open import open_recording
 from superlane_tools.recording.streams import select_one_each
@@ -74,44 +74,6 @@ def _example_indices(total: int | None, count: int) -> set[int]:
     if not total:
         return {10 * (k + 1) for k in range(count)}
     return {int(total * (k + 1) / (count + 1)) for k in range(count)}
-
-
-def _segments(
-    config: ReprocessConfig, t_ns: np.ndarray, fps: float, given: Sequence[TimeSegment] | None
-) -> list[Segment]:
-    """Return the KPI sequences as frame ranges: given, from the manifest, or windows."""
-    n = len(t_ns)
-    if n == 0:
-        return []
-    specs = given if given is not None else _manifest(config.kpi.manifest)
-    if specs is None:
-        size = max(1, round(config.kpi.window_s * fps))
-        return [Segment(s.start, s.stop, config.kpi.category) for s in windows(n, size)]
-    rel = (t_ns - t_ns[0]) / 1e9
-    segs = []
-    for spec in specs:
-        start = int(np.searchsorted(rel, spec.start_s, "left"))
-        stop = int(np.searchsorted(rel, spec.stop_s, "left"))
-        if stop > start:
-            segs.append(Segment(start, stop, spec.category))
-    return segs
-
-
-def _manifest(path: str) -> list[TimeSegment] | None:
-    """Read a KPI manifest: a YAML list of ``{start_s, stop_s, category}`` (None: no manifest)."""
-    if not path:
-        return None
-    from superlane_tools.config_files import load_document
-    from superlane_tools.errors import ConfigError
-
-    specs = []
-    for item in load_document(path, "manifest", suffix=".yaml") or []:
-        try:
-            start, stop = float(item["start_s"]), float(item["stop_s"])
-            specs.append(TimeSegment(start, stop, str(item.get("category", ""))))
-        except (KeyError, TypeError, ValueError) as err:
-            raise ConfigError(f"{path}: bad segment {item!r}") from err
-    return specs
 
 
 def reprocess(
@@ -244,7 +206,7 @@ def reprocess(
         dbcs,
         gnss.rows,
         cfg,
-        _segments(cfg, t_ns, fps, segments),
+        _kpi_segments(cfg, t_ns, fps, segments),
         cfg.kpi.availability_params(fps),
         stages.corridor_unavailable,
     )
@@ -277,3 +239,15 @@ def reprocess(
         notes=tuple(notes),
         frames_per_s=n / timings["total"] if timings["total"] > 0 else 0.0,
     )
+
+
+def _kpi_segments(
+    config: ReprocessConfig, t_ns: np.ndarray, fps: float, given: Sequence[TimeSegment] | None
+) -> list[Segment]:
+    """Return the KPI sequences as frame ranges: given, from the manifest, or windows."""
+    if given is None and config.kpi.manifest:
+        given = load_manifest(config.kpi.manifest)
+    if given is not None:
+        return segments_at_times(t_ns, given)
+    size = max(1, round(config.kpi.window_s * fps))
+    return [Segment(s.start, s.stop, config.kpi.category) for s in windows(len(t_ns), size)]

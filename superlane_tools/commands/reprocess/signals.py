@@ -14,12 +14,10 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from superlane_tools.can import LoadedDbc, decode_frames, empty_signal_table
 from superlane_tools.commands.reprocess.config import CanConfig, RtkConfig
 from superlane_tools.geo import geodetic_to_enu, valid_fixes
 from superlane_tools.geo.curvature import CurvatureParams, trajectory_curvature
 from superlane_tools.recording.align import align
-from superlane_tools.records import Message
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -30,46 +28,6 @@ MOBILEYE_PAIR_TOLERANCE_NS = 20_000_000
 """Part B of a Mobileye lane message is paired with the part A at most this far away."""
 SIGNAL_TOLERANCE_NS = 200_000_000
 """CAN speed / yaw rate / Mobileye values apply to frames at most this far away in time."""
-
-
-class CanFrames:
-    """Collects raw CAN frames (id, payload, log time) during the streaming pass."""
-
-    def __init__(self) -> None:
-        self.ids: list[int] = []
-        self.data: list[bytes] = []
-        self.times: list[int] = []
-
-    def add(self, msg: Message) -> None:
-        """Keep one ``can_msgs/msg/Frame``-like message."""
-        frame = msg.data
-        payload = bytes(frame.data)
-        dlc = int(getattr(frame, "dlc", len(payload)))
-        self.ids.append(int(frame.id) & 0x1FFFFFFF)
-        self.data.append(payload[:dlc] if 0 <= dlc < len(payload) else payload)
-        self.times.append(msg.log_time_ns)
-
-    def __len__(self) -> int:
-        return len(self.ids)
-
-    def decode(self, dbcs: Mapping[str, LoadedDbc]) -> pd.DataFrame:
-        """Decode every frame with every DBC; long table with a ``dbc`` column, time ordered."""
-        parts = []
-        if self.ids:
-            ids = np.asarray(self.ids, dtype=np.uint32)
-            times = np.asarray(self.times, dtype=np.int64)
-            for name, loaded in dbcs.items():
-                table = decode_frames(loaded.database, ids, self.data, times)
-                if len(table):
-                    table = table.astype({"message": str, "signal": str, "unit": str})
-                    table["dbc"] = name
-                    parts.append(table)
-        if not parts:
-            empty = empty_signal_table().astype({"message": str, "signal": str, "unit": str})
-            empty["dbc"] = pd.Series(dtype=str)
-            return empty
-        out = pd.concat(parts, ignore_index=True)
-        return out.sort_values("log_time_ns", kind="stable", ignore_index=True)
 
 
 class Series(NamedTuple):

@@ -89,8 +89,8 @@ def _load(config: Mapping[str, Any]) -> Any:
 def _run(recording: Path, out_dir: Path, config: Mapping[str, Any], loaded: Any) -> JobResult:
     from dataclasses import replace
 
-    from superlane_tools.commands.reprocess.config import TimeSegment
     from superlane_tools.commands.reprocess.run import reprocess
+    from superlane_tools.corridor import TimeSegment
 
     cfg = loaded
     category = str(config.get("category") or "")
