@@ -18,14 +18,10 @@ from superlane_tools.commands.batch.manifest import (
     read_manifest,
     recording_id,
 )
+from superlane_tools.commands.batch.params import BatchParams, BatchProgress, BatchReport
 from superlane_tools.commands.batch.ray_engine import RayEngine
-from superlane_tools.commands.batch.run import (
-    BatchParams,
-    BatchProgress,
-    BatchReport,
-    clean_stale_tmp,
-    run_batch,
-)
+from superlane_tools.commands.batch.root import clean_stale_tmp
+from superlane_tools.commands.batch.run import run_batch
 from superlane_tools.commands.batch.status import STATUS_FILE, read_status
 from superlane_tools.commands.batch.summary import write_summary
 from superlane_tools.commands.batch.worker import MARKER, read_marker

@@ -3,112 +3,27 @@
 from __future__ import annotations
 
 import contextlib
-import hashlib
-import json
-import os
-import shutil
-import socket
 import time
-from collections.abc import Callable, Iterator, Mapping, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
-from superlane_tools._version import __version__
 from superlane_tools.commands.batch.engine import TMP_DIR, BatchEngine, Job, JobOutcome
-from superlane_tools.commands.batch.errors import BatchError
+from superlane_tools.commands.batch.engines import make_engine
 from superlane_tools.commands.batch.kinds import default_kind, job_kind
-from superlane_tools.commands.batch.manifest import BatchEntry, fingerprint, recording_id
+from superlane_tools.commands.batch.manifest import BatchEntry, recording_id
+from superlane_tools.commands.batch.params import BatchParams, BatchProgress, BatchReport
+from superlane_tools.commands.batch.plan import (
+    config_sha256,
+    fallback_id,
+    identify,
+    job_key,
+    job_units,
+)
+from superlane_tools.commands.batch.root import clean_stale_tmp, root_lock
 from superlane_tools.commands.batch.status import StatusRow, StatusTable
 from superlane_tools.commands.batch.worker import read_marker
-from superlane_tools.errors import SltError, UsageError
-from superlane_tools.reporting import input_identity
-
-LOCK_FILE = ".batch.lock"
-ENGINES = ("local", "ray")
-
-
-@dataclass(frozen=True)
-class BatchParams:
-    """How to run a batch.
-
-    Attributes:
-        root: Output root; each recording goes to ``root/<recording id>/``.
-        kind: Job kind (``reprocess`` or ``extract``); ``""``: ``reprocess`` when available.
-        engine: ``local`` (process pool) or ``ray``.
-        workers: Parallel workers; None: the CPUs of this machine (local) or cluster (ray).
-        retries: Extra attempts for a failing recording before it is recorded as failed.
-        force: Redo recordings that already finished with the same key.
-        config: Job configuration (JSON-like mapping, e.g. read from ``--config``).
-        ray_address: Ray cluster to join (``auto``); None: start a private local instance.
-        command: Command line, for provenance.
-        summary: Write ``root/summary/`` at the end.
-    """
-
-    root: Path
-    kind: str = ""
-    engine: str = "local"
-    workers: int | None = None
-    retries: int = 1
-    force: bool = False
-    config: Mapping[str, Any] = field(default_factory=dict)
-    ray_address: str | None = None
-    command: str = ""
-    summary: bool = True
-
-
-class BatchProgress(NamedTuple):
-    """Progress of a batch, passed to the ``progress`` callback.
-
-    Attributes:
-        phase: ``hashing`` (identifying inputs) or ``running``.
-        done: Items done in this phase.
-        total: Items in this phase.
-        counts: Status -> recordings so far (``ok``, ``partial``, ``failed``, ``skipped``).
-        last: The latest finished job attempt, when there is one.
-    """
-
-    phase: str
-    done: int
-    total: int
-    counts: Mapping[str, int]
-    last: JobOutcome | None
-
-
-@dataclass(frozen=True)
-class BatchReport:
-    """What a batch did.
-
-    Attributes:
-        root: Output root.
-        status_path: ``root/batch_status.parquet``.
-        counts: Status -> recordings in this batch.
-        failures: ``(recording, one-line reason)`` of each failed recording.
-        summary: Files written under ``root/summary/``.
-        engine: Engine used.
-        workers: Workers used.
-        wall_s: Wall time of the whole batch, seconds.
-    """
-
-    root: Path
-    status_path: Path
-    counts: Mapping[str, int]
-    failures: tuple[tuple[str, str], ...]
-    summary: tuple[Path, ...]
-    engine: str
-    workers: int
-    wall_s: float
-
-    @property
-    def total(self) -> int:
-        """Recordings in the batch."""
-        return sum(self.counts.values())
-
-    @property
-    def failed_fraction(self) -> float:
-        """Failed recordings over those that were attempted (skipped ones excluded)."""
-        attempted = self.total - self.counts.get("skipped", 0)
-        return self.counts.get("failed", 0) / attempted if attempted else 0.0
+from superlane_tools.errors import UsageError
 
 
 class _Planned(NamedTuple):
@@ -117,112 +32,6 @@ class _Planned(NamedTuple):
     sha256: str
     size_bytes: int
     mtime_ns: int
-
-
-def config_sha256(config: Mapping[str, Any]) -> str:
-    """Return the SHA-256 of a configuration's canonical JSON form."""
-    text = json.dumps(config, sort_keys=True, default=str, separators=(",", ":"))
-    return hashlib.sha256(text.encode()).hexdigest()
-
-
-def job_key(sha256: str, kind: str, models: Mapping[str, str], config_hash: str) -> str:
-    """Return the idempotency key: content + tool version + job kind + models + config."""
-    text = json.dumps(
-        {
-            "input": sha256,
-            "tool": __version__,
-            "kind": kind,
-            "models": dict(models),
-            "config": config_hash,
-        },
-        sort_keys=True,
-    )
-    return hashlib.sha256(text.encode()).hexdigest()[:24]
-
-
-@contextlib.contextmanager
-def root_lock(root: Path) -> Iterator[None]:
-    """Hold an exclusive lock on ``root`` for one batch (released when the process dies).
-
-    Raises:
-        BatchError: If the root cannot be created or another batch holds the lock.
-    """
-    import fcntl
-
-    try:
-        root.mkdir(parents=True, exist_ok=True)
-        handle = (root / LOCK_FILE).open("a+")
-    except OSError as err:
-        raise BatchError(f"output root {root} is not writable: {err.strerror}") from err
-    try:
-        try:
-            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError as err:
-            raise BatchError(f"another slt batch is running on {root}") from err
-        yield
-    finally:
-        handle.close()
-
-
-def _pid_alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True
-
-
-def clean_stale_tmp(root: Path) -> list[Path]:
-    """Remove what killed runs left: ``root/.tmp`` folders and half-written ``.*.tmp`` files.
-
-    A folder named ``<id>.<host>.<pid>[.old]`` is kept only while that process on this host
-    is alive (a local worker of a killed run exits within a second of its driver, see
-    :func:`~.worker.init_worker`); with the root lock held no other batch is writing here.
-    """
-    from superlane_tools.commands.batch.summary import SUMMARY_DIR
-
-    # the driver's own atomic writes (status table, summary) killed mid-write: with the lock
-    # held, no process is writing them now
-    removed = [p for p in root.glob(".*.tmp") if p.is_file()]
-    removed += [p for p in (root / SUMMARY_DIR).glob(".*.tmp") if p.is_file()]
-    for leftover in removed:
-        leftover.unlink(missing_ok=True)
-    tmp_root = root / TMP_DIR
-    if not tmp_root.is_dir():
-        return removed
-    host = socket.gethostname()
-    for entry in sorted(tmp_root.iterdir()):
-        _, _, owner = entry.name.removesuffix(".old").partition(".")
-        owner_host, _, pid_text = owner.rpartition(".")
-        if pid_text.isdigit() and owner_host == host and _pid_alive(int(pid_text)):
-            continue
-        if entry.is_dir():
-            shutil.rmtree(entry, ignore_errors=True)
-        else:
-            entry.unlink(missing_ok=True)
-        removed.append(entry)
-    return removed
-
-
-def make_engine(params: BatchParams, kind: str) -> BatchEngine:
-    """Return the engine ``params`` asks for (not yet started).
-
-    Raises:
-        UsageError: If the engine name is unknown.
-    """
-    if params.engine == "local":
-        from superlane_tools.commands.batch.local import LocalEngine
-
-        if params.ray_address:
-            raise UsageError("--ray-address needs --engine ray")
-        return LocalEngine(kind, params.config, params.workers)
-    if params.engine == "ray":
-        from superlane_tools.commands.batch.ray_engine import RayEngine
-
-        return RayEngine(kind, params.config, params.workers, params.ray_address)
-    raise UsageError(f"unknown engine {params.engine!r}: use one of {ENGINES}")
 
 
 def run_batch(
@@ -276,10 +85,10 @@ def run_batch(
         seen: set[str] = set()
         units = job_units(entries, kind.split_sequences)
         for number, (entry, window) in enumerate(units, start=1):
-            row_base = _identify(entry, status)
+            row_base = identify(entry, status)
             tell("hashing", number, len(units))
             if isinstance(row_base, str):  # unreadable input: failed without a job
-                rid = _fallback_id(entry)
+                rid = fallback_id(entry)
                 counts["failed"] += 1
                 failures[rid] = row_base
                 status.update(
@@ -416,64 +225,6 @@ def run_batch(
         workers=workers,
         wall_s=time.perf_counter() - t0,
     )
-
-
-def job_units(
-    entries: Sequence[BatchEntry], split_sequences: bool
-) -> list[tuple[BatchEntry, dict[str, Any]]]:
-    """Turn entries into ``(entry, per-recording config)`` units of work.
-
-    With ``split_sequences`` each entry is a unit and its window becomes ``start_s``/``end_s``.
-    Otherwise the entries of one recording make one unit: the first entry's labels, the
-    ``category`` and the sequence windows as ``segments`` (``[{start_s, stop_s, category}]``).
-    """
-    if split_sequences:
-        return [
-            (e, {k: v for k, v in (("start_s", e.start_s), ("end_s", e.end_s)) if v is not None})
-            for e in entries
-        ]
-    groups: dict[Path, list[BatchEntry]] = {}
-    for entry in entries:
-        groups.setdefault(entry.path, []).append(entry)
-    units: list[tuple[BatchEntry, dict[str, Any]]] = []
-    for path, rows in groups.items():
-        first = rows[0]
-        extra: dict[str, Any] = {}
-        if first.category:
-            extra["category"] = first.category
-        segments = [
-            {
-                "start_s": r.start_s or 0.0,
-                "stop_s": r.end_s if r.end_s is not None else 1e9,
-                "category": r.category or first.category,
-            }
-            for r in rows
-            if r.start_s is not None or r.end_s is not None
-        ]
-        if segments:
-            extra["segments"] = segments
-        whole = BatchEntry(path, first.category, first.vehicle, first.date)
-        units.append((whole, extra))
-    return units
-
-
-def _identify(entry: BatchEntry, status: StatusTable) -> tuple[str, int, int] | str:
-    """Return ``(sha256, size_bytes, mtime_ns)`` of an entry, or a one-line reason it failed."""
-    path = entry.path
-    try:
-        size, mtime = fingerprint(path)
-        known = status.known_hash(str(path), size, mtime)
-        sha = known or input_identity(path).sha256
-    except OSError as err:
-        return f"cannot read {path}: {err.strerror or err}"
-    except SltError as err:
-        return str(err)
-    return sha, size, mtime
-
-
-def _fallback_id(entry: BatchEntry) -> str:
-    digest = hashlib.sha256(str(entry.path).encode()).hexdigest()
-    return recording_id(entry, digest)
 
 
 def _row(

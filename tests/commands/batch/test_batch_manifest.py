@@ -15,7 +15,7 @@ from superlane_tools.commands.batch import (
     read_manifest,
     recording_id,
 )
-from superlane_tools.commands.batch.run import job_units
+from superlane_tools.commands.batch.plan import job_units
 from superlane_tools.errors import ConfigError, UsageError
 
 CANDUMP = "(1700000000.000000) can0 100#0102030405060708\n(1700000000.010000) can0 100#01\n"

@@ -24,7 +24,7 @@ from superlane_tools.commands.batch import (
     run_batch,
     write_summary,
 )
-from superlane_tools.commands.batch.run import root_lock
+from superlane_tools.commands.batch.root import root_lock
 from superlane_tools.commands.batch.status import StatusRow, StatusTable
 from superlane_tools.reporting import read_provenance
 
