@@ -28,15 +28,14 @@ from superlane_tools.corridor import (
     detect_ego_lane,
 )
 from superlane_tools.errors import UsageError
-from superlane_tools.lanes import FitParams, LaneFit, fit_frame
+from superlane_tools.lanes import FitParams, LaneFit
 from superlane_tools.lanes.points import lane_points, road_points
+from superlane_tools.lanes.sequence import SequentialFit, max_plausible_slope
 from superlane_tools.recording.images import decode_frame, decode_reduced
 from superlane_tools.records import Message
 
 FloatArray = NDArray[np.float64]
 NO_CORRIDOR_MODEL = "no corridor model"
-WARM_START_MAX_AGE = 15
-"""Frames a plausible fit may seed the warm start after it (gated warm start), frames."""
 
 
 @dataclass
@@ -142,11 +141,9 @@ class FrameStages:
             from superlane_tools.scene.corridor_runtime import CorridorSmoother
 
             self._smoother = CorridorSmoother(config.corridor.mean_frames)
-        self._previous: LaneFit | None = None
-        self._previous_age = 0
-        fp, trk = self.fit_params, config.tracking
-        self.max_slope = (
-            trk.max_slope_fraction * fp.slope_bound if fp.slope and fp.slope_bound > 0 else math.inf
+        self.max_slope = max_plausible_slope(self.fit_params, config.tracking.max_slope_fraction)
+        self._sequence = SequentialFit(
+            self.fit_params, self.max_slope, config.tracking.gate_warm_start
         )
         self._corridor_params = CorridorParams(threshold=config.corridor.threshold)
 
@@ -269,51 +266,10 @@ class FrameStages:
             read = cv2.resize(read, (width, height), interpolation=cv2.INTER_NEAREST)
         return np.asarray(read, dtype=np.uint8)
 
-    def plausible(self, fit: LaneFit) -> bool:
-        """Whether a fit has both ego lines and a slope inside ``max_slope`` (not collapsed)."""
-        return (
-            fit.ok
-            and fit.ego_left >= 0
-            and fit.ego_right >= 0
-            and abs(fit.b) < self.max_slope
-            and math.isfinite(fit.curvature)
-        )
-
-    def _fit(self, prep: Prepared, cam: CameraModel) -> LaneFit:
-        """The warm-started SUPER fit (paper III), with the warm start gated when configured.
-
-        Ungated, every frame starts from the previous frame's fit, as in the paper. Gated
-        (``tracking.gate_warm_start``), only a plausible fit seeds the next frames (for at most
-        ``WARM_START_MAX_AGE`` frames), so a collapsed fit cannot propagate; a warm-started fit
-        that collapses is repeated from the loss-curve search and the plausible one kept.
-        """
-        prev = self._previous
-        gate = self.config.tracking.gate_warm_start
-        init = prev if prev is not None and prev.ok else None
-        fit = fit_frame(
-            prep.lane_uv, prep.road_uv, cam, self.fit_params, init=init, attributes=prep.codes
-        )
-        if not gate:
-            self._previous = fit
-            return fit
-        if init is not None and not self.plausible(fit):
-            cold = fit_frame(
-                prep.lane_uv, prep.road_uv, cam, self.fit_params, attributes=prep.codes
-            )
-            if self.plausible(cold):
-                fit = cold
-        if self.plausible(fit):
-            self._previous, self._previous_age = fit, 0
-        else:
-            self._previous_age += 1
-            if self._previous_age > WARM_START_MAX_AGE:
-                self._previous = None
-        return fit
-
     def finish(self, prep: Prepared) -> Finished:
         """Run the sequential stages (warm-started fit, corridor mean) in frame order."""
         if prep.image is None:
-            self._previous = None
+            self._sequence.reset()
             if self._smoother is not None:
                 self._smoother.reset()
             nan = CorridorGeometry(math.nan, math.nan, 0)
@@ -321,7 +277,7 @@ class FrameStages:
         height, width = prep.image.shape[:2]
         cam = self.camera_for(width, height)
         clock = prep.clock()
-        fit = self._fit(prep, cam)
+        fit = self._sequence.fit(prep.lane_uv, prep.road_uv, cam, prep.codes)
         left = fit.lanes[fit.ego_left] if fit.ego_left >= 0 else None
         right = fit.lanes[fit.ego_right] if fit.ego_right >= 0 else None
         reach = (
