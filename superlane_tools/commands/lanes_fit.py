@@ -18,7 +18,6 @@ from typing import Any, NamedTuple
 import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
-import yaml
 from numpy.typing import NDArray
 
 from superlane_tools.camera.model import CameraModel
@@ -89,15 +88,9 @@ def load_classes(path: str | os.PathLike[str]) -> ClassMap:
     Raises:
         ConfigError: If the file is missing, not YAML, or malformed.
     """
-    try:
-        text = Path(path).read_text(encoding="utf-8")
-    except OSError as err:
-        raise ConfigError(f"cannot read class map {path}: {err.strerror}") from err
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as err:
-        raise ConfigError(f"{path}: not valid YAML: {err}") from err
-    return parse_classes(data, str(path))
+    from superlane_tools.config_files import load_document
+
+    return parse_classes(load_document(path, "class map", suffix=".yaml"), str(path))
 
 
 def mask_points(mask: NDArray[Any], classes: ClassMap, seed: int = 0) -> LabelPoints:

@@ -123,9 +123,9 @@ def _rows(path: Path) -> list[Mapping[str, Any]]:
     suffix = path.suffix.lower()
     try:
         if suffix in {".yaml", ".yml"}:
-            import yaml
+            from superlane_tools.config_files import load_document
 
-            raw = yaml.safe_load(path.read_text(encoding="utf-8"))
+            raw = load_document(path, "manifest")
             if isinstance(raw, dict):
                 raw = raw.get("recordings")
             if not isinstance(raw, list) or not all(isinstance(r, dict | str) for r in raw):
