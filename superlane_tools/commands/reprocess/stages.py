@@ -11,7 +11,6 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -27,12 +26,12 @@ from superlane_tools.corridor import (
     corridor_from_mask,
     detect_ego_lane,
 )
-from superlane_tools.errors import UsageError
 from superlane_tools.lanes import FitParams, LaneFit
 from superlane_tools.lanes.points import lane_points, road_points
 from superlane_tools.lanes.sequence import SequentialFit, max_plausible_slope
 from superlane_tools.recording.images import decode_frame, decode_reduced
 from superlane_tools.records import Message
+from superlane_tools.scene.oracle import OracleLabels
 
 FloatArray = NDArray[np.float64]
 NO_CORRIDOR_MODEL = "no corridor model"
@@ -133,6 +132,7 @@ class FrameStages:
         self.notes: list[str] = []
         self.models: dict[str, str] = {}
         self._cameras: dict[tuple[int, int], CameraModel] = {}
+        self._oracle: OracleLabels | None = None
         self.backend_name, self._backend = self._segmentation_backend()
         self.corridor_unavailable = ""
         self._corridor = self._corridor_model()
@@ -150,11 +150,9 @@ class FrameStages:
     def _segmentation_backend(self) -> tuple[str, Any]:
         seg = self.config.segmentation
         if seg.backend == "oracle":
-            folder = Path(seg.oracle_labels)
-            if not folder.is_dir():
-                raise UsageError(f"oracle label folder not found: {folder}")
+            self._oracle = OracleLabels(seg.oracle_labels)
             self.notes.append(
-                f"ORACLE segmentation: ground-truth label images from {folder} "
+                f"ORACLE segmentation: ground-truth label images from {self._oracle.folder} "
                 "(measures the lane stage on its own)"
             )
             return "oracle", None
@@ -252,19 +250,10 @@ class FrameStages:
         return out
 
     def _segment(self, index: int, image: NDArray[np.uint8]) -> NDArray[np.uint8]:
-        if self._backend is not None:
-            labels: NDArray[np.uint8] = self._backend.segment(image)
-            return labels
-        import cv2
-
-        path = Path(self.config.segmentation.oracle_labels) / f"{index:06d}.png"
-        read = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
-        if read is None or read.ndim != 2:
-            raise UsageError(f"oracle label image missing or not single-channel: {path}")
-        height, width = image.shape[:2]
-        if read.shape != (height, width):
-            read = cv2.resize(read, (width, height), interpolation=cv2.INTER_NEAREST)
-        return np.asarray(read, dtype=np.uint8)
+        if self._oracle is not None:
+            return self._oracle.labels(index, image.shape[1], image.shape[0])
+        labels: NDArray[np.uint8] = self._backend.segment(image)
+        return labels
 
     def finish(self, prep: Prepared) -> Finished:
         """Run the sequential stages (warm-started fit, corridor mean) in frame order."""
