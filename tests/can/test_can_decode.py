@@ -105,6 +105,7 @@ def test_unloadable_dbc_is_an_error(tmp_path: Path) -> None:
         ("opendbc/toyota_2017_ref_pt.dbc", ["as extended id"]),
     ],
 )
+@pytest.mark.slow
 def test_messy_real_dbcs_load_with_repairs(realdata: Path, name: str, must_mention: list[str]):
     loaded = load_dbc(realdata / "dbc" / name)
     assert len(loaded.database.messages) > 50
@@ -127,6 +128,7 @@ def _comma_can(realdata: Path):
     return t, address, data
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("dbc", ["toyota_generator__toyota_2017.dbc", "toyota_2017_ref_pt.dbc"])
 def test_comma2k19_agrees_with_cantools(realdata: Path, dbc: str) -> None:
     _, address, data = _comma_can(realdata)

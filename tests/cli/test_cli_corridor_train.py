@@ -45,6 +45,7 @@ def corridor_model(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return out
 
 
+@pytest.mark.slow
 def test_corridor_cli_writes_maps_and_parquet(corridor_model: Path, tmp_path: Path) -> None:
     images = tmp_path / "images"
     images.mkdir()

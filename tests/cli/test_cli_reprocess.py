@@ -73,6 +73,7 @@ def test_not_a_recording_is_error(tmp_path: Path) -> None:
     assert "Traceback" not in out
 
 
+@pytest.mark.slow
 def test_reprocess_and_tables(drives: list[Path], tmp_path: Path) -> None:
     cfg = tmp_path / "fast.toml"
     cfg.write_text("[output]\nplots = false\nannotations = false\n", encoding="utf-8")

@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 from types import ModuleType
 
+import pytest
 import yaml
 
 from superlane_tools.commands.lanes_fit import parse_classes
@@ -34,6 +35,7 @@ def test_classes_yaml_maps_markings_and_road() -> None:
     assert set(data["road"]) <= set(classes.road_ids)
 
 
+@pytest.mark.slow
 def test_pipeline_on_a_short_highway_drive(tmp_path: Path) -> None:
     report = tmp_path / "acc.md"
     out = tmp_path / "acc.json"

@@ -202,6 +202,7 @@ def _load_pipeline() -> ModuleType:
     return module
 
 
+@pytest.mark.slow
 def test_real_tusimple_end_to_end_chain(realdata: Path, tmp_path: Path) -> None:
     """slt segment -> lanes fit -> export-tusimple -> eval tusimple on the 6 labelled frames."""
     pipeline = _load_pipeline()

@@ -15,6 +15,8 @@ from types import ModuleType
 import pandas as pd
 import pytest
 
+pytestmark = pytest.mark.slow  # minutes of subprocesses; run with -m slow
+
 SCRIPT = Path(__file__).resolve().parents[3] / "pipelines" / "nightly.py"
 
 

@@ -22,6 +22,8 @@ from superlane_tools.commands.batch import (
     run_batch,
 )
 
+pytestmark = pytest.mark.slow  # minutes of subprocesses; run with -m slow
+
 ray = pytest.importorskip("ray")
 
 

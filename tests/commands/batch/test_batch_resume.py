@@ -11,6 +11,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import pandas as pd
+import pytest
 
 from superlane_tools.commands.batch import (
     MARKER,
@@ -58,6 +59,7 @@ def _alive(pid: int) -> bool:
     return state != "Z"
 
 
+@pytest.mark.slow
 def test_sigkill_halfway_then_resume(
     tmp_path: Path, make_drives: Callable[..., list[Path]]
 ) -> None:

@@ -37,6 +37,7 @@ def _params(root: Path, **kw: object) -> BatchParams:
     return BatchParams(**base)  # type: ignore[arg-type]
 
 
+@pytest.mark.slow
 def test_batch_ok_failed_and_idempotent(
     tmp_path: Path, make_drives: Callable[..., list[Path]]
 ) -> None:

@@ -7,6 +7,9 @@ import sys
 from pathlib import Path
 
 import pandas as pd
+import pytest
+
+pytestmark = pytest.mark.slow  # minutes of subprocesses; run with -m slow
 
 SCRIPT = Path(__file__).resolve().parents[3] / "pipelines" / "reprocess_challenge.py"
 
