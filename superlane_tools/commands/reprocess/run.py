@@ -15,7 +15,7 @@ from collections import deque
 from collections.abc import Callable, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from contextlib import ExitStack
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -109,16 +109,7 @@ def reprocess(
     dbcs = {p.name: load_dbc(p) for p in dbc_paths}
     with open_recording(src) as rec:
         # 1. Streams, camera and stages.
-        topics = cfg.topics
-        streams = select_one_each(
-            rec.topics(),
-            {
-                "frames": topics.frames,
-                "camera_info": topics.camera_info,
-                "can": topics.can,
-                "gnss": topics.gnss,
-            },
-        )
+        streams = select_one_each(rec.topics(), asdict(cfg.topics))
         if not streams.frames:
             listing = ", ".join(f"{t.topic} ({t.msgtype})" for t in rec.topics()) or "none"
             raise PipelineError(f"{src.name}: no camera image topic to reprocess ({listing})")
