@@ -244,3 +244,13 @@ def test_help_does_not_import_heavy_modules(argv: list[str]) -> None:
     ).stdout
     assert "Usage:" in out, out
     assert "HEAVY []" in out, out
+
+
+def test_tests_mirror_the_package() -> None:
+    layers = sorted(p.name for p in PACKAGE.iterdir() if (p / "__init__.py").is_file())
+    missing = [u for u in layers if not list((ROOT / "tests" / u).rglob("test_*.py"))]
+    assert not missing, f"no tests/<layer>/test_*.py for {missing}"
+    # `slt lanes fit` is tested through its CLI, in tests/cli/test_cli_lanes.py.
+    commands = [u for u in COMMAND_RANKS if u not in {"__init__", "errors", "lanes_fit"}]
+    missing = [c for c in commands if not list((ROOT / "tests" / "commands" / c).glob("test_*.py"))]
+    assert not missing, f"no tests/commands/<command>/test_*.py for {missing}"
