@@ -1,6 +1,13 @@
 """CAN: lenient DBC loading and vectorised signal decoding."""
 
-from superlane_tools.can.dbc import LoadedDbc, load_dbc, load_dbc_text
+from superlane_tools.can.dbc import (
+    SHIPPED_DBCS,
+    LoadedDbc,
+    load_dbc,
+    load_dbc_text,
+    shipped_dbc,
+    shipped_dbcs,
+)
 from superlane_tools.can.decode import (
     SIGNAL_COLUMNS,
     FrameArrays,
@@ -11,6 +18,7 @@ from superlane_tools.can.decode import (
 from superlane_tools.can.errors import CanError
 
 __all__ = [
+    "SHIPPED_DBCS",
     "SIGNAL_COLUMNS",
     "CanError",
     "FrameArrays",
@@ -20,4 +28,6 @@ __all__ = [
     "frames_to_arrays",
     "load_dbc",
     "load_dbc_text",
+    "shipped_dbc",
+    "shipped_dbcs",
 ]

@@ -173,6 +173,28 @@ def longest_run(flags: BoolArray) -> int:
     return int((stops - starts).max())
 
 
+class TimeSegment(NamedTuple):
+    """A labelled sequence of a drive in time: ``[start_s, stop_s)`` after the first frame."""
+
+    start_s: float
+    stop_s: float
+    category: str = ""
+
+
+def segments_at_times(t_ns: NDArray[np.int64], specs: Sequence[TimeSegment]) -> list[Segment]:
+    """Turn time segments into frame ranges of frames at ``t_ns``; empty ranges are dropped."""
+    if len(t_ns) == 0:
+        return []
+    rel = (t_ns - t_ns[0]) / 1e9
+    out = []
+    for spec in specs:
+        start = int(np.searchsorted(rel, spec.start_s, "left"))
+        stop = int(np.searchsorted(rel, spec.stop_s, "left"))
+        if stop > start:
+            out.append(Segment(start, stop, spec.category))
+    return out
+
+
 def windows(n_frames: int, window_frames: int) -> list[Segment]:
     """Cut ``n_frames`` into consecutive windows; the last one may be shorter."""
     return [

@@ -16,6 +16,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from superlane_tools.camera.metadata import METADATA_NAME, camera_metadata, camera_quaternion_xyzw
 from superlane_tools.camera.model import CameraModel
 from superlane_tools.reporting import ParquetStreamWriter, Provenance, atomic_path
 from superlane_tools.simulation.errors import ScenarioError, SimulationError
@@ -30,8 +31,6 @@ from superlane_tools.simulation.scenarios import get_scenario
 from superlane_tools.simulation.sensors import (
     MobileyeParams,
     RtkParams,
-    camera_metadata,
-    camera_quaternion_xyzw,
     mobileye_can,
     rtk_fixes,
     vehicle_can,
@@ -51,8 +50,6 @@ TOPIC_FIX = "/gnss/fix"
 FRAME_VEHICLE = "base_link"
 FRAME_CAMERA = "camera_optical"
 FRAME_GNSS = "gnss"
-METADATA_NAME = "slt_camera"
-"""Name of the MCAP metadata record holding the camera (keys: ``sensors.camera_metadata``)."""
 
 ProgressFn = Callable[[int, int], None]
 
