@@ -83,7 +83,7 @@ def make_recording(
 
 
 def timed_batch(recs: Path, root: Path, engine: str, workers: int, remove: bool = False) -> float:
-    from superlane_tools.pipeline.batch import BatchParams, expand_inputs, run_batch
+    from superlane_tools.commands.batch import BatchParams, expand_inputs, run_batch
 
     params = BatchParams(
         root,
@@ -155,7 +155,7 @@ def throughput(
 
 
 def kill_and_resume(tmp: Path) -> dict[str, object]:
-    from superlane_tools.pipeline.batch import MARKER, read_status
+    from superlane_tools.commands.batch import MARKER, read_status
 
     recs = tmp / "kill_recs"
     recs.mkdir()

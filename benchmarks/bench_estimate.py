@@ -16,7 +16,7 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from superlane_tools.pipeline.camera_estimate import estimate_camera
+from superlane_tools.commands.camera_estimate import estimate_camera
 from superlane_tools.simulation.drive import sim_camera, simulate_drive
 
 

@@ -104,7 +104,7 @@ def baseline(path: Path) -> int:
 
 def run_extract(path: Path, dbc: Path, out: Path, frames: str = "jpg") -> dict[str, int]:
     """The full extract (frames as JPEG files, CAN raw + decoded, RTK table)."""
-    from superlane_tools.pipeline import ExtractConfig, extract
+    from superlane_tools.commands.extract import ExtractConfig, extract
 
     config = ExtractConfig(dbc_paths=(dbc,), frame_format=frames)
     result = extract(path, out, config, command="bench")

@@ -51,7 +51,7 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--recording", default="", help="use this 1280x720 recording")
     args = parser.parse_args()
-    from superlane_tools.pipeline.reprocess import ReprocessConfig, reprocess
+    from superlane_tools.commands.reprocess import ReprocessConfig, reprocess
     from superlane_tools.reporting import read_provenance
     from superlane_tools.simulation.drive import simulate_drive
 

@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from superlane_tools.pipeline.reprocess import ReprocessConfig, reprocess
+from superlane_tools.commands.reprocess import ReprocessConfig, reprocess
 from superlane_tools.simulation.drive import simulate_drive
 
 

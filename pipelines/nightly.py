@@ -27,8 +27,7 @@ import sys
 import time
 from pathlib import Path
 
-from superlane_tools.errors import SltError, UsageError
-from superlane_tools.pipeline.batch import (
+from superlane_tools.commands.batch import (
     BatchEntry,
     BatchError,
     BatchParams,
@@ -38,7 +37,8 @@ from superlane_tools.pipeline.batch import (
     read_manifest,
     run_batch,
 )
-from superlane_tools.pipeline.batch.manifest import fingerprint
+from superlane_tools.commands.batch.manifest import fingerprint
+from superlane_tools.errors import SltError, UsageError
 from superlane_tools.reporting import write_text_atomic
 
 STATE_FILE = "nightly_state.json"

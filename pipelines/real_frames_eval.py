@@ -48,11 +48,11 @@ import numpy as np
 import pyarrow.parquet as pq
 
 from superlane_tools.camera import load_camera
+from superlane_tools.commands.lanes.fit import lanes_from_row
 from superlane_tools.evaluation import evaluate, evaluate_frames, load_jsonl
 from superlane_tools.evaluation.kitti import decode_ground_truth, lane_area_mask, score_mask
 from superlane_tools.hierarchy import leaf_ids_under
 from superlane_tools.lanes.project import columns_at_rows
-from superlane_tools.pipeline.lanes_fit import lanes_from_row
 from superlane_tools.reporting.atomic import write_text_atomic
 
 REPO = Path(__file__).resolve().parents[1]
@@ -75,7 +75,7 @@ def slt(*args: str | Path) -> tuple[str, str]:
     return shlex.join(["slt", *map(str, args)]), proc.stdout
 
 
-def _links(sources: list[Path], folder: Path) -> Path:
+def link_frames(sources: list[Path], folder: Path) -> Path:
     folder.mkdir(parents=True, exist_ok=True)
     for src in sources:
         link = folder / src.name
@@ -139,7 +139,7 @@ def tusimple_chain(backend: str, frames: Path, labels: Path, work: Path) -> dict
 
 def kitti_chain(backend: str, data: Path, work: Path) -> dict[str, Any]:
     """Segment and fit KITTI ``um_000000``; score the fitted ego lane against the lane GT."""
-    folder = _links([data / "kitti_road" / f"image_{KITTI_NAME}.png"], work / "kitti_frames")
+    folder = link_frames([data / "kitti_road" / f"image_{KITTI_NAME}.png"], work / "kitti_frames")
     seg, lanes = work / f"kitti_seg_{backend}", work / f"kitti_lanes_{backend}.parquet"
     commands = [
         slt("segment", folder, "--out", seg, "--backend", backend, "--camera", "kitti",
@@ -324,7 +324,7 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         work = args.work or Path(tmp)
         work.mkdir(parents=True, exist_ok=True)
-        frames = _links([frames_src / n for n in LABELLED], work / "frames")
+        frames = link_frames([frames_src / n for n in LABELLED], work / "frames")
         results: dict[str, Any] = {}
         for backend in args.backends.split(","):
             tus = tusimple_chain(backend, frames, labels, work)

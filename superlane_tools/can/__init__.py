@@ -11,7 +11,14 @@ from superlane_tools.can.buses import (
     decode_buses,
     parse_dbc_spec,
 )
-from superlane_tools.can.dbc import LoadedDbc, load_dbc, load_dbc_text
+from superlane_tools.can.dbc import (
+    SHIPPED_DBCS,
+    LoadedDbc,
+    load_dbc,
+    load_dbc_text,
+    shipped_dbc,
+    shipped_dbcs,
+)
 from superlane_tools.can.decode import (
     SIGNAL_COLUMNS,
     FrameArrays,
@@ -32,6 +39,7 @@ from superlane_tools.can.units import SPEED_UNITS, YAW_RATE_UNITS, si_factor, to
 __all__ = [
     "ALL_BUSES",
     "MAPPINGS",
+    "SHIPPED_DBCS",
     "SIGNAL_COLUMNS",
     "SPEED_UNITS",
     "YAW_RATE_UNITS",
@@ -55,6 +63,8 @@ __all__ = [
     "load_dbc_text",
     "mobileye_table",
     "parse_dbc_spec",
+    "shipped_dbc",
+    "shipped_dbcs",
     "si_factor",
     "to_si",
 ]

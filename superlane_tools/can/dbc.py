@@ -197,3 +197,19 @@ def load_dbc(path: str | os.PathLike[str]) -> LoadedDbc:
         return load_dbc_text(text, repairs)
     except CanError as err:
         raise CanError(f"{src.name}: {err}") from err
+
+
+SHIPPED_DBCS = ("slt_vehicle.dbc", "slt_mobileye_lanes.dbc")
+"""DBCs shipped in ``superlane_tools/data/dbc``: the simulator's vehicle and Mobileye messages."""
+
+
+def shipped_dbc(name: str) -> Path:
+    """Return the path of a DBC shipped in ``superlane_tools/data/dbc``."""
+    from importlib.resources import files
+
+    return Path(str(files("superlane_tools") / "data" / "dbc" / name))
+
+
+def shipped_dbcs() -> list[Path]:
+    """Return the paths of every shipped DBC (:data:`SHIPPED_DBCS`)."""
+    return [shipped_dbc(n) for n in SHIPPED_DBCS]

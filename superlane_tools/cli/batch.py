@@ -73,7 +73,7 @@ def batch_cmd(
     """
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
 
-    from superlane_tools.pipeline.batch import (
+    from superlane_tools.commands.batch import (
         BatchParams,
         BatchProgress,
         default_kind,

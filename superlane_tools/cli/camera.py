@@ -198,7 +198,7 @@ def estimate_cmd(
     import yaml
 
     from superlane_tools.camera import camera_to_yaml, load_camera
-    from superlane_tools.pipeline.camera_estimate import estimate_camera
+    from superlane_tools.commands.camera_estimate import estimate_camera
 
     with cli_errors():
         known = load_camera(intrinsics).intrinsics if intrinsics is not None else None

@@ -78,7 +78,6 @@ def _run(
 
     from superlane_tools.camera.profiles import load_camera
     from superlane_tools.corridor.geometry import CorridorParams, corridor_from_mask
-    from superlane_tools.pipeline.frames import InputFrames
     from superlane_tools.reporting import (
         Provenance,
         input_identity,
@@ -86,6 +85,7 @@ def _run(
         write_table,
     )
     from superlane_tools.scene.corridor_runtime import CorridorSmoother, OnnxCorridorModel
+    from superlane_tools.scene.recording_frames import InputFrames
 
     cam = load_camera(camera_name) if camera_name else None
     runtime = OnnxCorridorModel(model, threads=threads)

@@ -112,7 +112,7 @@ def extract_cmd(
     """
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
 
-    from superlane_tools.pipeline import ExtractConfig, extract, load_stream_config
+    from superlane_tools.commands.extract import ExtractConfig, extract, load_stream_config
 
     with cli_errors():
         streams = load_stream_config(config) if config is not None else {}

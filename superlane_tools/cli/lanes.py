@@ -57,8 +57,8 @@ def fit_cmd(
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeRemainingColumn
 
     from superlane_tools.camera import load_camera
+    from superlane_tools.commands.lanes.fit import fit_masks, load_classes
     from superlane_tools.lanes import FitParams
-    from superlane_tools.pipeline.lanes_fit import fit_masks, load_classes
 
     with cli_errors():
         cam = load_camera(camera)
@@ -131,10 +131,10 @@ def export_cmd(
 ) -> None:
     """Project fitted lanes into the image at each frame's rows; write TuSimple JSON lines."""
     from superlane_tools.camera import load_camera
+    from superlane_tools.commands.lanes.export import export_tusimple
+    from superlane_tools.commands.lanes.fit import parse_h_samples
     from superlane_tools.errors import UsageError
     from superlane_tools.evaluation.tusimple_export import ExportOptions
-    from superlane_tools.pipeline.lanes_export import export_tusimple
-    from superlane_tools.pipeline.lanes_fit import parse_h_samples
 
     with cli_errors():
         if max_lines < 1 or (lanes is not None and lanes < 1):
@@ -154,7 +154,7 @@ def export_kitti_cmd(
 ) -> None:
     """Rasterise each frame's fitted ego lane as a KITTI submission PNG (um_lane_NNNNNN.png)."""
     from superlane_tools.camera import load_camera
-    from superlane_tools.pipeline.lanes_export import export_kitti_ego_lane
+    from superlane_tools.commands.lanes.export import export_kitti_ego_lane
 
     with cli_errors():
         result = export_kitti_ego_lane(lanes_parquet, load_camera(camera), out)

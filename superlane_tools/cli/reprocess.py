@@ -82,12 +82,12 @@ def reprocess_cmd(
     Options override the config file. Missing streams degrade gracefully and are stated in
     the report; exit code 3 means input data was lost.
     """
-    from superlane_tools.errors import UsageError
-    from superlane_tools.pipeline.reprocess import (
+    from superlane_tools.commands.reprocess import (
         ReprocessConfig,
         default_config_yaml,
         load_config,
     )
+    from superlane_tools.errors import UsageError
 
     if print_config:
         typer.echo(default_config_yaml(), nl=False)
@@ -155,7 +155,7 @@ def _run(recording: Path, target: Path, cfg: Any) -> Any:
     )
 
     from superlane_tools.cli._common import err_console
-    from superlane_tools.pipeline.reprocess import reprocess
+    from superlane_tools.commands.reprocess import reprocess
 
     start = time.perf_counter()
     with Progress(

@@ -64,8 +64,8 @@ def _run(
     )
 
     from superlane_tools.camera.profiles import load_camera
-    from superlane_tools.pipeline.frames import InputFrames
     from superlane_tools.scene import backend_from_name, segment_images
+    from superlane_tools.scene.recording_frames import InputFrames
 
     frames = InputFrames(input_path, out)
     cam = load_camera(camera_name) if camera_name else None

@@ -23,8 +23,8 @@ OutFile = Annotated[
 
 
 def _emit(frame: object, out: Path | None, runs: list[Path]) -> None:
+    from superlane_tools.commands.reprocess.run_tables import write_summary_table
     from superlane_tools.reporting.report import markdown_table
-    from superlane_tools.reporting.tables import write_summary_table
 
     if out is None:
         typer.echo(markdown_table(frame))  # type: ignore[arg-type]
@@ -42,8 +42,8 @@ def availability_cmd(
     ] = "category",
 ) -> None:
     """Corridor paper Table II: #seq, frame-based n/N and sequence-based k/K per method."""
+    from superlane_tools.commands.reprocess.run_tables import availability_table
     from superlane_tools.errors import UsageError
-    from superlane_tools.reporting.tables import availability_table
 
     with cli_errors():
         if by not in ("category", "run"):
@@ -54,7 +54,7 @@ def availability_cmd(
 @tables_app.command("curvature")
 def curvature_cmd(runs: RunDirs, out: OutFile = None) -> None:
     """Curvature errors against RTK per run: SUPER (2*a2) and Mobileye (2*C2)."""
-    from superlane_tools.reporting.tables import curvature_table
+    from superlane_tools.commands.reprocess.run_tables import curvature_table
 
     with cli_errors():
         _emit(curvature_table(runs), out, runs)

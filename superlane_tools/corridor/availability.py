@@ -52,8 +52,8 @@ class AvailabilityParams:
         max_outage_frames: A sequence stays available with outages up to this many frames.
         window_frames: Frames per sequence when the drive is cut into consecutive windows.
         frame_rate_hz: Camera frame rate, for outages in seconds.
-        max_outage_s: Longest tolerated outage, seconds (None: ``max_outage_frames`` frames at
-            ``frame_rate_hz``); used when frame times are given.
+        max_outage_s: Longest tolerated outage, seconds (None or 0: ``max_outage_frames`` frames
+            at ``frame_rate_hz``); used when frame times are given.
     """
 
     min_width_m: float = 2.0
@@ -67,7 +67,7 @@ class AvailabilityParams:
     @property
     def outage_limit_s(self) -> float:
         """The longest tolerated outage, seconds."""
-        if self.max_outage_s is not None:
+        if self.max_outage_s is not None and self.max_outage_s > 0:
             return self.max_outage_s
         return self.max_outage_frames / self.frame_rate_hz
 
@@ -214,6 +214,28 @@ def longest_outage_s(unavailable: BoolArray, t_ns: NDArray[np.int64], period_s: 
             longest = max(longest, current)
             current = 0.0
     return max(longest, current)
+
+
+class TimeSegment(NamedTuple):
+    """A labelled sequence of a drive in time: ``[start_s, stop_s)`` after the first frame."""
+
+    start_s: float
+    stop_s: float
+    category: str = ""
+
+
+def segments_at_times(t_ns: NDArray[np.int64], specs: Sequence[TimeSegment]) -> list[Segment]:
+    """Turn time segments into frame ranges of frames at ``t_ns``; empty ranges are dropped."""
+    if len(t_ns) == 0:
+        return []
+    rel = (t_ns - t_ns[0]) / 1e9
+    out = []
+    for spec in specs:
+        start = int(np.searchsorted(rel, spec.start_s, "left"))
+        stop = int(np.searchsorted(rel, spec.stop_s, "left"))
+        if stop > start:
+            out.append(Segment(start, stop, spec.category))
+    return out
 
 
 def windows(n_frames: int, window_frames: int) -> list[Segment]:

@@ -35,7 +35,7 @@ from superlane_tools.lanes.attributes import (
 )
 from superlane_tools.lanes.cost import CostFunction, Histogram, kernels, ray_points
 from superlane_tools.lanes.errors import LaneFitError
-from superlane_tools.lanes.lookahead import effective_lookahead, refit_sqrt_weights
+from superlane_tools.lanes.fit_lookahead import effective_lookahead, refit_sqrt_weights
 from superlane_tools.lanes.params import FitParams
 from superlane_tools.lanes.peaks import assign, find_offsets, merge_close
 from superlane_tools.lanes.result import Lane, LaneFit

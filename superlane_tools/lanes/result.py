@@ -121,3 +121,63 @@ class LaneFit:
         if self.ego_left < 0 or self.ego_right < 0:
             return math.nan
         return self.lanes[self.ego_left].offset_m - self.lanes[self.ego_right].offset_m
+
+    def ego_lines(self) -> tuple[Lane, Lane] | None:
+        """Return the ego lane's left and right lines, or None when the fit has no ego pair."""
+        if not self.ok or self.ego_left < 0 or self.ego_right < 0:
+            return None
+        return self.lanes[self.ego_left], self.lanes[self.ego_right]
+
+    def ego_support_m(self) -> tuple[float, float]:
+        """Return the ego lines' common supported range ``(near, far)`` ahead, metres (NaN: none).
+
+        ``far <= near`` when the two lines' ranges do not overlap.
+        """
+        pair = self.ego_lines()
+        if pair is None:
+            return math.nan, math.nan
+        left, right = pair
+        return max(left.range_min_m, right.range_min_m), min(left.range_max_m, right.range_max_m)
+
+    def plausible(self, max_slope: float) -> bool:
+        """Whether the fit has both ego lines, a finite curvature and ``|b| < max_slope``.
+
+        A slope at the optimiser's bound means the view has collapsed: such a fit must not seed
+        the next frame's warm start nor enter the lane tracker.
+        """
+        return (
+            self.ego_lines() is not None
+            and abs(self.b) < max_slope
+            and math.isfinite(self.curvature)
+        )
+
+    def trackable(self, max_slope: float) -> bool:
+        """Whether the lane tracker may use the fit: plausible, with a common ego-line range."""
+        near, far = self.ego_support_m()
+        return far > near and self.plausible(max_slope)
+
+    def lane_grid(self) -> tuple[float, float, float]:
+        """Return the lane-grid centre offset and lane width (m), and the fit's look-ahead (m).
+
+        The centre offset is the circular mean, with period one lane width, of every fitted
+        line's offset shifted by half a width (nearer lines weigh more): it needs no choice of
+        ego pair, so it stays continuous while the vehicle straddles a line during a lane change.
+        The look-ahead is where the fit's ``2*a2`` measures the road: the effective look-ahead
+        of its weighted design (``extras["lookahead_m"]``, :mod:`superlane_tools.lanes.
+        fit_lookahead`), else the middle of the ego lines' common support. All three are NaN
+        without an ego pair; the first two also when the width is <= 1 m.
+        """
+        if self.ego_lines() is None:
+            return math.nan, math.nan, math.nan
+        near, far = self.ego_support_m()
+        width = self.lane_width_m
+        ahead = 0.5 * (near + far) if far > near else math.nan
+        effective = self.extras.get("lookahead_m", math.nan)
+        if far > near and math.isfinite(effective) and effective > 0:
+            ahead = effective
+        if width <= 1.0:
+            return math.nan, math.nan, ahead
+        offsets = np.array([lane.offset_m for lane in self.lanes]) - 0.5 * width
+        weights = np.exp(-np.abs(offsets) / width)
+        phase = np.angle(np.sum(weights * np.exp(2j * np.pi * offsets / width)))
+        return float(width * phase / (2 * np.pi)), width, ahead

@@ -53,6 +53,10 @@ class Recording(Protocol):
         """Yield undecoded messages, like :meth:`messages` but without the decoding step."""
         ...
 
+    def metadata(self) -> dict[str, dict[str, str]]:
+        """Return the recording's metadata records by name (MCAP metadata; empty elsewhere)."""
+        ...
+
     def close(self) -> None:
         """Release the files the recording holds open."""
         ...
@@ -69,6 +73,10 @@ class Recording(Protocol):
 
 class ClosingRecording:
     """Mixin for recording sources: ``with source:`` closes it on exit."""
+
+    def metadata(self) -> dict[str, dict[str, str]]:
+        """Return the metadata records by name: none unless the format has them."""
+        return {}
 
     def close(self) -> None:
         """Release open files (subclasses override)."""

@@ -86,6 +86,19 @@ class McapRecording(ClosingRecording):
         """Close the file."""
         self._file.close()
 
+    def metadata(self) -> dict[str, dict[str, str]]:
+        """Return the file's metadata records by name (empty when the summary is unreadable).
+
+        Read through a second handle, so that a message iteration in progress keeps its place.
+        """
+        from mcap.reader import make_reader
+
+        try:
+            with self.path.open("rb") as handle:
+                return {r.name: dict(r.metadata) for r in make_reader(handle).iter_metadata()}
+        except Exception:  # a damaged summary or odd metadata: no records
+            return {}
+
     # -- index -----------------------------------------------------------------------------
 
     def _load_index(self) -> None:

@@ -38,7 +38,7 @@ from superlane_tools.reporting.atomic import write_text_atomic
 from superlane_tools.reporting.errors import OutputError
 from superlane_tools.reporting.parquet import write_table
 from superlane_tools.reporting.provenance import Provenance, input_identity
-from superlane_tools.reporting.tables import latex_table
+from superlane_tools.reporting.report import latex_table
 
 KINDS = ("tusimple", "attributes", "kitti", "caltech", "culane")
 CALTECH_COLUMNS = {"cordova1": "1", "cordova2": "2", "washington1": "3", "washington2": "4"}

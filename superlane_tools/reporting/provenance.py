@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any, NamedTuple, TypeAlias
 
 from superlane_tools._version import __version__
+from superlane_tools.reporting.errors import OutputError
 
 METADATA_KEY = b"superlane_tools"
 _CHUNK = 1 << 20
@@ -153,3 +154,35 @@ ProvenanceSource: TypeAlias = Provenance | Callable[[], Provenance]
 def resolve_provenance(source: ProvenanceSource) -> Provenance:
     """Return ``source`` itself, or call it to get the provenance."""
     return source if isinstance(source, Provenance) else source()
+
+
+class HashedProvenance:
+    """A provenance finished once the inputs' background hashing is done.
+
+    The inputs are hashed (SHA-256) in a background thread while a command reads them; the
+    Parquet writers call this object when they first need the provenance.
+    """
+
+    def __init__(self, pending: PendingIdentities, command: str, config: dict[str, Any]) -> None:
+        self._pending = pending
+        self._command = command
+        self._config = config
+        self._provenance: Provenance | None = None
+
+    def __call__(self) -> Provenance:
+        """Return the provenance, waiting for the hashes if needed.
+
+        Raises:
+            OutputError: If an input could not be read for hashing.
+        """
+        if self._provenance is None:
+            try:
+                inputs = self._pending.result()
+            except OSError as err:
+                raise OutputError(f"cannot hash input {err.filename}: {err.strerror}") from err
+            self._provenance = Provenance(command=self._command, inputs=inputs, config=self._config)
+        return self._provenance
+
+    def cancel(self) -> None:
+        """Stop hashing (the extraction failed)."""
+        self._pending.cancel()

@@ -50,6 +50,25 @@ def markdown_table(frame: pd.DataFrame) -> str:
     return "\n".join(lines)
 
 
+def latex_table(frame: pd.DataFrame) -> str:
+    """Return a LaTeX ``tabular`` of a DataFrame (booktabs rules)."""
+
+    def cell(value: object) -> str:
+        text = f"{value:.3g}" if isinstance(value, float) else str(value)
+        return text.replace("%", r"\%").replace("_", r"\_").replace("#", r"\#")
+
+    spec = "l" + "r" * (len(frame.columns) - 1)
+    lines = [
+        rf"\begin{{tabular}}{{{spec}}}",
+        r"\toprule",
+        " & ".join(cell(c) for c in frame.columns) + r" \\",
+        r"\midrule",
+    ]
+    lines += [" & ".join(cell(v) for v in row) + r" \\" for row in frame.itertuples(index=False)]
+    lines += [r"\bottomrule", r"\end{tabular}", ""]
+    return "\n".join(lines)
+
+
 def html_table(frame: pd.DataFrame) -> str:
     """Return an HTML table of a DataFrame."""
     head = "".join(f"<th>{html.escape(str(c))}</th>" for c in frame.columns)
@@ -69,9 +88,12 @@ def _inline(text: str) -> str:
 
 
 def write_report(
-    out_dir: Path, title: str, sections: Sequence[Section], html_too: bool = True
+    path: Path, title: str, sections: Sequence[Section], html_too: bool = True
 ) -> list[Path]:
-    """Write ``report.md`` (and ``report.html``) into ``out_dir``; return the files."""
+    """Write the Markdown report ``path`` (and the HTML one beside it); return the files.
+
+    The one report writer of the package: ``slt reprocess`` and the batch fleet summary use it.
+    """
     md = [f"# {title}", ""]
     for sec in sections:
         md += [f"## {sec.title}", "", *sec.lines, ""]
@@ -79,7 +101,7 @@ def write_report(
             md += [markdown_table(table), ""]
         for image in sec.images:
             md += [f"![{Path(image).stem}]({image})", ""]
-    paths = [write_text_atomic(out_dir / "report.md", "\n".join(md))]
+    paths = [write_text_atomic(path, "\n".join(md))]
     if html_too:
         parts = [
             "<!DOCTYPE html><html><head><meta charset='utf-8'>",
@@ -100,5 +122,5 @@ def write_report(
             parts += [html_table(t) for t in sec.tables]
             parts += [f"<img src='{html.escape(i)}' alt='{html.escape(i)}'>" for i in sec.images]
         parts.append("</body></html>")
-        paths.append(write_text_atomic(out_dir / "report.html", "\n".join(parts)))
+        paths.append(write_text_atomic(path.with_suffix(".html"), "\n".join(parts)))
     return paths

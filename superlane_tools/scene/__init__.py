@@ -1,11 +1,7 @@
 """Scene understanding: segmentation backends (classical, ONNX) producing leaf-id label images."""
 
-from superlane_tools.scene.backend import (
-    SegmentationBackend,
-    backend_from_name,
-    check_image,
-    known_backends,
-)
+from superlane_tools.scene.backend import SegmentationBackend, check_image
+from superlane_tools.scene.backends import backend_from_name, known_backends
 from superlane_tools.scene.classical import (
     ClassicalExtractor,
     ClassicalParams,

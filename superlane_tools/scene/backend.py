@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from typing import Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
 
-from superlane_tools.camera.model import CameraModel
-from superlane_tools.scene.errors import BackendUnavailableError, SceneError
+from superlane_tools.scene.errors import SceneError
 
 ImageBGR = NDArray[np.uint8]
 LabelImage = NDArray[np.uint8]
@@ -38,9 +37,6 @@ class SegmentationBackend(Protocol):
         ...
 
 
-BackendFactory = Callable[[str | None, CameraModel | None], SegmentationBackend]
-
-
 def check_image(image_bgr: object) -> ImageBGR:
     """Return ``image_bgr`` if it is an ``(H, W, 3)`` uint8 array, else raise.
 
@@ -56,50 +52,3 @@ def check_image(image_bgr: object) -> ImageBGR:
     if image_bgr.shape[0] < 8 or image_bgr.shape[1] < 8:
         raise SceneError(f"image too small to segment: {image_bgr.shape[1]}x{image_bgr.shape[0]}")
     return image_bgr
-
-
-def _classical(model: str | None, camera: CameraModel | None) -> SegmentationBackend:
-    from superlane_tools.scene.classical import ClassicalExtractor
-
-    if model:
-        raise BackendUnavailableError(
-            "the classical backend takes no model; drop --model or use --backend onnx"
-        )
-    return ClassicalExtractor(camera=camera)
-
-
-def _onnx(model: str | None, camera: CameraModel | None) -> SegmentationBackend:
-    del camera  # the network works in the image; its card fixes the input size
-    from superlane_tools.scene.onnx_backend import OnnxSegmentationBackend
-
-    return OnnxSegmentationBackend(model)
-
-
-_FACTORIES: dict[str, BackendFactory] = {"classical": _classical, "onnx": _onnx}
-
-
-def known_backends() -> tuple[str, ...]:
-    """Return the names accepted by :func:`backend_from_name`, sorted."""
-    return tuple(sorted(_FACTORIES))
-
-
-def backend_from_name(
-    name: str, *, model: str | None = None, camera: CameraModel | None = None
-) -> SegmentationBackend:
-    """Build the segmentation backend called ``name``.
-
-    Args:
-        name: Backend name (see :func:`known_backends`), case-insensitive.
-        model: Model file path or shipped model name, for backends that load one.
-        camera: Camera of the images, for backends that use geometry (the classical one).
-
-    Raises:
-        BackendUnavailableError: If the name is unknown (the message lists the known ones) or
-            the backend cannot run here (e.g. no model available).
-    """
-    factory = _FACTORIES.get(name.strip().lower())
-    if factory is None:
-        raise BackendUnavailableError(
-            f"unknown segmentation backend {name!r} (known: {', '.join(known_backends())})"
-        )
-    return factory(model, camera)

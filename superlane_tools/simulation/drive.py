@@ -16,6 +16,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from superlane_tools.camera.metadata import METADATA_NAME, camera_metadata, camera_quaternion_xyzw
 from superlane_tools.camera.model import CameraModel
 from superlane_tools.reporting import ParquetStreamWriter, Provenance, atomic_path
 from superlane_tools.simulation.errors import ScenarioError, SimulationError
@@ -31,8 +32,6 @@ from superlane_tools.simulation.sensors import (
     MobileyeParams,
     RtkParams,
     VehicleOptions,
-    camera_metadata,
-    camera_quaternion_xyzw,
     heartbeat_can,
     imu_gyro,
     mobileye_can,
@@ -57,8 +56,6 @@ TOPIC_IMU = "/imu/data"
 FRAME_VEHICLE = "base_link"
 FRAME_CAMERA = "camera_optical"
 FRAME_GNSS = "gnss"
-METADATA_NAME = "slt_camera"
-"""Name of the MCAP metadata record holding the camera (keys: ``sensors.camera_metadata``)."""
 
 ProgressFn = Callable[[int, int], None]
 

@@ -15,7 +15,6 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from superlane_tools.camera.model import CameraModel
 from superlane_tools.simulation.errors import ScenarioError
 from superlane_tools.simulation.groundtruth import LaneTruth
 from superlane_tools.simulation.world import World
@@ -371,43 +370,3 @@ def mobileye_to_lane_model(c0: float, c1: float, c2: float, c3: float) -> tuple[
     ``C2`` is half the curvature, so the lane curvature (1/m, left positive) is ``2 * a2``.
     """
     return (-c0, -c1, -c2, -c3)
-
-
-def camera_quaternion_xyzw(camera: CameraModel) -> tuple[float, float, float, float]:
-    """Return the rotation of the camera optical frame in the vehicle frame as ``(x, y, z, w)``."""
-    from scipy.spatial.transform import Rotation
-
-    q = Rotation.from_matrix(camera.extrinsics.rotation).as_quat()
-    return (float(q[0]), float(q[1]), float(q[2]), float(q[3]))
-
-
-def camera_metadata(camera: CameraModel, parent: str, child: str) -> dict[str, str]:
-    """Return the MCAP metadata record ``slt_camera`` describing the camera (string values).
-
-    Keys: ``name``, ``parent_frame``, ``child_frame``, ``width``, ``height``, ``fx``, ``fy``,
-    ``cx``, ``cy``, ``dist`` (comma-separated k1,k2,p1,p2,k3), ``height_m``, ``pitch_rad``,
-    ``roll_rad``, ``yaw_rad``, ``x_m``, ``y_m`` (angles as in ``camera/model.py``),
-    ``translation_m`` and ``quaternion_xyzw`` (comma-separated, as in ``/tf_static``).
-    """
-    k, e = camera.intrinsics, camera.extrinsics
-    q = camera_quaternion_xyzw(camera)
-    return {
-        "name": camera.name,
-        "parent_frame": parent,
-        "child_frame": child,
-        "width": str(k.width),
-        "height": str(k.height),
-        "fx": repr(k.fx),
-        "fy": repr(k.fy),
-        "cx": repr(k.cx),
-        "cy": repr(k.cy),
-        "dist": ",".join(repr(float(d)) for d in k.dist),
-        "height_m": repr(e.height_m),
-        "pitch_rad": repr(e.pitch_rad),
-        "roll_rad": repr(e.roll_rad),
-        "yaw_rad": repr(e.yaw_rad),
-        "x_m": repr(e.x_m),
-        "y_m": repr(e.y_m),
-        "translation_m": ",".join(repr(float(v)) for v in e.position),
-        "quaternion_xyzw": ",".join(repr(v) for v in q),
-    }

@@ -20,7 +20,7 @@ from superlane_tools.camera.extrinsics_estimate import (
 )
 from superlane_tools.camera.model import CameraModel, Extrinsics
 from superlane_tools.cli.app import app
-from superlane_tools.pipeline.camera_estimate import estimate_camera
+from superlane_tools.commands.camera_estimate import estimate_camera
 from superlane_tools.simulation.drive import sim_camera, simulate_drive
 
 runner = CliRunner()

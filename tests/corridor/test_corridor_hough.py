@@ -120,8 +120,8 @@ def test_tracker_smooths_towards_the_new_frame() -> None:
 
 
 def test_simulated_straight_highway_is_available(tmp_path: Path) -> None:
-    from superlane_tools.pipeline.reprocess.inputs import decode_frame
     from superlane_tools.recording import open_recording
+    from superlane_tools.recording.images import decode_frame
     from superlane_tools.simulation.drive import simulate_drive
 
     rec = tmp_path / "straight.mcap"

@@ -8,9 +8,10 @@ import sys
 from pathlib import Path
 from types import ModuleType
 
+import pytest
 import yaml
 
-from superlane_tools.pipeline.lanes_fit import parse_classes
+from superlane_tools.commands.lanes.fit import parse_classes
 
 SCRIPT = Path(__file__).resolve().parents[2] / "pipelines" / "sim_lane_accuracy.py"
 
@@ -34,6 +35,7 @@ def test_classes_yaml_maps_markings_and_road() -> None:
     assert set(data["road"]) <= set(classes.road_ids)
 
 
+@pytest.mark.slow
 def test_pipeline_on_a_short_highway_drive(tmp_path: Path) -> None:
     report = tmp_path / "acc.md"
     out = tmp_path / "acc.json"

@@ -8,9 +8,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from superlane_tools.pipeline.extract import ExtractConfig, extract
-from superlane_tools.pipeline.frames import RecordingFrames
-from superlane_tools.pipeline.reprocess import ReprocessConfig, reprocess
+from superlane_tools.commands.extract import ExtractConfig, extract
+from superlane_tools.commands.reprocess import ReprocessConfig, reprocess
 from superlane_tools.recording import messages as m
 from superlane_tools.recording import open_recording
 from superlane_tools.recording.video import (
@@ -25,6 +24,7 @@ from superlane_tools.recording.video import (
     video_codec,
 )
 from superlane_tools.recording.writers import open_writer
+from superlane_tools.scene.recording_frames import RecordingFrames
 from superlane_tools.simulation.drive import simulate_drive
 
 T0 = 1_700_000_000_000_000_000

@@ -202,11 +202,12 @@ def _load_pipeline() -> ModuleType:
     return module
 
 
+@pytest.mark.slow
 def test_real_tusimple_end_to_end_chain(realdata: Path, tmp_path: Path) -> None:
     """slt segment -> lanes fit -> export-tusimple -> eval tusimple on the 6 labelled frames."""
     pipeline = _load_pipeline()
     src = realdata / "tusimple" / "frames"
-    frames = pipeline._links([src / name for name in pipeline.LABELLED], tmp_path / "frames")
+    frames = pipeline.link_frames([src / name for name in pipeline.LABELLED], tmp_path / "frames")
     result = pipeline.tusimple_chain("classical", frames, src / "labels.json", tmp_path)
     assert result["official"]["n_frames"] == 6
     # Measured 0.850 with LaneEval's 200 ms run-time gate off (the first fit of a process also

@@ -21,6 +21,7 @@ from superlane_tools.training.seg_net import HierarchicalSegNet
 from superlane_tools.training.train import TrainParams, TrainResult, train
 
 
+@pytest.mark.slow
 def test_loss_decreases_over_one_epoch(tiny_seg: TrainResult, tiny_corridor: TrainResult) -> None:
     for result in (tiny_seg, tiny_corridor):
         assert len(result.step_losses) == 4
@@ -28,6 +29,7 @@ def test_loss_decreases_over_one_epoch(tiny_seg: TrainResult, tiny_corridor: Tra
         assert len(result.epoch_losses) == 1
 
 
+@pytest.mark.slow
 def test_same_seed_same_run(
     toy_data: Path,
     tiny_corridor: TrainResult,
@@ -39,6 +41,7 @@ def test_same_seed_same_run(
     assert again.card.sha256 == tiny_corridor.card.sha256
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("net", ["segmentation", "corridor"])
 def test_onnxruntime_agrees_with_torch(net: str, tmp_path: Path) -> None:
     torch.manual_seed(0)

@@ -7,11 +7,14 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from superlane_tools.scene.model_card import load_card
 
 REPO = Path(__file__).resolve().parents[2]
 
 
+@pytest.mark.slow
 def test_quick_pipeline_runs_end_to_end(tmp_path: Path) -> None:
     out = tmp_path / "models"
     cmd = [

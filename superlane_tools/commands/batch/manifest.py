@@ -1,0 +1,224 @@
+"""Batch inputs: find recordings under folders, read manifests, name recordings."""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import os
+import re
+from collections.abc import Iterable, Iterator, Mapping, Sequence
+from pathlib import Path
+from typing import Any, NamedTuple
+
+from superlane_tools.errors import ConfigError, UsageError
+
+RECORDING_SUFFIXES = frozenset({".mcap", ".bag", ".asc", ".blf"})
+"""File suffixes always taken as recordings when found in a folder."""
+CANDUMP_SUFFIXES = frozenset({".log"})
+"""Suffixes taken only when the content looks like a CAN log (candump)."""
+MANIFEST_COLUMNS = ("path", "category", "vehicle", "date", "sequence", "start_s", "end_s")
+"""Manifest columns; only ``path`` is required."""
+
+
+class BatchEntry(NamedTuple):
+    """One recording (or one sequence of it) to process, with the labels that go in the tables.
+
+    Attributes:
+        path: Recording file or ROS 2 bag folder.
+        category: Category for the fleet tables (e.g. ``highway``, ``heavy_rain``); ``""``: none.
+        vehicle: Vehicle name; ``""``: unknown.
+        date: Drive date as written in the manifest (``YYYY-MM-DD``); ``""``: unknown.
+        sequence: Sequence name when a recording is split into sequences; ``""``: whole.
+        start_s: Sequence start, seconds after the recording's first message; None: start.
+        end_s: Sequence end (exclusive), seconds after the first message; None: end.
+    """
+
+    path: Path
+    category: str = ""
+    vehicle: str = ""
+    date: str = ""
+    sequence: str = ""
+    start_s: float | None = None
+    end_s: float | None = None
+
+
+def is_ros2_bag(path: Path) -> bool:
+    """Return True when ``path`` is a ROS 2 bag folder (has ``metadata.yaml``)."""
+    return path.is_dir() and (path / "metadata.yaml").is_file()
+
+
+def _looks_like_recording(path: Path) -> bool:
+    suffix = path.suffix.lower()
+    if suffix in RECORDING_SUFFIXES:
+        return True
+    if suffix in CANDUMP_SUFFIXES:
+        from superlane_tools.recording.canlog_source import looks_like_canlog
+
+        return looks_like_canlog(path)
+    return False
+
+
+def find_recordings(folder: Path) -> Iterator[Path]:
+    """Yield recordings under ``folder`` recursively, sorted: files and ROS 2 bag folders.
+
+    Hidden entries (``.tmp``, ``.git``) are not searched; a ROS 2 bag folder is yielded whole
+    and not searched further.
+    """
+    entries = sorted(folder.iterdir())
+    for entry in entries:
+        if entry.name.startswith("."):
+            continue
+        if entry.is_dir():
+            if is_ros2_bag(entry):
+                yield entry
+            else:
+                yield from find_recordings(entry)
+        elif entry.is_file() and _looks_like_recording(entry):
+            yield entry
+
+
+def expand_inputs(inputs: Sequence[Path]) -> list[BatchEntry]:
+    """Turn command-line inputs (recordings, ROS 2 bags, folders) into batch entries.
+
+    Raises:
+        UsageError: If an input does not exist or a folder holds no recordings.
+    """
+    entries: list[BatchEntry] = []
+    for item in inputs:
+        path = Path(item)
+        if not path.exists():
+            raise UsageError(f"{path} does not exist")
+        if path.is_dir() and not is_ros2_bag(path):
+            found = list(find_recordings(path))
+            if not found:
+                raise UsageError(
+                    f"{path}: no recordings found (*.mcap, *.bag, ROS 2 bags, CAN logs)"
+                )
+            entries.extend(BatchEntry(p) for p in found)
+        else:
+            entries.append(BatchEntry(path))
+    return entries
+
+
+def _text(value: Any) -> str:
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return ""
+    return str(value).strip()
+
+
+def _seconds(value: Any, column: str, where: str) -> float | None:
+    text = _text(value)
+    if not text:
+        return None
+    try:
+        seconds = float(text)
+    except ValueError as err:
+        raise ConfigError(f"{where}: {column} must be a number of seconds, not {text!r}") from err
+    if not math.isfinite(seconds) or seconds < 0:
+        raise ConfigError(f"{where}: {column} must be a finite number >= 0 s, not {text!r}")
+    return seconds
+
+
+def _rows(path: Path) -> list[Mapping[str, Any]]:
+    suffix = path.suffix.lower()
+    try:
+        if suffix in {".yaml", ".yml"}:
+            from superlane_tools.config_files import load_document
+
+            raw = load_document(path, "manifest")
+            if isinstance(raw, dict):
+                raw = raw.get("recordings")
+            if not isinstance(raw, list) or not all(isinstance(r, dict | str) for r in raw):
+                raise ConfigError(
+                    f"{path}: a YAML manifest is a list of {{path: ...}} mappings "
+                    "(or a mapping with a 'recordings' list)"
+                )
+            return [{"path": r} if isinstance(r, str) else r for r in raw]
+        import pandas as pd
+
+        if suffix == ".parquet":
+            frame = pd.read_parquet(path)
+        elif suffix in {".csv", ".tsv"}:
+            frame = pd.read_csv(path, sep="\t" if suffix == ".tsv" else ",", dtype=str)
+        else:
+            raise ConfigError(f"{path}: manifest must be .csv, .tsv, .parquet, .yaml or .yml")
+    except ConfigError:
+        raise
+    except Exception as err:  # pandas/pyarrow/yaml raise many types for unreadable files
+        raise ConfigError(f"{path}: cannot read manifest: {err}") from err
+    return [{str(k): v for k, v in r.items()} for r in frame.to_dict(orient="records")]
+
+
+def read_manifest(path: str | os.PathLike[str]) -> list[BatchEntry]:
+    """Read a manifest (CSV/TSV, Parquet or YAML) of recordings and their labels.
+
+    Columns (keys in YAML): ``path`` (required; relative paths are relative to the manifest's
+    folder), and optional ``category``, ``vehicle``, ``date``, ``sequence``, ``start_s``,
+    ``end_s``. A recording may appear on several rows with different sequences.
+
+    Raises:
+        ConfigError: If the file is unreadable, lacks ``path``, or has bad values.
+    """
+    src = Path(path)
+    if not src.is_file():
+        raise UsageError(f"manifest {src} does not exist")
+    rows = _rows(src)
+    entries: list[BatchEntry] = []
+    for number, row in enumerate(rows, start=1):
+        where = f"{src}: row {number}"
+        unknown = set(row) - set(MANIFEST_COLUMNS)
+        if unknown:
+            raise ConfigError(f"{where}: unknown columns {sorted(unknown)}; use {MANIFEST_COLUMNS}")
+        text = _text(row.get("path"))
+        if not text:
+            raise ConfigError(f"{where}: missing path")
+        rec = Path(text).expanduser()
+        if not rec.is_absolute():
+            rec = src.parent / rec
+        start = _seconds(row.get("start_s"), "start_s", where)
+        end = _seconds(row.get("end_s"), "end_s", where)
+        if start is not None and end is not None and end <= start:
+            raise ConfigError(f"{where}: end_s ({end}) must be after start_s ({start})")
+        entries.append(
+            BatchEntry(
+                path=rec,
+                category=_text(row.get("category")),
+                vehicle=_text(row.get("vehicle")),
+                date=_text(row.get("date")),
+                sequence=_text(row.get("sequence")),
+                start_s=start,
+                end_s=end,
+            )
+        )
+    if not entries:
+        raise ConfigError(f"{src}: the manifest lists no recordings")
+    return entries
+
+
+_UNSAFE = re.compile(r"[^A-Za-z0-9_-]+")
+
+
+def recording_id(entry: BatchEntry, sha256: str) -> str:
+    """Return the output folder name of an entry: sanitised stem (+ sequence) + short hash.
+
+    The hash part is the first 10 hex digits of the content SHA-256, mixed with the sequence
+    window when there is one, so the same content always gets the same id wherever it lies.
+    """
+    stem = entry.path.name if entry.path.is_dir() else entry.path.stem
+    name = _UNSAFE.sub("_", stem).strip("_")[:48] or "recording"
+    if entry.sequence or entry.start_s is not None or entry.end_s is not None:
+        seq = _UNSAFE.sub("_", entry.sequence).strip("_")[:24]
+        name = f"{name}-{seq}" if seq else name
+        window = f"{sha256}|{entry.sequence}|{entry.start_s}|{entry.end_s}"
+        return f"{name}-{hashlib.sha256(window.encode()).hexdigest()[:10]}"
+    return f"{name}-{sha256[:10]}"
+
+
+def fingerprint(path: Path) -> tuple[int, int]:
+    """Return ``(size_bytes, newest mtime_ns)`` of a file or folder, a cheap change check."""
+    if path.is_dir():
+        files: Iterable[Path] = (p for p in path.rglob("*") if p.is_file())
+        stats = [p.stat() for p in files]
+        return sum(s.st_size for s in stats), max((s.st_mtime_ns for s in stats), default=0)
+    st = path.stat()
+    return st.st_size, st.st_mtime_ns

@@ -1,0 +1,81 @@
+"""The batch output root: one batch at a time (a lock), and what killed runs left behind."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import shutil
+import socket
+from collections.abc import Iterator
+from pathlib import Path
+
+from superlane_tools.commands.batch.engine import TMP_DIR
+from superlane_tools.commands.batch.errors import BatchError
+
+LOCK_FILE = ".batch.lock"
+
+
+@contextlib.contextmanager
+def root_lock(root: Path) -> Iterator[None]:
+    """Hold an exclusive lock on ``root`` for one batch (released when the process dies).
+
+    Raises:
+        BatchError: If the root cannot be created or another batch holds the lock.
+    """
+    import fcntl
+
+    try:
+        root.mkdir(parents=True, exist_ok=True)
+        handle = (root / LOCK_FILE).open("a+")
+    except OSError as err:
+        raise BatchError(f"output root {root} is not writable: {err.strerror}") from err
+    try:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError as err:
+            raise BatchError(f"another slt batch is running on {root}") from err
+        yield
+    finally:
+        handle.close()
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def clean_stale_tmp(root: Path) -> list[Path]:
+    """Remove what killed runs left: ``root/.tmp`` folders and half-written ``.*.tmp`` files.
+
+    A folder named ``<id>.<host>.<pid>[.old]`` is kept only while that process on this host
+    is alive (a local worker of a killed run exits within a second of its driver, see
+    :func:`~.worker.init_worker`); with the root lock held no other batch is writing here.
+    """
+    from superlane_tools.commands.batch.summary import SUMMARY_DIR
+
+    # the driver's own atomic writes (status table, summary) killed mid-write: with the lock
+    # held, no process is writing them now
+    removed = [p for p in root.glob(".*.tmp") if p.is_file()]
+    removed += [p for p in (root / SUMMARY_DIR).glob(".*.tmp") if p.is_file()]
+    for leftover in removed:
+        leftover.unlink(missing_ok=True)
+    tmp_root = root / TMP_DIR
+    if not tmp_root.is_dir():
+        return removed
+    host = socket.gethostname()
+    for entry in sorted(tmp_root.iterdir()):
+        _, _, owner = entry.name.removesuffix(".old").partition(".")
+        owner_host, _, pid_text = owner.rpartition(".")
+        if pid_text.isdigit() and owner_host == host and _pid_alive(int(pid_text)):
+            continue
+        if entry.is_dir():
+            shutil.rmtree(entry, ignore_errors=True)
+        else:
+            entry.unlink(missing_ok=True)
+        removed.append(entry)
+    return removed

@@ -1,0 +1,191 @@
+"""``ROOT/batch_status.parquet``: one row per recording, rewritten atomically after each job."""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from superlane_tools._version import __version__
+from superlane_tools.commands.batch.errors import BatchError
+from superlane_tools.reporting import Provenance, write_table
+
+STATUS_FILE = "batch_status.parquet"
+STATUSES = ("ok", "partial", "failed", "skipped")
+"""``skipped``: already finished with the same key by an earlier run (outputs kept)."""
+
+COLUMNS: dict[str, str] = {
+    "recording_id": "string",
+    "recording": "string",
+    "category": "string",
+    "vehicle": "string",
+    "date": "string",
+    "sequence": "string",
+    "start_s": "float64",
+    "end_s": "float64",
+    "sha256": "string",
+    "size_bytes": "int64",
+    "mtime_ns": "int64",
+    "status": "string",
+    "result": "string",
+    "error": "string",
+    "attempts": "int64",
+    "total_s": "float64",
+    "timings_json": "string",
+    "outputs": "int64",
+    "frames": "int64",
+    "job": "string",
+    "tool_version": "string",
+    "models_json": "string",
+    "config_sha256": "string",
+    "key": "string",
+    "engine": "string",
+    "host": "string",
+    "finished_ns": "int64",
+}
+"""Status columns and dtypes. ``status`` is what this run did; ``result`` is the state of the
+outputs on disk (``ok``, ``partial`` or ``failed``), so a ``skipped`` row still tells whether
+its earlier run was ok or partial. ``timings_json`` maps stage -> seconds; ``models_json`` maps
+model or data file -> SHA-256."""
+
+
+@dataclass(frozen=True)
+class StatusRow:
+    """One recording's line in the status table (see :data:`COLUMNS` for meanings)."""
+
+    recording_id: str
+    recording: str
+    category: str
+    vehicle: str
+    date: str
+    sequence: str
+    start_s: float | None
+    end_s: float | None
+    sha256: str
+    size_bytes: int
+    mtime_ns: int
+    status: str
+    result: str
+    error: str
+    attempts: int
+    total_s: float
+    timings: Mapping[str, float]
+    outputs: int
+    frames: int
+    job: str
+    models: Mapping[str, str]
+    config_sha256: str
+    key: str
+    engine: str
+    host: str
+    tool_version: str = __version__
+
+    def as_record(self) -> dict[str, Any]:
+        """Return the row as a column -> value mapping."""
+        return {
+            "recording_id": self.recording_id,
+            "recording": self.recording,
+            "category": self.category,
+            "vehicle": self.vehicle,
+            "date": self.date,
+            "sequence": self.sequence,
+            "start_s": float("nan") if self.start_s is None else self.start_s,
+            "end_s": float("nan") if self.end_s is None else self.end_s,
+            "sha256": self.sha256,
+            "size_bytes": self.size_bytes,
+            "mtime_ns": self.mtime_ns,
+            "status": self.status,
+            "result": self.result,
+            "error": self.error,
+            "attempts": self.attempts,
+            "total_s": self.total_s,
+            "timings_json": json.dumps(dict(self.timings), sort_keys=True),
+            "outputs": self.outputs,
+            "frames": self.frames,
+            "job": self.job,
+            "tool_version": self.tool_version,
+            "models_json": json.dumps(dict(self.models), sort_keys=True),
+            "config_sha256": self.config_sha256,
+            "key": self.key,
+            "engine": self.engine,
+            "host": self.host,
+            "finished_ns": time.time_ns(),
+        }
+
+
+def empty_status() -> pd.DataFrame:
+    """Return an empty status table with the right columns and dtypes."""
+    return pd.DataFrame({c: pd.Series(dtype=t) for c, t in COLUMNS.items()})
+
+
+def read_status(root: str | Path) -> pd.DataFrame:
+    """Return ``ROOT/batch_status.parquet`` (empty with the right columns when absent).
+
+    Raises:
+        BatchError: If the file exists but cannot be read.
+    """
+    path = Path(root) / STATUS_FILE
+    if not path.is_file():
+        return empty_status()
+    try:
+        frame = pd.read_parquet(path)
+    except Exception as err:  # pyarrow raises several types for damaged files
+        raise BatchError(f"{path}: cannot read the batch status ({err}); move it away") from err
+    for column, dtype in COLUMNS.items():
+        if column not in frame:
+            frame[column] = pd.Series(dtype=dtype)
+    return frame[list(COLUMNS)].astype(COLUMNS)
+
+
+class StatusTable:
+    """The status table of one output root, kept in memory and rewritten on every update.
+
+    Rows of recordings not in the current batch are kept, so the table covers every run.
+    """
+
+    def __init__(self, root: Path, command: str, config: Mapping[str, Any]) -> None:
+        self.path = root / STATUS_FILE
+        self._provenance = Provenance(command=command, config=dict(config))
+        frame = read_status(root)
+        self._rows: dict[str, dict[str, Any]] = {
+            str(r["recording_id"]): {str(k): v for k, v in r.items()}
+            for r in frame.to_dict(orient="records")
+        }
+
+    def previous(self, recording_id: str) -> dict[str, Any] | None:
+        """Return the stored row of ``recording_id`` (from this or an earlier run), if any."""
+        return self._rows.get(recording_id)
+
+    def known_hash(self, recording: str, size_bytes: int, mtime_ns: int) -> str | None:
+        """Return the SHA-256 recorded for this path when its size and mtime are unchanged."""
+        for row in self._rows.values():
+            if (
+                row["recording"] == recording
+                and int(row["size_bytes"]) == size_bytes
+                and int(row["mtime_ns"]) == mtime_ns
+                and row["sha256"]
+            ):
+                return str(row["sha256"])
+        return None
+
+    def update(self, row: StatusRow, write: bool = True) -> None:
+        """Insert or replace the row of ``row.recording_id``; write the file atomically."""
+        self._rows[row.recording_id] = row.as_record()
+        if write:
+            self.write()
+
+    def frame(self) -> pd.DataFrame:
+        """Return the table, sorted by recording id."""
+        if not self._rows:
+            return empty_status()
+        frame = pd.DataFrame(list(self._rows.values()), columns=list(COLUMNS))
+        return frame.astype(COLUMNS).sort_values("recording_id", ignore_index=True)
+
+    def write(self) -> Path:
+        """Write the table to ``ROOT/batch_status.parquet`` atomically."""
+        return write_table(self.frame(), self.path, self._provenance)

@@ -1,0 +1,36 @@
+"""``slt reprocess``: the end-to-end offline pipeline from a drive to tables, plots and reports."""
+
+from superlane_tools.commands.reprocess.config import (
+    BACKENDS,
+    CanConfig,
+    CorridorConfig,
+    KpiConfig,
+    OutputConfig,
+    ReprocessConfig,
+    RtkConfig,
+    SegmentationConfig,
+    TopicsConfig,
+    TrackingConfig,
+    config_from_mapping,
+    default_config_yaml,
+    load_config,
+)
+from superlane_tools.commands.reprocess.run import ReprocessResult, reprocess
+
+__all__ = [
+    "BACKENDS",
+    "CanConfig",
+    "CorridorConfig",
+    "KpiConfig",
+    "OutputConfig",
+    "ReprocessConfig",
+    "ReprocessResult",
+    "RtkConfig",
+    "SegmentationConfig",
+    "TopicsConfig",
+    "TrackingConfig",
+    "config_from_mapping",
+    "default_config_yaml",
+    "load_config",
+    "reprocess",
+]

@@ -1,0 +1,315 @@
+"""A drive's per-frame results as one typed record, gathered while the frames stream.
+
+:class:`DriveRecorder` takes each finished frame in order, streams its rows into the per-frame
+tables (frames, lanes, corridor, baseline) and keeps the few numbers per frame that the tables
+after the pass need; :meth:`DriveRecorder.record` returns them as a frozen :class:`DriveFrames`.
+"""
+
+from __future__ import annotations
+
+import math
+from contextlib import ExitStack
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pyarrow as pa
+from numpy.typing import NDArray
+
+from superlane_tools.commands.reprocess.stages import Finished
+from superlane_tools.lanes.table import fit_row
+from superlane_tools.lanes.tracker import COV_INDEX
+from superlane_tools.reporting import ParquetStreamWriter, Provenance
+from superlane_tools.reporting import drive_tables as tables
+
+FloatArray = NDArray[np.float64]
+FLUSH_ROWS = 256
+
+
+@dataclass(frozen=True)
+class Corridors:
+    """Corridor width and length per frame (metres, NaN where not measured) of each method.
+
+    Attributes:
+        super_width_m: From the SUPER fit's ego lines.
+        super_length_m: Reach of the shorter SUPER ego line.
+        net_width_m: From the ego-corridor network's three-frame mean.
+        net_length_m: Length of the network's corridor.
+        hough_width_m: From the Hough baseline (NaN where it failed).
+        hough_length_m: Range of the Hough baseline.
+    """
+
+    super_width_m: FloatArray
+    super_length_m: FloatArray
+    net_width_m: FloatArray
+    net_length_m: FloatArray
+    hough_width_m: FloatArray
+    hough_length_m: FloatArray
+
+    def by_method(self) -> dict[str, tuple[FloatArray, FloatArray]]:
+        """Return method -> (width, length), in :data:`drive_tables.METHODS` order."""
+        return {
+            "super": (self.super_width_m, self.super_length_m),
+            "corridor_net": (self.net_width_m, self.net_length_m),
+            "hough": (self.hough_width_m, self.hough_length_m),
+        }
+
+
+@dataclass(frozen=True)
+class FitSeries:
+    """The SUPER fit per frame (NaN where the frame has no fit).
+
+    Attributes:
+        curvature_per_m: ``2 a2``, 1/m, left positive.
+        heading_rad: ``a1``, rad.
+        slope: Road slope ``b``.
+        centre_m: Lane-grid centre offset, m (see :meth:`LaneFit.lane_grid`).
+        lane_width_m: Ego lane width, m.
+        lookahead_m: Where the fit's 2*a2 measures the road (its effective look-ahead), m.
+        near_m: Near end of that range, m.
+        far_m: Far end of that range, m.
+        trackable: Whether the lane tracker may use the fit.
+        cov: ``(n, 3, 3)`` covariance of ``(a1, a2, b)`` (NaN without a fit).
+    """
+
+    curvature_per_m: FloatArray
+    heading_rad: FloatArray
+    slope: FloatArray
+    centre_m: FloatArray
+    lane_width_m: FloatArray
+    lookahead_m: FloatArray
+    near_m: FloatArray
+    far_m: FloatArray
+    trackable: NDArray[np.bool_]
+    cov: FloatArray
+
+
+@dataclass(frozen=True)
+class DriveFrames:
+    """A drive's per-frame results, one entry per camera frame in log-time order.
+
+    Attributes:
+        t_ns: Log times of the frames, ns.
+        decoded: Whether each frame's image could be decoded.
+        corridors: Corridor geometry of each method.
+        fit: The SUPER fit series.
+        stage_s: ``(n, len(STAGES))`` wall seconds per stage (:data:`drive_tables.STAGES`).
+        stage_cpu_s: The same in thread CPU seconds.
+    """
+
+    t_ns: NDArray[np.int64]
+    decoded: NDArray[np.bool_]
+    corridors: Corridors
+    fit: FitSeries
+    stage_s: FloatArray
+    stage_cpu_s: FloatArray
+
+    def __len__(self) -> int:
+        return int(self.t_ns.shape[0])
+
+    def stage_totals(self) -> dict[str, float]:
+        """Return seconds per stage summed over frames: ``<stage>`` wall, ``cpu_<stage>`` CPU."""
+        wall, cpu = self.stage_s.sum(axis=0), self.stage_cpu_s.sum(axis=0)
+        out = {s: float(wall[k]) for k, s in enumerate(tables.STAGES)}
+        out.update({f"cpu_{s}": float(cpu[k]) for k, s in enumerate(tables.STAGES)})
+        return out
+
+
+def frame_rows(done: Finished, corridor_status: str, mean_frames: int) -> dict[str, dict[str, Any]]:
+    """Return one row per streamed table (frames, lanes, corridor, baseline) for a frame."""
+    prep = done.prepared
+    image = prep.image
+    ph, pw = (image.shape[:2]) if image is not None else (0, 0)
+    frames = {
+        "frame_index": prep.index,
+        "log_time_ns": prep.log_time_ns,
+        "stamp_ns": prep.stamp_ns,
+        "width": prep.source_size[0],
+        "height": prep.source_size[1],
+        "process_width": pw,
+        "process_height": ph,
+        "ok": not prep.error,
+        "error": prep.error,
+        **{f"{s}_ms": prep.seconds.get(s, 0.0) * 1e3 for s in tables.STAGES},
+        **{f"{s}_cpu_ms": prep.cpu_seconds.get(s, 0.0) * 1e3 for s in tables.STAGES},
+    }
+    lanes = {
+        "frame_index": prep.index,
+        "log_time_ns": prep.log_time_ns,
+        **fit_row(f"{prep.index:06d}", pw, ph, done.fit),
+        "c": done.fit.c if done.fit.ok else math.nan,
+    }
+    net = done.net_corridor
+    corridor = {
+        "frame_index": prep.index,
+        "log_time_ns": prep.log_time_ns,
+        "width_m": net.width_m,
+        "length_m": net.length_m,
+        "n_rows": net.n_rows,
+        "mean_frames": mean_frames,
+        "status": corridor_status or ("" if prep.image is not None else "frame not decoded"),
+    }
+    h = prep.hough
+    baseline = {
+        "frame_index": prep.index,
+        "log_time_ns": prep.log_time_ns,
+        "ok": bool(h.ok) if h else False,
+        "width_m": h.width_m if h else math.nan,
+        "range_m": h.range_m if h else math.nan,
+        "reason": h.reason if h else "frame not decoded",
+        "left_line_px": list(h.left_line) if h and h.left_line else None,
+        "right_line_px": list(h.right_line) if h and h.right_line else None,
+    }
+    return {"frames": frames, "lanes": lanes, "corridor": corridor, "baseline": baseline}
+
+
+_COLUMNS = (
+    "super_w",
+    "super_l",
+    "net_w",
+    "net_l",
+    "hough_w",
+    "hough_l",
+    "curv",
+    "a1",
+    "b",
+    "centre",
+    "width",
+    "ahead",
+    "near",
+    "far",
+)
+
+
+class DriveRecorder:
+    """Streams the per-frame tables of a drive and gathers its :class:`DriveFrames`.
+
+    Args:
+        out: Output folder.
+        provenance: Provenance of every table.
+        stack: Closes (and on error discards) the table writers.
+        corridor_status: Why the corridor network is unavailable ("" when it is available).
+        mean_frames: Frames of the corridor network's mean.
+        max_slope: Largest plausible ``|b|`` (see :meth:`LaneFit.plausible`).
+    """
+
+    def __init__(
+        self,
+        out: Path,
+        provenance: Provenance,
+        stack: ExitStack,
+        corridor_status: str,
+        mean_frames: int,
+        max_slope: float,
+    ) -> None:
+        specs = {
+            "frames": tables.FRAMES_SCHEMA,
+            "lanes": tables.LANES_SCHEMA,
+            "corridor": tables.CORRIDOR_SCHEMA,
+            "baseline": tables.BASELINE_SCHEMA,
+        }
+        self.writers = {
+            name: stack.enter_context(
+                ParquetStreamWriter(out / f"{name}.parquet", schema, provenance)
+            )
+            for name, schema in specs.items()
+        }
+        self._rows: dict[str, list[dict[str, Any]]] = {name: [] for name in specs}
+        self._corridor_status, self._mean_frames = corridor_status, mean_frames
+        self._max_slope = max_slope
+        self._t: list[int] = []
+        self._decoded: list[bool] = []
+        self._trackable: list[bool] = []
+        self._values: list[tuple[float, ...]] = []
+        self._cov: list[tuple[float, ...]] = []
+        self._stage: list[tuple[float, ...]] = []
+        self._stage_cpu: list[tuple[float, ...]] = []
+
+    @property
+    def paths(self) -> list[Path]:
+        """Return the streamed tables' paths."""
+        return [w.path for w in self.writers.values()]
+
+    def add(self, done: Finished) -> None:
+        """Take one finished frame (frames come in order)."""
+        for name, row in frame_rows(done, self._corridor_status, self._mean_frames).items():
+            self._rows[name].append(row)
+        if len(self._rows["frames"]) >= FLUSH_ROWS:
+            self.flush()
+        prep, fit = done.prepared, done.fit
+        h = prep.hough
+        hough_ok = h is not None and h.ok
+        centre, width, ahead = fit.lane_grid()
+        near, far = fit.ego_support_m()
+        self._t.append(prep.log_time_ns)
+        self._decoded.append(not prep.error)
+        self._trackable.append(fit.trackable(self._max_slope))
+        self._values.append(
+            (
+                done.super_corridor.width_m,
+                done.super_corridor.length_m,
+                done.net_corridor.width_m,
+                done.net_corridor.length_m,
+                h.width_m if h is not None and hough_ok else math.nan,
+                h.range_m if h is not None and hough_ok else math.nan,
+                fit.curvature if fit.ok else math.nan,
+                fit.a1 if fit.ok else math.nan,
+                fit.b if fit.ok else math.nan,
+                centre,
+                width,
+                ahead,
+                near,
+                far,
+            )
+        )
+        cov = fit.shared_cov if fit.ok else None
+        self._cov.append(
+            tuple(float(cov[i, j]) if cov is not None else math.nan for i, j in COV_INDEX)
+        )
+        self._stage.append(tuple(prep.seconds.get(s, 0.0) for s in tables.STAGES))
+        self._stage_cpu.append(tuple(prep.cpu_seconds.get(s, 0.0) for s in tables.STAGES))
+
+    def flush(self) -> None:
+        """Write the buffered rows."""
+        for name, rows in self._rows.items():
+            if rows:
+                self.writers[name].write(pa.Table.from_pylist(rows, self.writers[name].schema))
+                rows.clear()
+
+    def record(self) -> DriveFrames:
+        """Return the frames taken so far as a :class:`DriveFrames`."""
+        n = len(self._t)
+        values = np.asarray(self._values, dtype=np.float64).reshape(n, len(_COLUMNS))
+        col = {name: values[:, k].copy() for k, name in enumerate(_COLUMNS)}
+        upper = np.asarray(self._cov, dtype=np.float64).reshape(n, len(COV_INDEX))
+        cov = np.empty((n, 3, 3))
+        for k, (i, j) in enumerate(COV_INDEX):
+            cov[:, i, j] = cov[:, j, i] = upper[:, k]
+        n_stages = len(tables.STAGES)
+        return DriveFrames(
+            t_ns=np.asarray(self._t, dtype=np.int64),
+            decoded=np.asarray(self._decoded, dtype=bool),
+            corridors=Corridors(
+                col["super_w"],
+                col["super_l"],
+                col["net_w"],
+                col["net_l"],
+                col["hough_w"],
+                col["hough_l"],
+            ),
+            fit=FitSeries(
+                curvature_per_m=col["curv"],
+                heading_rad=col["a1"],
+                slope=col["b"],
+                centre_m=col["centre"],
+                lane_width_m=col["width"],
+                lookahead_m=col["ahead"],
+                near_m=col["near"],
+                far_m=col["far"],
+                trackable=np.asarray(self._trackable, dtype=bool),
+                cov=cov,
+            ),
+            stage_s=np.asarray(self._stage, dtype=np.float64).reshape(n, n_stages),
+            stage_cpu_s=np.asarray(self._stage_cpu, dtype=np.float64).reshape(n, n_stages),
+        )

@@ -1,0 +1,133 @@
+"""Paper-style tables over many reprocess runs: availability (corridor paper Table II), curvature.
+
+Inputs are run folders written by ``slt reprocess`` (``availability_sequences.parquet`` and
+``curvature_summary.parquet``). Outputs are Markdown, LaTeX or Parquet (with provenance).
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from superlane_tools.reporting.atomic import write_text_atomic
+from superlane_tools.reporting.errors import OutputError
+from superlane_tools.reporting.names import AVAILABILITY_NAMES, curvature_name
+from superlane_tools.reporting.parquet import read_provenance, write_table
+from superlane_tools.reporting.provenance import Provenance, input_identity
+from superlane_tools.reporting.report import latex_table, markdown_table
+
+METHOD_NAMES = AVAILABILITY_NAMES
+TABLE_FORMATS = (".md", ".tex", ".parquet")
+
+
+def _read(run_dir: Path, name: str) -> pd.DataFrame:
+    path = run_dir / name
+    if not path.is_file():
+        raise OutputError(f"{run_dir}: not a reprocess run folder (missing {name})")
+    read_provenance(path)
+    return pd.read_parquet(path)
+
+
+def _category(run_dir: Path, frame: pd.DataFrame, by: str) -> pd.Series:
+    if by == "category" and "category" in frame.columns:
+        cats = frame["category"].astype(str)
+        return cats.where(cats != "", run_dir.name)
+    return pd.Series([run_dir.name] * len(frame), index=frame.index)
+
+
+def availability_table(run_dirs: Sequence[Path], by: str = "run") -> pd.DataFrame:
+    """Aggregate availability into Table II layout: one row per category (or run) plus total.
+
+    Columns: ``category``, ``#seq``, then per method ``<method> n/N`` (frame-based ratio, %) and
+    ``<method> k/K`` (sequence-based ratio, %); an unavailable method shows ``n/a``.
+
+    Raises:
+        OutputError: If a folder is not a reprocess run.
+    """
+    parts = []
+    for run in run_dirs:
+        seqs = _read(Path(run), "availability_sequences.parquet")
+        seqs = seqs.assign(group=_category(Path(run), seqs, by), run=Path(run).name)
+        parts.append(seqs)
+    if not parts:
+        raise OutputError("no run folders given")
+    allseq = pd.concat(parts, ignore_index=True)
+    groups = [*dict.fromkeys(allseq["group"]), "total"]
+    rows = []
+    for group in groups:
+        sel = allseq if group == "total" else allseq[allseq["group"] == group]
+        row: dict[str, object] = {"category": group}
+        row["#seq"] = len(sel[sel["method"] == "super"])
+        for method, label in METHOD_NAMES.items():
+            m = sel[sel["method"] == method]
+            if m.empty or not m["method_available"].any():
+                row[f"{label} n/N"] = "n/a"
+                row[f"{label} k/K"] = "n/a"
+                continue
+            n, big_n = int(m["n_available"].sum()), int(m["n_frames"].sum())
+            k = int(m["available"].fillna(False).astype(bool).sum())
+            row[f"{label} n/N"] = f"{100 * n / big_n:.1f}% ({n}/{big_n})"
+            row[f"{label} k/K"] = f"{100 * k / len(m):.1f}% ({k}/{len(m)})"
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def _curvature_row(run: str, rec: Any) -> dict[str, object]:
+    return {
+        "run": run,
+        "source": curvature_name(str(rec.source)),
+        "n": int(rec.n),
+        "coverage": float(rec.coverage),
+        "rmse_per_m": float(rec.rmse),
+        "mae_per_m": float(rec.mae),
+        "bias_per_m": float(rec.bias),
+        "correlation": float(rec.correlation),
+    }
+
+
+def curvature_table(run_dirs: Sequence[Path]) -> pd.DataFrame:
+    """One row per run and source (SUPER, Mobileye): n, coverage, RMSE, MAE, bias, correlation."""
+    rows: list[dict[str, object]] = []
+    for run in run_dirs:
+        summ = _read(Path(run), "curvature_summary.parquet")
+        overall = summ[summ["scope"] == "overall"]
+        rows.extend(_curvature_row(Path(run).name, rec) for rec in overall.itertuples(index=False))
+    if not rows:
+        raise OutputError("no run folders given")
+    return pd.DataFrame(rows)
+
+
+def write_summary_table(
+    frame: pd.DataFrame,
+    out: str | os.PathLike[str],
+    run_dirs: Sequence[Path],
+    command: str = "",
+) -> Path:
+    """Write a table as ``.md``, ``.tex`` or ``.parquet`` (chosen by the suffix).
+
+    Raises:
+        OutputError: For another suffix.
+    """
+    path = Path(out)
+    suffix = path.suffix.lower()
+    if suffix == ".md":
+        return write_text_atomic(path, markdown_table(frame) + "\n")
+    if suffix == ".tex":
+        return write_text_atomic(path, latex_table(frame))
+    if suffix == ".parquet":
+        inputs = tuple(
+            input_identity(Path(r) / n)
+            for r in run_dirs
+            for n in ("availability_sequences.parquet", "curvature_summary.parquet")
+            if (Path(r) / n).is_file()
+        )
+        return write_table(
+            frame.astype(str) if any(dt.kind == "O" for dt in frame.dtypes) else frame,
+            path,
+            Provenance(command=command, inputs=inputs),
+        )
+    raise OutputError(f"{path}: table format must be one of {', '.join(TABLE_FORMATS)}")

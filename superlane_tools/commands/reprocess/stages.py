@@ -1,0 +1,287 @@
+"""Per-frame stages of ``slt reprocess``: image work (thread-safe) and sequential state.
+
+:meth:`FrameStages.prepare` does everything that depends on one frame only (decode, resize,
+segmentation, lane / road pixels, corridor network, Hough baseline) and runs in a thread pool;
+cv2 and onnxruntime release the GIL. :meth:`FrameStages.finish` runs in frame order and holds
+the state that spans frames: the SUPER fit's warm start and the corridor's three-frame mean.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from superlane_tools.camera.model import CameraModel
+from superlane_tools.commands.reprocess.config import ReprocessConfig
+from superlane_tools.corridor import (
+    CorridorGeometry,
+    CorridorParams,
+    HoughResult,
+    corridor_from_lanes,
+    corridor_from_mask,
+    detect_ego_lane,
+)
+from superlane_tools.lanes import FitParams, LaneFit
+from superlane_tools.lanes.points import lane_points, road_points
+from superlane_tools.lanes.sequence import SequentialFit, max_plausible_slope
+from superlane_tools.recording.images import decode_frame, decode_reduced
+from superlane_tools.records import Message
+from superlane_tools.scene.oracle import OracleLabels
+
+FloatArray = NDArray[np.float64]
+NO_CORRIDOR_MODEL = "no corridor model"
+
+
+@dataclass
+class Prepared:
+    """The frame-local results of one frame (output of :meth:`FrameStages.prepare`).
+
+    Attributes:
+        index: Frame index in the recording (0-based).
+        log_time_ns: Log time of the image message, ns.
+        stamp_ns: Header stamp, ns (None when absent).
+        source_size: ``(width, height)`` of the recorded image, pixels (0 when undecodable).
+        error: Why the frame could not be decoded ("" when it could).
+        image: The frame at processing size (BGR), or None.
+        labels: Leaf-id label image at processing size, or None.
+        lane_uv: Lane pixels at processing size.
+        codes: Attribute codes of ``lane_uv``.
+        road_uv: Road pixels, or None when the fit will not use them.
+        corridor_prob: Corridor probability at the network's input size, or None.
+        hough: The Hough baseline's result, or None.
+        seconds: Wall time per stage, seconds.
+        cpu_seconds: CPU time of the running thread per stage, seconds.
+    """
+
+    index: int
+    log_time_ns: int
+    stamp_ns: int | None
+    source_size: tuple[int, int] = (0, 0)
+    error: str = ""
+    image: NDArray[np.uint8] | None = None
+    labels: NDArray[np.uint8] | None = None
+    lane_uv: FloatArray = field(default_factory=lambda: np.empty((0, 2)))
+    codes: NDArray[np.intp] = field(default_factory=lambda: np.empty(0, np.intp))
+    road_uv: FloatArray | None = None
+    corridor_prob: NDArray[np.float32] | None = None
+    hough: HoughResult | None = None
+    seconds: dict[str, float] = field(default_factory=dict)
+    cpu_seconds: dict[str, float] = field(default_factory=dict)
+
+    def clock(self) -> _StageClock:
+        """Return a clock that records stage times into this frame."""
+        return _StageClock(self.seconds, self.cpu_seconds)
+
+
+class _StageClock:
+    """Records wall and thread CPU time of consecutive stages (thread CPU excludes other jobs)."""
+
+    def __init__(self, wall: dict[str, float], cpu: dict[str, float]) -> None:
+        self._wall, self._cpu = wall, cpu
+        self._t, self._c = time.perf_counter(), time.thread_time()
+
+    def lap(self, stage: str) -> None:
+        """Charge the time since the previous lap (or creation) to ``stage``."""
+        t, c = time.perf_counter(), time.thread_time()
+        self._wall[stage] = self._wall.get(stage, 0.0) + t - self._t
+        self._cpu[stage] = self._cpu.get(stage, 0.0) + c - self._c
+        self._t, self._c = t, c
+
+
+@dataclass
+class Finished:
+    """A frame after the sequential stages.
+
+    Attributes:
+        prepared: The frame-local results.
+        fit: The SUPER multi-lane fit.
+        super_corridor: Corridor geometry from the fitted ego lines.
+        net_corridor: Corridor geometry from the (three-frame mean) corridor network.
+        net_mask: The averaged corridor probability, or None.
+        camera: The camera at processing size.
+    """
+
+    prepared: Prepared
+    fit: LaneFit
+    super_corridor: CorridorGeometry
+    net_corridor: CorridorGeometry
+    net_mask: NDArray[np.float32] | None
+    camera: CameraModel
+
+
+class FrameStages:
+    """Builds the backends once and runs the per-frame stages.
+
+    Args:
+        config: The run's configuration.
+        camera: Camera of the recorded frames (resized to each frame's size as needed).
+
+    Raises:
+        UsageError: If a requested backend or model cannot be used.
+    """
+
+    def __init__(self, config: ReprocessConfig, camera: CameraModel) -> None:
+        self.config = config
+        self.camera = camera
+        self.fit_params = FitParams.from_dict(dict(config.fit))
+        self.notes: list[str] = []
+        self.models: dict[str, str] = {}
+        self._cameras: dict[tuple[int, int], CameraModel] = {}
+        self._oracle: OracleLabels | None = None
+        self.backend_name, self._backend = self._segmentation_backend()
+        self.corridor_unavailable = ""
+        self._corridor = self._corridor_model()
+        self._smoother: Any = None
+        if self._corridor is not None:
+            from superlane_tools.scene.corridor_runtime import CorridorSmoother
+
+            self._smoother = CorridorSmoother(config.corridor.mean_frames)
+        self.max_slope = max_plausible_slope(self.fit_params, config.tracking.max_slope_fraction)
+        self._sequence = SequentialFit(
+            self.fit_params, self.max_slope, config.tracking.gate_warm_start
+        )
+        self._corridor_params = CorridorParams(threshold=config.corridor.threshold)
+
+    def _segmentation_backend(self) -> tuple[str, Any]:
+        seg = self.config.segmentation
+        if seg.backend == "oracle":
+            self._oracle = OracleLabels(seg.oracle_labels)
+            self.notes.append(
+                f"ORACLE segmentation: ground-truth label images from {self._oracle.folder} "
+                "(measures the lane stage on its own)"
+            )
+            return "oracle", None
+        from superlane_tools.scene.backends import auto_backend, backend_from_name
+
+        name = seg.backend
+        if name == "auto":
+            name, note = auto_backend(seg.model)
+            if note:
+                self.notes.append(note)
+        if name == "onnx":
+            from superlane_tools.scene.onnx_backend import OnnxSegmentationBackend
+
+            backend: Any = OnnxSegmentationBackend(seg.model or None, threads=1)
+            self.models[backend.name] = backend.sha256
+            return backend.name, backend
+        backend = backend_from_name(name, camera=self.camera)
+        return name, backend
+
+    def _corridor_model(self) -> Any:
+        from superlane_tools.models import list_models
+        from superlane_tools.scene.onnx_backend import DEFAULT_CORRIDOR_MODEL
+
+        model = self.config.corridor.model
+        if not model and DEFAULT_CORRIDOR_MODEL not in list_models():
+            self.corridor_unavailable = NO_CORRIDOR_MODEL
+            self.notes.append(
+                f"corridor network unavailable: {NO_CORRIDOR_MODEL} "
+                f"({DEFAULT_CORRIDOR_MODEL} is not shipped; pass corridor.model)"
+            )
+            return None
+        from superlane_tools.scene.corridor_runtime import OnnxCorridorModel
+
+        net = OnnxCorridorModel(model or None, threads=1)
+        self.models[net.name] = net.sha256
+        return net
+
+    def camera_for(self, width: int, height: int) -> CameraModel:
+        """Return the camera resized to ``width x height`` pixels (cached)."""
+        key = (width, height)
+        cam = self._cameras.get(key)
+        if cam is None:
+            base = self.camera
+            cam = base if (base.width, base.height) == key else base.resized(width, height)
+            self._cameras[key] = cam
+        return cam
+
+    def process_size(self, width: int, height: int) -> tuple[int, int]:
+        """Return the processing size for a recorded frame size."""
+        target = self.config.segmentation.process_width
+        if target <= 0 or target >= width:
+            return width, height
+        return target, max(8, round(height * target / width))
+
+    def prepare(self, index: int, msg: Message) -> Prepared:
+        """Run the frame-local stages of one image message (thread-safe)."""
+        import cv2
+
+        out = Prepared(index, msg.log_time_ns, msg.stamp_ns)
+        clock = out.clock()
+        reduced = decode_reduced(msg, self.config.segmentation.process_width)
+        if reduced is not None:
+            image, (width, height) = reduced
+        else:
+            try:
+                image = decode_frame(msg)
+            except ValueError as err:
+                out.error = str(err)
+                clock.lap("decode")
+                return out
+            height, width = image.shape[:2]
+        out.source_size = (width, height)
+        pw, ph = self.process_size(width, height)
+        if (pw, ph) != image.shape[1::-1]:
+            image = np.asarray(cv2.resize(image, (pw, ph), interpolation=cv2.INTER_AREA))
+        out.image = image
+        cam = self.camera_for(pw, ph)
+        clock.lap("decode")
+        out.labels = self._segment(index, image)
+        clock.lap("segmentation")
+        seed = self.fit_params.seed
+        out.lane_uv, out.codes = lane_points(out.labels, seed=seed)
+        p = self.fit_params
+        if p.lambda_road > 0 and (
+            p.road_term == "always"
+            or (p.road_term == "auto" and out.lane_uv.shape[0] < p.road_term_below)
+        ):
+            out.road_uv = road_points(out.labels, seed=seed)
+        clock.lap("points")
+        if self._corridor is not None:
+            out.corridor_prob = self._corridor.probability_at_input(image)
+        clock.lap("corridor_net")
+        out.hough = detect_ego_lane(image, cam)
+        clock.lap("hough")
+        return out
+
+    def _segment(self, index: int, image: NDArray[np.uint8]) -> NDArray[np.uint8]:
+        if self._oracle is not None:
+            return self._oracle.labels(index, image.shape[1], image.shape[0])
+        labels: NDArray[np.uint8] = self._backend.segment(image)
+        return labels
+
+    def finish(self, prep: Prepared) -> Finished:
+        """Run the sequential stages (warm-started fit, corridor mean) in frame order."""
+        if prep.image is None:
+            self._sequence.reset()
+            if self._smoother is not None:
+                self._smoother.reset()
+            nan = CorridorGeometry(math.nan, math.nan, 0)
+            return Finished(prep, LaneFit(reason="frame not decoded"), nan, nan, None, self.camera)
+        height, width = prep.image.shape[:2]
+        cam = self.camera_for(width, height)
+        clock = prep.clock()
+        fit = self._sequence.fit(prep.lane_uv, prep.road_uv, cam, prep.codes)
+        left = fit.lanes[fit.ego_left] if fit.ego_left >= 0 else None
+        right = fit.lanes[fit.ego_right] if fit.ego_right >= 0 else None
+        reach = (
+            min(left.range_max_m, right.range_max_m)
+            if left is not None and right is not None
+            else None
+        )
+        super_corr = corridor_from_lanes(
+            left.offset_m if left else None, right.offset_m if right else None, reach
+        )
+        clock.lap("lane_fit")
+        mask = None
+        net = CorridorGeometry(math.nan, math.nan, 0)
+        if self._smoother is not None and prep.corridor_prob is not None:
+            mask = self._smoother.update(prep.corridor_prob)
+            net = corridor_from_mask(mask, cam, self._corridor_params)
+        clock.lap("corridor_geometry")
+        return Finished(prep, fit, super_corr, net, mask, cam)

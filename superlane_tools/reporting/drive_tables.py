@@ -1,0 +1,191 @@
+"""Tables of a reprocessed drive: the streamed per-frame schemas and the derived KPI tables."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import pandas as pd
+import pyarrow as pa
+from numpy.typing import NDArray
+
+from superlane_tools.corridor import (
+    AvailabilityParams,
+    FrameAvailability,
+    Segment,
+    frame_availability,
+    sequence_availability,
+)
+from superlane_tools.evaluation.curvature import curvature_errors
+from superlane_tools.lanes.table import LANES_SCHEMA as LANES_FIT_SCHEMA
+
+FloatArray = NDArray[np.float64]
+METHODS = ("super", "corridor_net", "hough", "mobileye")
+"""Availability methods: SUPER lane fit, ego-corridor network, Hough baseline, Mobileye."""
+STAGES = (
+    "decode",
+    "segmentation",
+    "points",
+    "corridor_net",
+    "hough",
+    "lane_fit",
+    "corridor_geometry",
+)
+
+FRAMES_SCHEMA = pa.schema(
+    [
+        ("frame_index", pa.int32()),
+        ("log_time_ns", pa.int64()),
+        ("stamp_ns", pa.int64()),
+        ("width", pa.int32()),
+        ("height", pa.int32()),
+        ("process_width", pa.int32()),
+        ("process_height", pa.int32()),
+        ("ok", pa.bool_()),
+        ("error", pa.string()),
+        *[(f"{s}_ms", pa.float64()) for s in STAGES],
+        *[(f"{s}_cpu_ms", pa.float64()) for s in STAGES],
+    ]
+)
+LANES_SCHEMA = pa.schema(
+    [
+        ("frame_index", pa.int32()),
+        ("log_time_ns", pa.int64()),
+        *LANES_FIT_SCHEMA,
+        ("c", pa.float64()),
+    ]
+)
+"""``lanes.parquet`` of reprocess: ``slt lanes fit``'s columns plus the road's vertical
+curvature term ``c`` (1/m, ``z = b x + c x^2``; 0 with ``fit.vertical_curvature_bound = 0``)."""
+CORRIDOR_SCHEMA = pa.schema(
+    [
+        ("frame_index", pa.int32()),
+        ("log_time_ns", pa.int64()),
+        ("width_m", pa.float64()),
+        ("length_m", pa.float64()),
+        ("n_rows", pa.int32()),
+        ("mean_frames", pa.int32()),
+        ("status", pa.string()),
+    ]
+)
+BASELINE_SCHEMA = pa.schema(
+    [
+        ("frame_index", pa.int32()),
+        ("log_time_ns", pa.int64()),
+        ("ok", pa.bool_()),
+        ("width_m", pa.float64()),
+        ("range_m", pa.float64()),
+        ("reason", pa.string()),
+        ("left_line_px", pa.list_(pa.float64())),
+        ("right_line_px", pa.list_(pa.float64())),
+    ]
+)
+
+
+def availability_tables(
+    t_ns: NDArray[np.int64],
+    geometry: dict[str, tuple[FloatArray, FloatArray]],
+    unavailable: dict[str, str],
+    speed_mps: FloatArray,
+    params: AvailabilityParams,
+    segments: Sequence[Segment] | None,
+) -> tuple[pd.DataFrame, pd.DataFrame, dict[str, FrameAvailability]]:
+    """Compute per-frame and per-sequence availability of every method.
+
+    Args:
+        t_ns: Frame times, ns.
+        geometry: Method -> (corridor width m, corridor length m) per frame.
+        unavailable: Method -> why the whole method is unavailable (e.g. no corridor model).
+        speed_mps: CAN speed at each frame (NaN unknown).
+        params: Thresholds, window and frame rate.
+        segments: Labelled segments, or None for consecutive windows.
+
+    Returns:
+        The long per-frame table, the per-sequence table, and the per-method frame results.
+    """
+    frame_parts = []
+    seq_rows = []
+    results: dict[str, FrameAvailability] = {}
+    n = len(t_ns)
+    for method in METHODS:
+        width, length = geometry[method]
+        fa = frame_availability(width, length, speed_mps, params)
+        reason = fa.reason.astype(object)
+        if method in unavailable:
+            reason[:] = f"method unavailable: {unavailable[method]}"
+        results[method] = fa
+        frame_parts.append(
+            pd.DataFrame(
+                {
+                    "frame_index": np.arange(n, dtype=np.int32),
+                    "log_time_ns": t_ns,
+                    "method": method,
+                    "width_m": width,
+                    "length_m": length,
+                    "speed_mps": speed_mps,
+                    "required_length_m": np.abs(speed_mps) * params.time_gap_s,
+                    "available": fa.available,
+                    "known": fa.known,
+                    "reason": reason.astype(str),
+                }
+            )
+        )
+        if n == 0:
+            continue
+        for k, seq in enumerate(sequence_availability(fa, params, segments, t_ns)):
+            row = seq._asdict()
+            row.update(
+                method=method,
+                sequence=k,
+                start_ns=int(t_ns[seq.start]),
+                method_available=method not in unavailable,
+            )
+            seq_rows.append(row)
+    frames = pd.concat(frame_parts, ignore_index=True)
+    seqs = pd.DataFrame(seq_rows)
+    if not seqs.empty:
+        seqs["available"] = seqs["available"].astype("boolean")
+    return frames, seqs, results
+
+
+CURVATURE_SOURCES = (
+    "super",
+    "super_road",
+    "super_path",
+    "super_road_sg",
+    "super_path_sg",
+    "mobileye",
+    "mobileye_path",
+    "dynamics",
+)
+"""Curvature estimates compared with RTK (``<source>_curvature`` columns of curvature.parquet).
+
+``super_road`` / ``super_path`` come from the lane tracker when it is enabled; ``*_sg`` are the
+same without it (look-ahead alignment and the truth's filter only). ``mobileye`` is Mobileye's
+raw ``2*C2``; ``mobileye_path`` gives it SUPER's treatment (the truth's filter and the
+manoeuvre term from its own ``C0``). ``dynamics`` is yaw rate / speed smoothed like the truth.
+"""
+
+
+def curvature_summary(curv: pd.DataFrame, segments: Sequence[Segment]) -> pd.DataFrame:
+    """Errors of SUPER and Mobileye curvature against RTK, overall and per sequence."""
+    rows = []
+    spans = [("overall", 0, len(curv), "")] + [
+        (f"seq{k}", s.start, s.stop, s.category) for k, s in enumerate(segments)
+    ]
+    truth = curv["rtk_curvature"].to_numpy(dtype=np.float64)
+    for scope, start, stop, category in spans:
+        for source in CURVATURE_SOURCES:
+            est = curv[f"{source}_curvature"].to_numpy(dtype=np.float64)
+            err = curvature_errors(est[start:stop], truth[start:stop])
+            rows.append(
+                {
+                    "scope": scope,
+                    "category": category,
+                    "start": start,
+                    "stop": stop,
+                    "source": source,
+                    **err._asdict(),
+                }
+            )
+    return pd.DataFrame(rows)

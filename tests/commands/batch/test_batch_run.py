@@ -1,0 +1,218 @@
+"""`run_batch` with the local engine on real recordings: status, retries, idempotency, summary."""
+
+from __future__ import annotations
+
+import json
+import os
+import socket
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from superlane_tools.commands.batch import (
+    MARKER,
+    BatchEntry,
+    BatchError,
+    BatchParams,
+    BatchProgress,
+    clean_stale_tmp,
+    expand_inputs,
+    read_status,
+    run_batch,
+    write_summary,
+)
+from superlane_tools.commands.batch.root import root_lock
+from superlane_tools.commands.batch.status import StatusRow, StatusTable
+from superlane_tools.reporting import read_provenance
+
+EXTRACT = {"frame_format": "none"}
+
+
+def _params(root: Path, **kw: object) -> BatchParams:
+    base: dict[str, object] = {"root": root, "kind": "extract", "workers": 2, "config": EXTRACT}
+    base.update(kw)
+    return BatchParams(**base)  # type: ignore[arg-type]
+
+
+@pytest.mark.slow
+def test_batch_ok_failed_and_idempotent(
+    tmp_path: Path, make_drives: Callable[..., list[Path]]
+) -> None:
+    make_drives(3, 2)
+    root = tmp_path / "out"
+    entries = expand_inputs([tmp_path / "recs"])
+    seen: list[BatchProgress] = []
+    report = run_batch(entries, _params(root), progress=seen.append)
+    assert report.counts == {"ok": 3, "partial": 0, "failed": 2, "skipped": 0}, report.failures
+    assert report.failed_fraction == pytest.approx(0.4)
+    reasons = dict(report.failures)
+    assert len(reasons) == 2
+    assert all("corrupt_" in rid for rid in reasons)
+    assert any("is not a recording" in r for r in reasons.values())
+    assert seen[-1].phase == "running"
+    assert seen[-1].done == 5
+
+    status = read_status(root)
+    assert len(status) == 5
+    assert status["recording_id"].is_unique
+    failed = status[status["status"] == "failed"]
+    assert (failed["attempts"] == 2).all()  # retried once
+    assert (failed["error"] != "").all()
+    ok = status[status["status"] == "ok"]
+    assert (ok["frames"] == 10).all()
+    assert (ok["total_s"] > 0).all()
+    assert ok["sha256"].str.len().eq(64).all()
+    for rid in ok["recording_id"]:
+        marker = json.loads((root / rid / MARKER).read_text())
+        assert marker["key"] == status.set_index("recording_id").loc[rid, "key"]
+        assert len(pd.read_parquet(root / rid / "frames.parquet")) == 10
+    assert not (root / ".tmp").exists()
+    for name in ("report.md", "report.html", "fleet_status.parquet"):
+        assert (root / "summary" / name).is_file()
+    fleet = pd.read_parquet(root / "summary" / "fleet_status.parquet")
+    assert fleet.to_dict("records")[0]["ok"] == 3
+    assert read_provenance(root / "batch_status.parquet")["config"]["job"] == "extract"
+
+    # same content, tool, config: skipped, outputs untouched
+    stamp = {rid: (root / rid / MARKER).stat().st_mtime_ns for rid in ok["recording_id"]}
+    again = run_batch(entries, _params(root, retries=0))
+    assert again.counts == {"ok": 0, "partial": 0, "failed": 2, "skipped": 3}
+    assert stamp == {rid: (root / rid / MARKER).stat().st_mtime_ns for rid in stamp}
+    status = read_status(root)
+    skipped = status[status["status"] == "skipped"]
+    assert (skipped["result"] == "ok").all()
+
+    # a new config changes the key: redone and replaced in place, nothing left beside it
+    drive = [e for e in entries if e.path.name == "drive_00.mcap"]
+    jpg = run_batch(drive, _params(root, config={"frame_format": "png"}, workers=1))
+    assert jpg.counts["ok"] == 1, jpg.failures
+    rid = next(r for r in stamp if r.startswith("drive_00-"))
+    assert len(list((root / rid / "frames").rglob("*.png"))) == 10
+    assert sorted(p.name for p in root.iterdir()) == sorted(
+        [*stamp, "batch_status.parquet", "summary", ".batch.lock"]  # failed: no folder
+    )
+    forced = run_batch(drive, _params(root, config={"frame_format": "png"}, force=True))
+    assert forced.counts["ok"] == 1
+
+
+def test_manifest_labels_and_windows_flow_into_tables(
+    tmp_path: Path, write_drive: Callable[..., Path]
+) -> None:
+    rec = write_drive(tmp_path / "d.mcap", seed=5)
+    entries = [
+        BatchEntry(rec, "highway", "car7", "2024-05-01", "first", 0.0, 0.45),
+        BatchEntry(rec, "city", "car7", "2024-05-01", "second", 0.45, None),
+    ]
+    root = tmp_path / "out"
+    report = run_batch(entries, _params(root))
+    assert report.counts["ok"] == 2
+    status = read_status(root).set_index("sequence")
+    assert status.loc["first", "category"] == "highway"
+    assert status.loc["first", "frames"] == 5
+    assert status.loc["second", "frames"] == 5
+    assert status.loc["second", "start_s"] == 0.45
+    fleet = pd.read_parquet(root / "summary" / "fleet_status.parquet")
+    assert sorted(fleet["category"]) == ["city", "highway"]
+
+
+def test_stale_tmp_is_cleaned_and_root_locked(tmp_path: Path) -> None:
+    root = tmp_path / "out"
+    tmp = root / ".tmp"
+    dead = tmp / f"rec-0123456789.{socket.gethostname()}.999999999"
+    alive = tmp / f"rec-0123456789.{socket.gethostname()}.{os.getpid()}"
+    other = tmp / "rec-0123456789.otherhost.12"
+    for folder in (dead, alive, other):
+        (folder / "frames").mkdir(parents=True)
+        (folder / "half.parquet").write_bytes(b"PAR1")
+    removed = clean_stale_tmp(root)
+    assert sorted(removed) == sorted([dead, other])
+    assert alive.is_dir()
+    with root_lock(root), pytest.raises(BatchError, match="another slt batch"), root_lock(root):
+        pass
+
+
+def test_unwritable_root(tmp_path: Path, make_drives: Callable[..., list[Path]]) -> None:
+    make_drives(1)
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(BatchError, match="not writable"):
+        run_batch(expand_inputs([tmp_path / "recs"]), _params(tmp_path / "file" / "out"))
+
+
+def test_summary_from_reprocess_tables(tmp_path: Path) -> None:
+    """Availability and curvature tables are aggregated from per-run Parquet files."""
+    root = tmp_path / "out"
+    rows = []
+    for k, category in enumerate(["highway", "highway", "rain"]):
+        rid = f"d{k}-{k:010d}"
+        (root / rid).mkdir(parents=True)
+        seqs = pd.DataFrame(
+            {
+                "method": ["super", "super", "hough", "hough"],
+                "category": ["", "", "", ""],
+                "n_frames": [10, 10, 10, 10],
+                "n_available": [10, 4, 5, 0],
+                "available": pd.array([True, False, None, False], dtype="boolean"),
+                "method_available": [True, True, True, True],
+            }
+        )
+        seqs.to_parquet(root / rid / "availability_sequences.parquet")
+        truth = np.full(20, 1e-3)
+        truth[0] = np.nan
+        pd.DataFrame(
+            {
+                "rtk_curvature": truth,
+                "super_curvature": truth + 1e-4,
+                "mobileye_curvature": np.full(20, np.nan),
+            }
+        ).to_parquet(root / rid / "curvature.parquet")
+        rows.append({"recording_id": rid, "category": category, "status": "ok", "result": "ok"})
+    table = StatusTable(root, "test", {})
+    for row in rows:
+        table.update(
+            StatusRow(
+                recording_id=row["recording_id"],
+                recording="/r/x.mcap",
+                category=row["category"],
+                vehicle="",
+                date="",
+                sequence="",
+                start_s=None,
+                end_s=None,
+                sha256="0" * 64,
+                size_bytes=1,
+                mtime_ns=1,
+                status="ok",
+                result="ok",
+                error="",
+                attempts=1,
+                total_s=1.0,
+                timings={},
+                outputs=3,
+                frames=20,
+                job="reprocess",
+                models={},
+                config_sha256="",
+                key="k",
+                engine="local",
+                host="h",
+            )
+        )
+    write_summary(root)
+    avail = pd.read_parquet(root / "summary" / "availability_by_category.parquet")
+    hw = avail.set_index(["category", "method"]).loc[("highway", "super")]
+    assert (hw["n"], hw["N"], hw["k"], hw["K"], hw["recordings"]) == (28, 40, 2, 4, 2)
+    rain = avail.set_index(["category", "method"]).loc[("rain", "hough")]
+    assert (rain["n"], rain["k"], rain["K"]) == (5, 0, 2)
+    curv = pd.read_parquet(root / "summary" / "curvature_by_recording.parquet")
+    sup = curv[curv["source"] == "super"]
+    assert len(sup) == 3
+    assert np.allclose(sup["rmse"], 1e-4)
+    assert (sup["n"] == 19).all()
+    assert (curv[curv["source"] == "mobileye"]["n"] == 0).all()
+    md = (root / "summary" / "report.md").read_text()
+    assert "## Availability by category" in md
+    assert "| highway | super | 2 | 4 | 28 | 40 |" in md
+    assert "<table>" in (root / "summary" / "report.html").read_text()

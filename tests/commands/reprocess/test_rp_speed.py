@@ -1,0 +1,139 @@
+"""Speed paths of ``reprocess``: reduced JPEG decoding, the cached ground grid, CPU timings."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from types import SimpleNamespace
+
+import cv2
+import numpy as np
+import pandas as pd
+import pytest
+
+from superlane_tools.camera.profiles import load_camera
+from superlane_tools.commands.reprocess import ReprocessConfig, reprocess
+from superlane_tools.corridor import CorridorParams, corridor_from_mask
+from superlane_tools.recording.images import decode_frame, decode_reduced
+from superlane_tools.records import Message
+from superlane_tools.reporting.drive_tables import STAGES
+from superlane_tools.simulation.drive import simulate_drive
+
+
+def _jpeg_message(image: np.ndarray) -> Message:
+    ok, buf = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, 95])
+    assert ok
+    data = SimpleNamespace(format="jpeg", data=buf.tobytes())
+    return Message("/cam", 0, None, "sensor_msgs/msg/CompressedImage", data)
+
+
+def _road_image(width: int, height: int) -> np.ndarray:
+    """A smooth road-like frame: grey gradient, two bright slanted lines."""
+    v, _u = np.mgrid[0:height, 0:width].astype(np.float32)
+    image = np.dstack([60 + 80 * v / height] * 3).astype(np.uint8)
+    for x0 in (0.3, 0.7):
+        pts = np.array([[int(x0 * width), height - 1], [width // 2, height // 3]])
+        cv2.line(image, tuple(pts[0]), tuple(pts[1]), (230, 230, 230), max(2, width // 160))
+    return image
+
+
+def test_reduced_decode_matches_full_decode_and_resize() -> None:
+    image = _road_image(1280, 720)
+    msg = _jpeg_message(image)
+    reduced = decode_reduced(msg, 640)
+    assert reduced is not None
+    small, source = reduced
+    assert source == (1280, 720)
+    assert small.shape == (360, 640, 3)
+    assert small.dtype == np.uint8
+    reference = cv2.resize(decode_frame(msg), (640, 360), interpolation=cv2.INTER_AREA)
+    diff = np.abs(small.astype(np.int16) - reference.astype(np.int16))
+    assert float(diff.mean()) < 2.0  # DCT-domain scaling vs area averaging: grey levels
+    # A quarter-size target decodes at 1/4; a target above half the width is not reduced.
+    quarter = decode_reduced(msg, 300)
+    assert quarter is not None
+    assert quarter[0].shape == (180, 320, 3)
+    assert decode_reduced(msg, 641) is None
+    assert decode_reduced(msg, 0) is None
+
+
+def test_reduced_decode_declines_png_and_corrupt_jpeg() -> None:
+    ok, png = cv2.imencode(".png", _road_image(320, 180))
+    assert ok
+    data = SimpleNamespace(format="png", data=png.tobytes())
+    assert decode_reduced(Message("/c", 0, None, "x/CompressedImage", data), 100) is None
+    jpeg = _jpeg_message(_road_image(320, 180)).data.data
+    broken = SimpleNamespace(format="jpeg", data=jpeg[: len(jpeg) // 2])
+    assert decode_reduced(Message("/c", 0, None, "x/CompressedImage", broken), 100) is None
+
+
+def _per_pixel_reference(prob: np.ndarray, camera: object, p: CorridorParams) -> tuple:
+    """The straightforward measurement: back-project every corridor pixel of every frame."""
+    cam = camera.resized(prob.shape[1], prob.shape[0])  # type: ignore[attr-defined]
+    rows, cols = np.nonzero(prob > p.threshold)
+    xy, valid = cam.ground_points(np.stack([cols, rows], axis=1).astype(np.float64))
+    rows, xy = rows[valid], xy[valid]
+    height = prob.shape[0]
+    count = np.bincount(rows, minlength=height)
+    x_row = np.bincount(rows, xy[:, 0], height) / np.maximum(count, 1)
+    y_min, y_max = np.full(height, np.inf), np.full(height, -np.inf)
+    np.minimum.at(y_min, rows, xy[:, 1])
+    np.maximum.at(y_max, rows, xy[:, 1])
+    support = count >= p.min_row_px
+    if not support.any():
+        return math.nan, math.nan, 0
+    row_width = np.where(support, y_max - y_min, 0.0)
+    win = support & (x_row >= p.width_near_m) & (x_row <= p.width_far_m)
+    width = float(np.median(row_width[win])) if win.any() else math.nan
+    ref = width if win.any() else float(np.median(row_width[support]))
+    full = np.flatnonzero(support & (row_width >= p.full_width_fraction * ref))[::-1]
+    if full.size == 0:
+        length = float(x_row[np.flatnonzero(support)[-1]])
+    else:
+        cut = np.flatnonzero(full[:-1] - full[1:] > p.max_gap_rows + 1)
+        length = float(x_row[full[cut[0]] if cut.size else full[-1]])
+    return width, length, int(support.sum())
+
+
+@pytest.mark.parametrize("profile", ["kitti", "sim_default"])
+def test_corridor_from_mask_equals_per_pixel_measurement(profile: str) -> None:
+    camera = load_camera(profile)
+    params = CorridorParams()
+    rng = np.random.default_rng(5)
+    for k in range(4):
+        prob = np.zeros((180, 326), np.float32)
+        centre, half = int(rng.integers(100, 220)), int(rng.integers(10, 120))
+        prob[int(rng.integers(60, 120)) :, max(0, centre - half) : centre + half] = 0.9
+        prob += (k % 2) * 0.6 * rng.random(prob.shape, dtype=np.float32)
+        got = corridor_from_mask(prob, camera, params)
+        want = _per_pixel_reference(prob, camera, params)
+        assert got.n_rows == want[2]
+        assert np.allclose(got[:2], want[:2], rtol=1e-9, equal_nan=True)
+
+
+def test_reprocess_reduced_decode_and_cpu_timings(tmp_path: Path) -> None:
+    rec = tmp_path / "d.mcap"
+    simulate_drive("highway_curves", 1.0, 2, "mcap", 320, 180, False, rec)
+    cfg = ReprocessConfig().with_overrides(
+        {"segmentation.process_width": 160, "output.plots": False}
+    )
+    result = reprocess(rec, tmp_path / "run", cfg)
+    assert result.status == "ok"
+    assert result.frames == 15
+    frames = pd.read_parquet(tmp_path / "run" / "frames.parquet")
+    assert (frames["width"] == 320).all()
+    assert (frames["height"] == 180).all()
+    assert (frames["process_width"] == 160).all()
+    assert (frames["process_height"] == 90).all()
+    for stage in STAGES:
+        wall_ms, cpu_ms = frames[f"{stage}_ms"], frames[f"{stage}_cpu_ms"]
+        # The totals come from the in-memory record: they must add up to the table's columns.
+        assert result.timings[stage] == pytest.approx(wall_ms.sum() / 1e3, rel=1e-9, abs=1e-12)
+        assert result.timings[f"cpu_{stage}"] == pytest.approx(cpu_ms.sum() / 1e3, abs=1e-12)
+        # One thread's CPU time cannot exceed its wall time (2 ms for the clocks' granularity).
+        assert (cpu_ms <= wall_ms + 2.0).all(), stage
+    # The stages' thread CPU times are part of the process CPU time of the pass.
+    stage_cpu = sum(result.timings[f"cpu_{stage}"] for stage in STAGES)
+    assert stage_cpu <= result.timings["cpu_pass"] + 0.05
+    assert frames["segmentation_cpu_ms"].sum() > 0
+    assert 0 < result.timings["cpu_pass"] <= result.timings["cpu_total"]
