@@ -11,7 +11,6 @@ import pytest
 from superlane_tools.commands.reprocess import ReprocessConfig, reprocess
 from superlane_tools.geo import trajectory_curvature
 
-
 pytestmark = pytest.mark.slow  # whole reprocess runs; run with -m slow
 
 
