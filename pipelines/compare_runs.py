@@ -20,6 +20,7 @@ import argparse
 import re
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pyarrow as pa
@@ -85,18 +86,32 @@ def compare_table(path_a: Path, path_b: Path, rtol: float = 0.0) -> list[str]:
 
 def compare_mcap(path_a: Path, path_b: Path) -> list[str]:
     """Return the differences between two MCAP files' messages (topic, log time, content)."""
+    import json
+
     from google.protobuf.json_format import MessageToDict
     from mcap.reader import make_reader
     from mcap_protobuf.decoder import DecoderFactory
 
-    def messages(path: Path) -> list[tuple[str, int, bytes, object]]:
+    protobuf = DecoderFactory()
+
+    def content(encoding: str, schema: Any, data: bytes) -> object:
+        if encoding == "json":
+            return json.loads(data)
+        decoder = protobuf.decoder_for(encoding, schema)
+        return MessageToDict(decoder(data)) if decoder is not None else data
+
+    def messages(path: Path) -> list[tuple[str, int, bytes, str, Any]]:
         with path.open("rb") as handle:
-            reader = make_reader(handle, decoder_factories=[DecoderFactory()])
+            reader = make_reader(handle)
             return [
-                (channel.topic, message.log_time, bytes(message.data), decoded)
-                for _, channel, message, decoded in reader.iter_decoded_messages(
-                    log_time_order=True
+                (
+                    channel.topic,
+                    message.log_time,
+                    bytes(message.data),
+                    channel.message_encoding,
+                    schema,
                 )
+                for schema, channel, message in reader.iter_messages(log_time_order=True)
             ]
 
     ma, mb = messages(path_a), messages(path_b)
@@ -105,7 +120,8 @@ def compare_mcap(path_a: Path, path_b: Path) -> list[str]:
     bad = [
         i
         for i, (x, y) in enumerate(zip(ma, mb, strict=True))
-        if x[:2] != y[:2] or (x[2] != y[2] and not _equal(MessageToDict(x[3]), MessageToDict(y[3])))
+        if x[:2] != y[:2]
+        or (x[2] != y[2] and not _equal(content(x[3], x[4], x[2]), content(y[3], y[4], y[2])))
     ]
     if bad:
         return [f"{path_a.name}: {len(bad)} of {len(ma)} messages differ, first {bad[0]}"]
