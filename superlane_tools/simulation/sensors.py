@@ -118,6 +118,22 @@ def _ar1(rng: np.random.Generator, n: int, dt_s: float, sigma: float, tau_s: flo
     return out
 
 
+def fix_rows(fixes: list[FixSample], topic: str = "/gnss/fix") -> list[dict[str, Any]]:
+    """Return fixes as the rows a GNSS sink collects (``reprocess``'s truth takes these)."""
+    return [
+        {
+            "topic": topic,
+            "log_time_ns": f.log_time_ns,
+            "latitude_deg": f.lat_deg,
+            "longitude_deg": f.lon_deg,
+            "altitude_m": f.alt_m,
+            "fix_status": f.status,
+            "covariance_m2": list(f.covariance_enu_m2),
+        }
+        for f in fixes
+    ]
+
+
 def rtk_fixes(
     world: World, params: RtkParams, start_ns: int, rng: np.random.Generator
 ) -> list[FixSample]:

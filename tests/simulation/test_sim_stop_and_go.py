@@ -11,6 +11,7 @@ from superlane_tools.simulation.sensors import (
     VEHICLE_DBC,
     RtkParams,
     dbc_path,
+    fix_rows,
     rtk_fixes,
     vehicle_can,
 )
@@ -60,18 +61,7 @@ def test_multipath_jumps_are_flagged_and_kept_out_of_the_truth() -> None:
     params = RtkParams(multipath_per_min=4.0)
     fixes = rtk_fixes(world, params, 0, np.random.default_rng(1))
     assert any(f.status == 1 for f in fixes)
-    rows = [
-        {
-            "topic": "/fix",
-            "log_time_ns": f.log_time_ns,
-            "latitude_deg": f.lat_deg,
-            "longitude_deg": f.lon_deg,
-            "altitude_m": f.alt_m,
-            "fix_status": f.status,
-            "covariance_m2": list(f.covariance_enu_m2),
-        }
-        for f in fixes
-    ]
+    rows = fix_rows(fixes)
     t = np.arange(0.0, 60.0, 1 / 15)
     path = world.path
     true_k = np.interp(np.interp(t, path.t_s, path.s_m), world.road.s_m, path.curvature)
