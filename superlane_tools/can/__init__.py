@@ -1,5 +1,16 @@
 """CAN: lenient DBC loading and vectorised signal decoding."""
 
+from superlane_tools.can.buses import (
+    ALL_BUSES,
+    BusDbc,
+    Coverage,
+    DbcSpec,
+    bind_dbcs,
+    bus_matches,
+    dbc_coverage,
+    decode_buses,
+    parse_dbc_spec,
+)
 from superlane_tools.can.dbc import (
     SHIPPED_DBCS,
     LoadedDbc,
@@ -16,18 +27,44 @@ from superlane_tools.can.decode import (
     frames_to_arrays,
 )
 from superlane_tools.can.errors import CanError
+from superlane_tools.can.mobileye import (
+    MAPPINGS,
+    Latency,
+    MobileyeMapping,
+    latency_by_xcorr,
+    mobileye_table,
+)
+from superlane_tools.can.units import SPEED_UNITS, YAW_RATE_UNITS, si_factor, to_si
 
 __all__ = [
+    "ALL_BUSES",
+    "MAPPINGS",
     "SHIPPED_DBCS",
     "SIGNAL_COLUMNS",
+    "SPEED_UNITS",
+    "YAW_RATE_UNITS",
+    "BusDbc",
     "CanError",
+    "Coverage",
+    "DbcSpec",
     "FrameArrays",
+    "Latency",
     "LoadedDbc",
+    "MobileyeMapping",
+    "bind_dbcs",
+    "bus_matches",
+    "dbc_coverage",
+    "decode_buses",
     "decode_frames",
     "empty_signal_table",
     "frames_to_arrays",
+    "latency_by_xcorr",
     "load_dbc",
     "load_dbc_text",
+    "mobileye_table",
+    "parse_dbc_spec",
     "shipped_dbc",
     "shipped_dbcs",
+    "si_factor",
+    "to_si",
 ]

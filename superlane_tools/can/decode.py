@@ -13,7 +13,7 @@ from superlane_tools.can.dbc import _signal_bits
 from superlane_tools.can.errors import CanError
 
 ID_MASK_29 = 0x1FFFFFFF
-SIGNAL_COLUMNS = ("log_time_ns", "can_id", "message", "signal", "value", "unit")
+SIGNAL_COLUMNS = ("log_time_ns", "can_id", "message", "signal", "value", "unit", "label")
 
 
 class FrameArrays(NamedTuple):
@@ -120,11 +120,23 @@ def _physical(raw: npt.NDArray[np.uint64], sig: Any) -> npt.NDArray[np.float64]:
 
 
 class _Columns(NamedTuple):
-    """Decoded rows of one signal: row selection, values and the signal's label index."""
+    """Decoded rows of one signal: times, values, the signal's name index and ``VAL_`` labels."""
 
     times: npt.NDArray[np.int64]
     values: npt.NDArray[np.float64]
     label: int
+    texts: npt.NDArray[np.object_] | None
+
+
+def _choice_texts(raw: npt.NDArray[np.uint64], sig: Any) -> npt.NDArray[np.object_] | None:
+    """Return the ``VAL_`` label of each raw value ("" where none), or None without a table."""
+    choices = getattr(sig, "choices", None)
+    if not choices:
+        return None
+    keys, inverse = np.unique(raw, return_inverse=True)
+    names = np.array([str(choices.get(int(k), "")) for k in keys.tolist()], dtype=object)
+    texts: npt.NDArray[np.object_] = names[inverse]
+    return texts
 
 
 def _decode_message(
@@ -168,7 +180,8 @@ def _decode_message(
         else:
             continue
         labels.append((msg.frame_id, msg.name, sig.name, sig.unit or ""))
-        parts.append(_Columns(sel_times, _physical(raw, sig), len(labels) - 1))
+        texts = _choice_texts(raw, sig)
+        parts.append(_Columns(sel_times, _physical(raw, sig), len(labels) - 1, texts))
     return parts
 
 
@@ -182,6 +195,7 @@ def empty_signal_table() -> pd.DataFrame:
             "signal": np.zeros(0, dtype=object),
             "value": np.zeros(0, dtype=np.float64),
             "unit": np.zeros(0, dtype=object),
+            "label": np.zeros(0, dtype=object),
         }
     )
 
@@ -211,8 +225,9 @@ def decode_frames(
 
     Returns:
         Columns ``log_time_ns`` (int64 ns), ``can_id`` (uint32), ``message``, ``signal``,
-        ``value`` (float64, physical units), ``unit`` (categoricals for the names); rows
-        ordered by time (stable).
+        ``value`` (float64, physical units), ``unit``, ``label`` (the ``VAL_`` enum label of
+        the raw value, "" where the signal has none; categoricals for the names); rows ordered
+        by time (stable).
     """
     frames = frames_to_arrays(can_id, data, log_time_ns, dlc)
     by_id = {msg.frame_id: msg for msg in db.messages}
@@ -231,8 +246,11 @@ def decode_frames(
     times = np.concatenate([p.times for p in parts])
     values = np.concatenate([p.values for p in parts])
     codes = np.concatenate([np.full(len(p.times), p.label, dtype=np.int32) for p in parts])
+    texts = np.concatenate(
+        [p.texts if p.texts is not None else np.full(len(p.times), "", object) for p in parts]
+    )
     sort = np.argsort(times, kind="stable")
-    times, values, codes = times[sort], values[sort], codes[sort]
+    times, values, codes, texts = times[sort], values[sort], codes[sort], texts[sort]
     ids = np.array([lab[0] for lab in labels], dtype=np.uint32)
 
     def column(index: int) -> pd.Categorical[str]:
@@ -252,5 +270,6 @@ def decode_frames(
             "signal": column(2),
             "value": values,
             "unit": column(3),
+            "label": pd.Categorical(texts),
         }
     )

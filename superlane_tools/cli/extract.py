@@ -79,7 +79,10 @@ def extract_cmd(
     dbc: Annotated[
         list[Path] | None,
         typer.Option(
-            "--dbc", metavar="FILE", help="DBC file to decode CAN signals with (repeatable)."
+            "--dbc",
+            metavar="[BUS=]FILE",
+            help="DBC file to decode CAN signals with (repeatable); BUS=FILE (can0=pt.dbc) "
+            "binds it to one bus (CAN topic or channel), a plain FILE decodes every bus.",
         ),
     ] = None,
     frames: Annotated[
@@ -160,6 +163,8 @@ def extract_cmd(
     for kind, names in result.selected.items():
         if names:
             console.print(f"{kind}: {', '.join(names)}", markup=False)
+    if result.can_coverage is not None:
+        err_console.print(f"slt: {result.can_coverage.line()}", markup=False, soft_wrap=True)
     counts = ", ".join(f"{k} {v}" for k, v in result.counts.items() if v)
     console.print(f"extracted: {counts or 'nothing'} -> {out}", markup=False)
     for path in result.outputs:

@@ -41,7 +41,12 @@ def reprocess_cmd(
     ] = None,
     dbc: Annotated[
         list[Path] | None,
-        typer.Option("--dbc", help="DBC file (repeatable; replaces the shipped DBCs)."),
+        typer.Option(
+            "--dbc",
+            metavar="[BUS=]FILE",
+            help="DBC file (repeatable; replaces the shipped DBCs); BUS=FILE binds it to one "
+            "CAN bus (topic), e.g. can0=pt.dbc.",
+        ),
     ] = None,
     backend: Annotated[
         str | None,

@@ -63,8 +63,25 @@ def simulate(
     rtk_dropouts: Annotated[
         float, typer.Option(help="GNSS outages per minute (1-4 s each).")
     ] = 0.0,
+    rtk_multipath: Annotated[
+        float,
+        typer.Option(help="GNSS multipath episodes per minute (2-8 s of 0.3-1.5 m jumps, float)."),
+    ] = 0.0,
     labels: Annotated[
         bool, typer.Option("--labels", help="Also write label and corridor PNGs per frame.")
+    ] = False,
+    speed_kph: Annotated[
+        bool, typer.Option("--speed-kph", help="Send the CAN speed in km/h (slt_vehicle_kph.dbc).")
+    ] = False,
+    imu: Annotated[
+        bool, typer.Option("--imu", help="Also write an IMU topic (/imu/data).")
+    ] = False,
+    second_bus: Annotated[
+        bool,
+        typer.Option(
+            "--second-bus",
+            help="Mobileye lanes on a second CAN bus (/can1/rx) with an id colliding with 0x180.",
+        ),
     ] = False,
     list_: Annotated[bool, typer.Option("--list", help="List the scenarios and exit.")] = False,
 ) -> None:
@@ -86,10 +103,15 @@ def simulate(
     with cli_errors():
         from superlane_tools.simulation.drive import simulate_drive
         from superlane_tools.simulation.scenarios import get_scenario
-        from superlane_tools.simulation.sensors import RtkParams
+        from superlane_tools.simulation.sensors import RtkParams, VehicleOptions
 
         get_scenario(scenario)
-        rtk = RtkParams(rate_hz=rtk_rate, mode=rtk_mode, dropouts_per_min=rtk_dropouts)
+        rtk = RtkParams(
+            rate_hz=rtk_rate,
+            mode=rtk_mode,
+            dropouts_per_min=rtk_dropouts,
+            multipath_per_min=rtk_multipath,
+        )
         rtk.validate()
         with _progress_bar(f"simulate {scenario}") as bar:
             task = bar.add_task("frames", total=None)
@@ -110,6 +132,7 @@ def simulate(
                 jpeg_quality=jpeg_quality,
                 video=video,
                 rtk=rtk,
+                vehicle=VehicleOptions(speed_kph=speed_kph, imu=imu, second_bus=second_bus),
                 command=command_line(),
                 progress=step,
             )

@@ -8,7 +8,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
-from superlane_tools.can import LoadedDbc, load_dbc
+from superlane_tools.can import ALL_BUSES, Coverage, LoadedDbc, load_dbc, parse_dbc_spec
 from superlane_tools.commands.errors import PipelineError
 from superlane_tools.errors import ConfigError, UsageError
 from superlane_tools.geo import GeodeticOrigin
@@ -47,7 +47,8 @@ class ExtractConfig:
         end_s: End of the range (exclusive), seconds after the first message; None: end.
         start_ns: Start as an absolute log time, ns (overrides ``start_s``).
         end_ns: End (exclusive) as an absolute log time, ns (overrides ``end_s``).
-        dbc_paths: DBC files to decode CAN frames with (none: raw frames only).
+        dbc_paths: DBC files to decode CAN frames with (none: raw frames only); ``BUS=FILE``
+            binds a DBC to one bus (CAN topic or channel), a plain file applies to all.
         frame_format: ``jpg``, ``png`` (files) or ``none`` (index only).
         every: Keep every Nth frame of each image topic.
         origin: ENU origin; None: the first valid fix.
@@ -91,6 +92,7 @@ class ExtractResult:
         dbc_repairs: DBC file name -> repairs made while loading it.
         skipped: What was skipped or lost (reading errors, corrupt frames), one entry per kind.
         origin: The ENU origin used, when GNSS was extracted.
+        can_coverage: Ids matched by the DBCs of the ids seen (None without CAN or DBCs).
     """
 
     outputs: tuple[Path, ...]
@@ -99,6 +101,7 @@ class ExtractResult:
     dbc_repairs: Mapping[str, list[str]]
     skipped: tuple[Skipped, ...]
     origin: GeodeticOrigin | None
+    can_coverage: Coverage | None = None
 
 
 def _first_log_time_ns(rec: Recording, topics: Sequence[str]) -> int | None:
@@ -144,11 +147,13 @@ def extract(
     src = Path(recording_path)
     out = Path(out_dir)
     dbcs: dict[str, LoadedDbc] = {}
-    for dbc_path in config.dbc_paths:
-        loaded = load_dbc(dbc_path)
-        dbcs[Path(dbc_path).name] = loaded
+    specs = [parse_dbc_spec(str(p)) for p in config.dbc_paths]
+    for spec in specs:
+        loaded = load_dbc(spec.path)
+        name = spec.path.name if spec.bus == ALL_BUSES else f"{spec.bus}={spec.path.name}"
+        dbcs[name] = loaded
         if on_dbc is not None:
-            on_dbc(Path(dbc_path).name, loaded)
+            on_dbc(name, loaded)
     skips = SkipLog()
     with open_recording(src) as rec:
         selected = select_streams(rec.topics(), config.topics, config.streams)
@@ -167,7 +172,9 @@ def extract(
         settings = asdict(config)
         settings["streams"] = {k: list(v) for k, v in selected.items()}
         provenance = HashedProvenance(
-            PendingIdentities((src, *config.dbc_paths)), command=command, config=settings
+            PendingIdentities((src, *(spec.path for spec in specs))),
+            command=command,
+            config=settings,
         )
         total = _total(rec.topics(), set(kind_of)) if start_ns is None and stop_ns is None else None
         frame_sink = (
@@ -219,6 +226,10 @@ def extract(
         if progress is not None:
             progress(done, done)
         read_skips = list(rec.skipped)
+    coverage = can_sink.coverage() if can_sink is not None and dbcs else None
+    if coverage is not None and coverage.none_matched:
+        detail = f"no CAN id matched by any DBC: 0 of {coverage.seen} ids (wrong DBC?)"
+        read_skips.append(Skipped("CAN signals", detail, coverage.seen))
     counts = {
         "frames": frame_sink.kept if frame_sink else 0,
         "can_frames": can_sink.frames if can_sink else 0,
@@ -232,6 +243,7 @@ def extract(
         dbc_repairs={name: list(d.repairs) for name, d in dbcs.items()},
         skipped=(*read_skips, *skips.items()),
         origin=gnss_sink.used_origin if gnss_sink else None,
+        can_coverage=coverage,
     )
 
 

@@ -9,8 +9,11 @@ Per sequence (consecutive windows of ``window_frames`` frames, default 450 = 30 
 given segments with category labels):
 
 * frame-based ratio ``n / N``: available frames over all frames of the sequence;
-* sequence-based availability: the sequence is available when it has no run of more than
-  ``max_outage_frames`` (default 5) consecutive unavailable frames;
+* sequence-based availability: the sequence is available when it has no outage longer than
+  ``max_outage_s`` (default the paper's 5 frames at 15 Hz, 1/3 s); with frame times, frames
+  missing from the recording (dropped: a time step over 1.5 frame periods) count as outage,
+  so a camera that drops frames cannot look available; without them, the limit is
+  ``max_outage_frames`` consecutive unavailable frames;
 * longest outage, in frames and seconds.
 
 Frames of unknown availability count as unavailable in the pessimistic outage and as available
@@ -49,6 +52,8 @@ class AvailabilityParams:
         max_outage_frames: A sequence stays available with outages up to this many frames.
         window_frames: Frames per sequence when the drive is cut into consecutive windows.
         frame_rate_hz: Camera frame rate, for outages in seconds.
+        max_outage_s: Longest tolerated outage, seconds (None or 0: ``max_outage_frames`` frames
+            at ``frame_rate_hz``); used when frame times are given.
     """
 
     min_width_m: float = 2.0
@@ -57,6 +62,14 @@ class AvailabilityParams:
     max_outage_frames: int = 5
     window_frames: int = 450
     frame_rate_hz: float = 15.0
+    max_outage_s: float | None = None
+
+    @property
+    def outage_limit_s(self) -> float:
+        """The longest tolerated outage, seconds."""
+        if self.max_outage_s is not None and self.max_outage_s > 0:
+            return self.max_outage_s
+        return self.max_outage_frames / self.frame_rate_hz
 
     def __post_init__(self) -> None:
         if not 0 <= self.min_width_m <= self.max_width_m:
@@ -173,6 +186,36 @@ def longest_run(flags: BoolArray) -> int:
     return int((stops - starts).max())
 
 
+def longest_outage_s(unavailable: BoolArray, t_ns: NDArray[np.int64], period_s: float) -> float:
+    """Return the longest outage in seconds, counting dropped frames as outage.
+
+    Each frame stands for one frame period; a time step longer than 1.5 periods between two
+    frames adds the missing time (dropped frames) to the outage it falls in, or starts one.
+
+    Args:
+        unavailable: (N,) True where the frame is not available.
+        t_ns: (N,) frame times, integer nanoseconds, increasing.
+        period_s: Nominal frame period, seconds.
+
+    Returns:
+        The longest outage, seconds (0.0 when there is none).
+    """
+    bad = np.asarray(unavailable, dtype=bool)
+    t = np.asarray(t_ns, dtype=np.int64)
+    longest = current = 0.0
+    for i in range(bad.size):
+        if i:
+            gap = (t[i] - t[i - 1]) * 1e-9 - period_s
+            if gap > 0.5 * period_s:
+                current += gap
+        if bad[i]:
+            current += period_s
+        else:
+            longest = max(longest, current)
+            current = 0.0
+    return max(longest, current)
+
+
 class TimeSegment(NamedTuple):
     """A labelled sequence of a drive in time: ``[start_s, stop_s)`` after the first frame."""
 
@@ -207,6 +250,7 @@ def sequence_availability(
     frames: FrameAvailability,
     params: AvailabilityParams | None = None,
     segments: Sequence[Segment] | None = None,
+    t_ns: NDArray[np.int64] | None = None,
 ) -> list[SequenceAvailability]:
     """Compute the sequence KPIs over windows or labelled segments.
 
@@ -215,6 +259,8 @@ def sequence_availability(
         params: Thresholds, window length and frame rate.
         segments: Labelled ``[start, stop)`` frame ranges; None cuts consecutive windows of
             ``params.window_frames`` (the last may be shorter).
+        t_ns: Frame times, integer nanoseconds: outages are then measured in seconds against
+            ``params.outage_limit_s`` and dropped frames count as outage.
 
     Raises:
         CorridorError: If a segment is empty or outside the frames.
@@ -230,8 +276,17 @@ def sequence_availability(
         known = frames.known[seg.start : seg.stop]
         pessimistic = longest_run(~avail)
         optimistic = longest_run(~avail & known)
-        ok_pess = pessimistic <= p.max_outage_frames
-        ok_opt = optimistic <= p.max_outage_frames
+        if t_ns is None:
+            ok_pess = pessimistic <= p.max_outage_frames
+            ok_opt = optimistic <= p.max_outage_frames
+            outage_s = pessimistic / p.frame_rate_hz
+        else:
+            times = np.asarray(t_ns, dtype=np.int64)[seg.start : seg.stop]
+            period = 1.0 / p.frame_rate_hz
+            outage_s = longest_outage_s(~avail, times, period)
+            limit = p.outage_limit_s + 1e-6
+            ok_pess = bool(outage_s <= limit)
+            ok_opt = bool(longest_outage_s(~avail & known, times, period) <= limit)
         decided: bool | None = ok_pess if ok_pess == ok_opt else None
         size = seg.stop - seg.start
         n_avail = int(avail.sum())
@@ -246,7 +301,7 @@ def sequence_availability(
                 ratio=n_avail / size,
                 available=decided,
                 longest_outage_frames=pessimistic,
-                longest_outage_s=pessimistic / p.frame_rate_hz,
+                longest_outage_s=outage_s,
             )
         )
     return out

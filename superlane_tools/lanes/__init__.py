@@ -3,6 +3,7 @@
 from superlane_tools.lanes.attributes import CODE_OF, MARKING_CODES, Marking
 from superlane_tools.lanes.cost import CostFunction, Histogram, compensate, soft_histogram
 from superlane_tools.lanes.errors import FitParamsError, LaneFitError
+from superlane_tools.lanes.fit_lookahead import effective_lookahead
 from superlane_tools.lanes.multilane_fit import fit_frame
 from superlane_tools.lanes.params import FitParams
 from superlane_tools.lanes.peaks import assign, find_offsets
@@ -23,6 +24,7 @@ __all__ = [
     "assign",
     "columns_at_rows",
     "compensate",
+    "effective_lookahead",
     "find_offsets",
     "fit_frame",
     "lane_polyline",

@@ -35,6 +35,7 @@ from superlane_tools.lanes.attributes import (
 )
 from superlane_tools.lanes.cost import CostFunction, Histogram, kernels, ray_points
 from superlane_tools.lanes.errors import LaneFitError
+from superlane_tools.lanes.fit_lookahead import effective_lookahead, refit_sqrt_weights
 from superlane_tools.lanes.params import FitParams
 from superlane_tools.lanes.peaks import assign, find_offsets, merge_close
 from superlane_tools.lanes.result import Lane, LaneFit
@@ -472,6 +473,7 @@ def fit_frame(
         extras["refit_rejected"] = float(model.offsets is offsets)
 
     lanes, quality = _build_lanes(lane, model, codes, height, p)
+    extras["lookahead_m"] = _lookahead(iqs, rs, model, height, p)
     n_lines = len(lanes)
     reason = "" if n_lines >= 2 else ("one line" if n_lines == 1 else "no lines")
     left = [i for i, ln in enumerate(lanes) if ln.offset_m > 0]
@@ -496,6 +498,20 @@ def fit_frame(
         extras=extras,
         shared_cov=model.cov if model.cov is not None else np.full((3, 3), math.nan),
     )
+
+
+def _lookahead(
+    iqs: FloatArray, rs: FloatArray, model: SharedModel, height: float, p: FitParams
+) -> float:
+    """Effective look-ahead of the final model's ``2*a2`` over the points it was fitted to."""
+    if model.offsets.size == 0:
+        return math.nan
+    x, y, ok = ray_points(iqs, rs, model.b, height, p.max_range_m, model.c)
+    resid = np.where(ok, y - x * (model.a1 + model.a2 * x), np.nan)
+    radius = p.assign_radius_m + ASSIGN_ANGLE_RAD * np.nan_to_num(x)
+    labels = assign(resid, model.offsets, radius)
+    x = np.where(ok, x, np.nan)
+    return effective_lookahead(x, labels, refit_sqrt_weights(x, NEAR_WEIGHT_M))
 
 
 def _build_lanes(

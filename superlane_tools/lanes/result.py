@@ -157,18 +157,24 @@ class LaneFit:
         return far > near and self.plausible(max_slope)
 
     def lane_grid(self) -> tuple[float, float, float]:
-        """Return the lane-grid centre offset and lane width (m), and the middle of the support (m).
+        """Return the lane-grid centre offset and lane width (m), and the fit's look-ahead (m).
 
         The centre offset is the circular mean, with period one lane width, of every fitted
         line's offset shifted by half a width (nearer lines weigh more): it needs no choice of
         ego pair, so it stays continuous while the vehicle straddles a line during a lane change.
-        All three are NaN without an ego pair; the first two also when the width is <= 1 m.
+        The look-ahead is where the fit's ``2*a2`` measures the road: the effective look-ahead
+        of its weighted design (``extras["lookahead_m"]``, :mod:`superlane_tools.lanes.
+        fit_lookahead`), else the middle of the ego lines' common support. All three are NaN
+        without an ego pair; the first two also when the width is <= 1 m.
         """
         if self.ego_lines() is None:
             return math.nan, math.nan, math.nan
         near, far = self.ego_support_m()
         width = self.lane_width_m
         ahead = 0.5 * (near + far) if far > near else math.nan
+        effective = self.extras.get("lookahead_m", math.nan)
+        if far > near and math.isfinite(effective) and effective > 0:
+            ahead = effective
         if width <= 1.0:
             return math.nan, math.nan, ahead
         offsets = np.array([lane.offset_m for lane in self.lanes]) - 0.5 * width

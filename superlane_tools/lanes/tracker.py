@@ -209,6 +209,7 @@ def track_lanes(
     valid: BoolArray,
     params: TrackerParams | None = None,
     fit_cov: FloatArray | None = None,
+    lookahead_m: FloatArray | None = None,
 ) -> TrackedLanes:
     """Filter and smooth the per-frame fits along the travelled distance.
 
@@ -224,6 +225,9 @@ def track_lanes(
         params: Noise model and gates.
         fit_cov: Per-frame 3x3 covariance of the fit's ``(a1, a2, b)`` (shape ``(n, 3, 3)``);
             used when ``params.measurement_noise == "fit"``.
+        lookahead_m: Per-frame effective look-ahead of the fit's ``2*a2``, metres
+            (:func:`superlane_tools.lanes.effective_lookahead`); None or NaN: the middle of
+            the supported range.
 
     Returns:
         The tracked state per frame; frames before the first measurement have NaN.
@@ -235,6 +239,7 @@ def track_lanes(
     curv = np.asarray(curvature_per_m, dtype=np.float64)
     b = np.asarray(slope, dtype=np.float64)
     near, far = np.asarray(near_m, np.float64), np.asarray(far_m, np.float64)
+    ahead_m = np.full(n, np.nan) if lookahead_m is None else np.asarray(lookahead_m, np.float64)
     cand = (
         np.asarray(valid, dtype=bool)
         & np.isfinite(a1)
@@ -272,14 +277,16 @@ def track_lanes(
             xs_p[k], ps_p[k] = x, cov
         if cand[k]:
             mid, half = 0.5 * (near[k] + far[k]), 0.5 * (far[k] - near[k])
+            ahead = ahead_m[k] if np.isfinite(ahead_m[k]) and ahead_m[k] > 0 else mid
             z = np.array([-a1[k], curv[k], b[k]])
             if x is None:
-                x, cov = _initial(z, mid)
+                x, cov = _initial(z, ahead)
                 starts[k] = True
                 used[k] = True
                 rejections = 0
             else:
                 h = measurement_matrix(mid, half)
+                h[1, 3] = ahead  # 2*a2 measures the curvature at the fit's own look-ahead
                 r = fit_noise(fit_cov[k], sigmas, p) if use_fit and fit_cov is not None else r_fixed
                 nu = z - h @ x
                 s_cov = h @ cov @ h.T + r

@@ -222,3 +222,35 @@ def tf_static(
         header=header(stamp_ns, parent), child_frame_id=child, transform=transform
     )
     return _cls("tf2_msgs/msg/TFMessage")(transforms=[stamped])
+
+
+def imu(
+    stamp_ns: int,
+    frame_id: str,
+    angular_velocity_rps: Sequence[float] | npt.NDArray[np.float64],
+    linear_acceleration_mps2: Sequence[float] | npt.NDArray[np.float64] | None = None,
+) -> Any:
+    """Return a ``sensor_msgs/msg/Imu`` without orientation (covariance[0] = -1).
+
+    Args:
+        stamp_ns: Sample time, ns since the epoch.
+        frame_id: IMU frame.
+        angular_velocity_rps: Gyro x, y, z in the IMU frame, rad/s.
+        linear_acceleration_mps2: Accelerometer x, y, z, m/s^2; None: zeros (unknown: its
+            covariance[0] is -1).
+    """
+    vec = _cls("geometry_msgs/msg/Vector3")
+    gyro = [float(v) for v in angular_velocity_rps]
+    accel = [0.0, 0.0, 0.0] if linear_acceleration_mps2 is None else list(linear_acceleration_mps2)
+    unknown = np.zeros(9, dtype=np.float64)
+    unknown[0] = -1.0
+    accel_cov = unknown.copy() if linear_acceleration_mps2 is None else np.zeros(9)
+    return _cls("sensor_msgs/msg/Imu")(
+        header=header(stamp_ns, frame_id),
+        orientation=_cls("geometry_msgs/msg/Quaternion")(x=0.0, y=0.0, z=0.0, w=1.0),
+        orientation_covariance=unknown,
+        angular_velocity=vec(x=gyro[0], y=gyro[1], z=gyro[2]),
+        angular_velocity_covariance=np.zeros(9, dtype=np.float64),
+        linear_acceleration=vec(x=float(accel[0]), y=float(accel[1]), z=float(accel[2])),
+        linear_acceleration_covariance=accel_cov,
+    )

@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 import pyarrow as pa
 
-from superlane_tools.can import LoadedDbc, decode_frames
+from superlane_tools.can import Coverage, LoadedDbc, bind_dbcs, dbc_coverage, decode_buses
 from superlane_tools.records import Message
 from superlane_tools.reporting import ParquetStreamWriter
 from superlane_tools.reporting.provenance import ProvenanceSource, resolve_provenance
@@ -32,6 +32,8 @@ CAN_SIGNALS_SCHEMA = pa.schema(
         ("signal", pa.string()),
         ("value", pa.float64()),
         ("unit", pa.string()),
+        ("label", pa.string()),
+        ("bus", pa.string()),
         ("dbc", pa.string()),
     ]
 )
@@ -45,7 +47,9 @@ class CanSink:
     Args:
         raw_path: Table of the raw frames.
         signals_path: Table of the decoded signals (written with DBCs only).
-        dbcs: Loaded DBCs by name (file name); empty for raw frames only.
+        dbcs: Loaded DBCs by name (file name); empty for raw frames only. A name may be bound
+            to a bus as ``BUS=name`` (see :mod:`superlane_tools.can.buses`); plain names apply
+            to every bus (topic).
         provenance: Provenance for the Parquet files (or a function returning it, called when
             the first row group is written).
     """
@@ -58,6 +62,8 @@ class CanSink:
         provenance: ProvenanceSource,
     ) -> None:
         self.dbcs = dbcs
+        self._bound = bind_dbcs(dbcs)
+        self._ids: dict[str, set[int]] = {}
         self.frames = 0
         self.signal_rows = 0
         self._raw_path, self._signals_path = raw_path, signals_path
@@ -106,19 +112,27 @@ class CanSink:
         raw, signals = self._open()
         raw.write(cols)
         self.frames += count
+        topics = np.asarray(cols["topic"], dtype=object)
+        ids = np.asarray(cols["can_id"], dtype=np.uint32)
+        by_topic = {str(t): np.flatnonzero(topics == t) for t in np.unique(topics)}
+        for topic, rows in by_topic.items():
+            self._ids.setdefault(topic, set()).update(int(i) for i in np.unique(ids[rows]))
         if signals is not None:
             times = np.asarray(cols["log_time_ns"], dtype=np.int64)
-            ids = np.asarray(cols["can_id"], dtype=np.uint32)
-            for name, loaded in self.dbcs.items():
-                table = decode_frames(loaded.database, ids, cols["data"], times)
-                if len(table):
-                    arrow = pa.Table.from_pandas(table, preserve_index=False)
-                    arrow = arrow.append_column(
-                        "dbc", pa.array(np.full(len(table), name, dtype=object), pa.string())
-                    )
-                    signals.write(arrow.cast(CAN_SIGNALS_SCHEMA))
-                    self.signal_rows += len(table)
+            frames = {
+                topic: (ids[rows], [cols["data"][i] for i in rows], times[rows])
+                for topic, rows in by_topic.items()
+            }
+            table = decode_buses(frames, self._bound)
+            if len(table):
+                arrow = pa.Table.from_pandas(table, preserve_index=False)
+                signals.write(arrow.select(CAN_SIGNALS_SCHEMA.names).cast(CAN_SIGNALS_SCHEMA))
+                self.signal_rows += len(table)
         self._reset()
+
+    def coverage(self) -> Coverage:
+        """Return the DBC coverage of the frames seen so far (distinct ids per bus)."""
+        return dbc_coverage(self._ids, self._bound)
 
     def close(self, ok: bool) -> list[Path]:
         """Finish the outputs (discard them when ``ok`` is False); return the files written."""

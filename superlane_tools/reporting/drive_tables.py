@@ -20,8 +20,8 @@ from superlane_tools.evaluation.curvature import curvature_errors
 from superlane_tools.lanes.table import LANES_SCHEMA as LANES_FIT_SCHEMA
 
 FloatArray = NDArray[np.float64]
-METHODS = ("super", "corridor_net", "hough")
-"""Availability methods: SUPER lane fit, ego-corridor network, Hough baseline."""
+METHODS = ("super", "corridor_net", "hough", "mobileye")
+"""Availability methods: SUPER lane fit, ego-corridor network, Hough baseline, Mobileye."""
 STAGES = (
     "decode",
     "segmentation",
@@ -132,7 +132,7 @@ def availability_tables(
         )
         if n == 0:
             continue
-        for k, seq in enumerate(sequence_availability(fa, params, segments)):
+        for k, seq in enumerate(sequence_availability(fa, params, segments, t_ns)):
             row = seq._asdict()
             row.update(
                 method=method,
@@ -155,11 +155,15 @@ CURVATURE_SOURCES = (
     "super_road_sg",
     "super_path_sg",
     "mobileye",
+    "mobileye_path",
+    "dynamics",
 )
 """Curvature estimates compared with RTK (``<source>_curvature`` columns of curvature.parquet).
 
 ``super_road`` / ``super_path`` come from the lane tracker when it is enabled; ``*_sg`` are the
-same without it (look-ahead alignment and the truth's filter only).
+same without it (look-ahead alignment and the truth's filter only). ``mobileye`` is Mobileye's
+raw ``2*C2``; ``mobileye_path`` gives it SUPER's treatment (the truth's filter and the
+manoeuvre term from its own ``C0``). ``dynamics`` is yaw rate / speed smoothed like the truth.
 """
 
 

@@ -11,13 +11,19 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from superlane_tools.reporting.atomic import atomic_path
+from superlane_tools.reporting.names import CURVATURE_NAMES
 
 FloatArray = NDArray[np.float64]
-_SOURCES = (
-    ("rtk", "RTK (truth)", "k"),
-    ("super", "SUPER 2*a2 (raw, road ahead)", "tab:blue"),
-    ("super_path", "SUPER path (tracked, at vehicle)", "tab:green"),
-    ("mobileye", "Mobileye 2*C2", "tab:orange"),
+_SOURCES = tuple(
+    (key, CURVATURE_NAMES[key], colour)
+    for key, colour in (
+        ("rtk", "k"),
+        ("super", "tab:blue"),
+        ("super_path", "tab:green"),
+        ("mobileye", "tab:orange"),
+        ("mobileye_path", "tab:red"),
+        ("dynamics", "tab:purple"),
+    )
 )
 
 
@@ -114,6 +120,8 @@ def curvature_plots(curv: pd.DataFrame, out_dir: Path) -> list[Path]:
         zoom.set_title("zoom: largest RTK curvature", fontsize=9)
         zoom.set_xlabel(label)
         zoom.set_ylabel("curvature (1/m)")
+        if zoom.get_legend_handles_labels()[0]:
+            zoom.legend(loc="best", fontsize=7)
         zoom.grid(alpha=0.3)
         fig.tight_layout()
         paths.append(_save(fig, out_dir / name))
@@ -141,8 +149,9 @@ def availability_plot(frames: pd.DataFrame, out_dir: Path) -> Path:
 def example_plot(example: ExampleFrame, out_dir: Path) -> Path:
     """SUPER Fig. 8 style panel: segmentation, BEV points, offset histogram with peaks, lanes."""
     import cv2
+    from matplotlib.patches import Patch
 
-    from superlane_tools.hierarchy import colorize
+    from superlane_tools.hierarchy import NODES, colorize
     from superlane_tools.reporting.video import draw_overlay
 
     plt = _pyplot()
@@ -150,6 +159,16 @@ def example_plot(example: ExampleFrame, out_dir: Path) -> Path:
     seg = cv2.addWeighted(example.image_bgr, 0.5, colorize(example.labels), 0.5, 0)
     axes[0, 0].imshow(seg[:, :, ::-1])
     axes[0, 0].set_title("segmentation (leaf classes)")
+    present = set(np.unique(example.labels).tolist())
+    handles = [
+        Patch(
+            color=(n.color_bgr[2] / 255, n.color_bgr[1] / 255, n.color_bgr[0] / 255), label=n.name
+        )
+        for n in NODES
+        if n.leaf_id >= 0 and n.leaf_id in present
+    ]
+    if handles:  # the class legend: which colour is which class
+        axes[0, 0].legend(handles=handles, loc="upper right", fontsize=6, framealpha=0.8)
     bev = example.bev_xy
     axes[0, 1].scatter(bev[:, 1], bev[:, 0], s=1, c="k")
     axes[0, 1].set_xlim(12, -12)

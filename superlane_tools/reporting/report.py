@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import html
 import math
+import re
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -78,6 +79,14 @@ def html_table(frame: pd.DataFrame) -> str:
     return f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
 
 
+_CODE = re.compile(r"`([^`]+)`")
+
+
+def _inline(text: str) -> str:
+    """Escape text for HTML and render Markdown inline code (units, names) as ``<code>``."""
+    return _CODE.sub(r"<code>\1</code>", html.escape(text))
+
+
 def write_report(
     path: Path, title: str, sections: Sequence[Section], html_too: bool = True
 ) -> list[Path]:
@@ -99,6 +108,7 @@ def write_report(
             f"<title>{html.escape(title)}</title><style>body{{font-family:sans-serif;"
             "max-width:1100px;margin:auto}table{border-collapse:collapse;margin:8px 0}"
             "td,th{border:1px solid #ccc;padding:2px 6px;font-size:13px}img{max-width:100%}"
+            "code{background:#f3f3f3;padding:0 3px;border-radius:3px}"
             "</style></head><body>",
             f"<h1>{html.escape(title)}</h1>",
         ]
@@ -106,11 +116,9 @@ def write_report(
             parts.append(f"<h2>{html.escape(sec.title)}</h2>")
             bullets = [ln[2:] for ln in sec.lines if ln.startswith("- ")]
             text = [ln for ln in sec.lines if not ln.startswith("- ") and ln]
-            parts += [f"<p>{html.escape(t)}</p>" for t in text]
+            parts += [f"<p>{_inline(t)}</p>" for t in text]
             if bullets:
-                parts.append(
-                    "<ul>" + "".join(f"<li>{html.escape(b)}</li>" for b in bullets) + "</ul>"
-                )
+                parts.append("<ul>" + "".join(f"<li>{_inline(b)}</li>" for b in bullets) + "</ul>")
             parts += [html_table(t) for t in sec.tables]
             parts += [f"<img src='{html.escape(i)}' alt='{html.escape(i)}'>" for i in sec.images]
         parts.append("</body></html>")

@@ -31,6 +31,9 @@ from superlane_tools.simulation.scenarios import get_scenario
 from superlane_tools.simulation.sensors import (
     MobileyeParams,
     RtkParams,
+    VehicleOptions,
+    heartbeat_can,
+    imu_gyro,
     mobileye_can,
     rtk_fixes,
     vehicle_can,
@@ -47,6 +50,9 @@ TOPIC_INFO = "/camera/camera_info"
 TOPIC_TF = "/tf_static"
 TOPIC_CAN = "/can/rx"
 TOPIC_FIX = "/gnss/fix"
+TOPIC_CAN2 = "/can1/rx"
+"""The second CAN bus (Mobileye lanes and a camera heartbeat) with ``VehicleOptions.second_bus``."""
+TOPIC_IMU = "/imu/data"
 FRAME_VEHICLE = "base_link"
 FRAME_CAMERA = "camera_optical"
 FRAME_GNSS = "gnss"
@@ -150,6 +156,7 @@ def simulate_drive(
     jpeg_quality: int | None = None,
     video: str | None = None,
     rtk: RtkParams | None = None,
+    vehicle: VehicleOptions | None = None,
     start_ns: int = DEFAULT_START_NS,
     command: str = "",
     progress: ProgressFn | None = None,
@@ -170,6 +177,7 @@ def simulate_drive(
         video: ``h264`` or ``h265``: write the camera as ``foxglove_msgs/msg/CompressedVideo``
             (one access unit per frame, a keyframe every second) instead of JPEG images.
         rtk: GNSS simulation parameters (default RTK fixed at 10 Hz).
+        vehicle: Speed unit, IMU topic and second CAN bus (default: m/s, no IMU, one bus).
         start_ns: Time of the first frame, ns since the epoch.
         command: Command line for the provenance metadata.
         progress: Called as ``progress(done, total)`` after each frame.
@@ -224,8 +232,18 @@ def simulate_drive(
     q = camera_quaternion_xyzw(camera)
     pos = camera.extrinsics.position
     push(start_ns, TOPIC_TF, ("tf", tuple(float(v) for v in pos), q))
-    for c in vehicle_can(world, start_ns, rng["sensors"]):
+    vehicle = vehicle or VehicleOptions()
+    for c in vehicle_can(world, start_ns, rng["sensors"], speed_kph=vehicle.speed_kph):
         push(c.log_time_ns, TOPIC_CAN, ("can", c.can_id, c.data))
+    if vehicle.second_bus:
+        for c in heartbeat_can(world, start_ns):
+            push(c.log_time_ns, TOPIC_CAN2, ("can", c.can_id, c.data))
+    if vehicle.imu:  # its own generator: the other sensors' draws stay the same
+        import numpy as np
+
+        imu_rng = np.random.default_rng(np.random.SeedSequence(seed).spawn(64)[-1])
+        for t_imu, gyro in imu_gyro(world, start_ns, imu_rng):
+            push(t_imu, TOPIC_IMU, ("imu", gyro))
     for f in rtk_fixes(world, rtk, start_ns, rng["sensors"]):
         push(f.log_time_ns, TOPIC_FIX, ("fix", f))
 
@@ -235,6 +253,8 @@ def simulate_drive(
             return msgs.tf_static(t_ns, FRAME_VEHICLE, FRAME_CAMERA, item[1][1], item[1][2])
         if kind == "can":
             return msgs.can_frame(t_ns, item[1][1], item[1][2])
+        if kind == "imu":
+            return msgs.imu(t_ns, FRAME_VEHICLE, item[1][1])
         fix = item[1][1]
         return msgs.navsatfix(
             t_ns, FRAME_GNSS, fix.lat_deg, fix.lon_deg, fix.alt_m, fix.status, fix.covariance_enu_m2
@@ -255,6 +275,7 @@ def simulate_drive(
             "video": video,
             "start_ns": start_ns,
             "rtk": asdict(rtk),
+            "vehicle": asdict(vehicle),
             "camera": camera.to_dict(),
             "recording": outputs.recording.name,
         },
@@ -283,6 +304,8 @@ def simulate_drive(
             ),
             (TOPIC_CAN, "can_msgs/msg/Frame"),
             (TOPIC_FIX, "sensor_msgs/msg/NavSatFix"),
+            *([(TOPIC_CAN2, "can_msgs/msg/Frame")] if vehicle.second_bus else []),
+            *([(TOPIC_IMU, "sensor_msgs/msg/Imu")] if vehicle.imu else []),
         ):
             writer.add_topic(topic, msgtype)
         add_metadata = getattr(writer, "add_metadata", None)
@@ -294,8 +317,9 @@ def simulate_drive(
             t0 = time.perf_counter()
             fw = frame_world(world, t_s, t_ns, camera, int(frame_seeds[i]))
             truth = lane_truth(fw)
+            me_topic = TOPIC_CAN2 if vehicle.second_bus else TOPIC_CAN
             for c in mobileye_can(truth, t_ns, me_params, rng["sensors"]):
-                push(c.log_time_ns, TOPIC_CAN, ("can", c.can_id, c.data))
+                push(c.log_time_ns, me_topic, ("can", c.can_id, c.data))
             t1 = time.perf_counter()
             try:
                 frame = render(fw.scene)

@@ -59,6 +59,10 @@ class TrafficRecipe:
         cut_in: A vehicle from an adjacent lane cuts in during the drive.
         others_per_km: Vehicles per km in the other lanes.
         oncoming_speed_mps: Speed of oncoming vehicles, m/s.
+        stop_every_s: Mean driving time between stops at lights, seconds (0: never stop).
+        stop_s: Range of the standstill durations, seconds.
+        crawl_s: Creeping time before each stop (queue moving up), seconds.
+        crawl_mps: Creeping speed, m/s.
     """
 
     speed_mps: float = 27.0
@@ -71,6 +75,10 @@ class TrafficRecipe:
     cut_in: bool = False
     others_per_km: float = 12.0
     oncoming_speed_mps: float = 12.0
+    stop_every_s: float = 0.0
+    stop_s: tuple[float, float] = (20.0, 90.0)
+    crawl_s: float = 6.0
+    crawl_mps: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -143,7 +151,39 @@ def speed_profile(rng: np.random.Generator, t_s: FloatArray, recipe: TrafficReci
     """Return a smooth speed profile over ``t_s`` (m/s, within 5-35 m/s)."""
     mean = float(np.clip(recipe.speed_mps, MIN_SPEED_MPS, MAX_SPEED_MPS))
     v = mean + recipe.speed_variation_mps * _slow_noise(rng, t_s, (20.0, 60.0))
-    return np.clip(v, MIN_SPEED_MPS, MAX_SPEED_MPS)
+    v = np.clip(v, MIN_SPEED_MPS, MAX_SPEED_MPS)
+    if recipe.stop_every_s > 0:
+        v = np.minimum(v, _stop_envelope(rng, t_s, recipe))
+    return v
+
+
+DECEL_MPS2 = 2.0
+"""Braking towards a stop or the crawl, m/s^2."""
+ACCEL_MPS2 = 1.5
+"""Pulling away after a stop, m/s^2."""
+
+
+def _stop_envelope(rng: np.random.Generator, t_s: FloatArray, recipe: TrafficRecipe) -> FloatArray:
+    """Return the speed limit of stop-and-go traffic: cruise, crawl, stand, pull away (m/s)."""
+    cruise = float(MAX_SPEED_MPS)
+    target = np.full(t_s.shape, cruise)
+    t_end = float(t_s[-1]) if t_s.size else 0.0
+    t = float(rng.uniform(0.5, 1.0)) * recipe.stop_every_s
+    while t < t_end:
+        crawl_start = t
+        stand_start = crawl_start + recipe.crawl_s
+        stand_end = stand_start + float(rng.uniform(*recipe.stop_s))
+        target[(t_s >= crawl_start) & (t_s < stand_start)] = recipe.crawl_mps
+        target[(t_s >= stand_start) & (t_s < stand_end)] = 0.0
+        t = stand_end + float(rng.uniform(0.5, 1.5)) * recipe.stop_every_s
+    # Rate-limit the target both ways: brake ahead of each drop, accelerate after each rise.
+    dt = float(t_s[1] - t_s[0]) if t_s.size > 1 else 1.0
+    env = target.copy()
+    for i in range(env.size - 2, -1, -1):  # braking: reach the lower speed in time
+        env[i] = min(env[i], env[i + 1] + DECEL_MPS2 * dt)
+    for i in range(1, env.size):  # pulling away
+        env[i] = min(env[i], env[i - 1] + ACCEL_MPS2 * dt)
+    return env
 
 
 def _lane_plan(

@@ -67,6 +67,26 @@ _ALL: tuple[Scenario, ...] = (
         conditions=Conditions(name="hills"),
     ),
     Scenario(
+        "stop_and_go",
+        "Two-lane arterial with traffic lights: stops of 20-90 s after a crawl, pulling away.",
+        road=RoadRecipe(
+            lane_widths_m=(3.5, 3.5),
+            curviness=0.4,
+            hilliness=0.2,
+            left_color="white",
+            shoulder_m=0.5,
+        ),
+        traffic=replace(
+            _TRAFFIC,
+            speed_mps=14.0,
+            speed_variation_mps=2.0,
+            ego_lanes=(0,),
+            leader_gap_m=30.0,
+            stop_every_s=25.0,
+        ),
+        conditions=Conditions(name="stop_and_go"),
+    ),
+    Scenario(
         "urban",
         "Four-lane city street with double yellow centre line, curbs, sidewalks, crosswalks.",
         road=RoadRecipe(

@@ -22,6 +22,8 @@ from superlane_tools.simulation.world import World
 FloatArray = NDArray[np.float64]
 
 VEHICLE_DBC = "slt_vehicle.dbc"
+VEHICLE_KPH_DBC = "slt_vehicle_kph.dbc"
+"""The same vehicle bus with the speed in km/h (0.01 km/h per bit), as many vehicles send it."""
 MOBILEYE_DBC = "slt_mobileye_lanes.dbc"
 ANTENNA_HEIGHT_M = 1.5
 """GNSS antenna height above the vehicle origin (road surface), metres."""
@@ -72,6 +74,9 @@ class RtkParams:
         mode: ``fixed`` (RTK fixed, cm noise), ``float`` (RTK float, ~0.2 m) or
             ``standalone`` (single point, metres of slowly wandering error).
         dropouts_per_min: Mean number of outages per minute (each 1-4 s without fixes).
+        multipath_per_min: Mean number of multipath episodes per minute: for 2-8 s the fixes
+            jump 0.3-1.5 m sideways and the receiver reports RTK float (status 1) with a
+            covariance that says so.
         origin_lat_deg: Latitude of the world origin, degrees.
         origin_lon_deg: Longitude of the world origin, degrees.
         origin_alt_m: Ellipsoidal height of the world origin, metres.
@@ -80,6 +85,7 @@ class RtkParams:
     rate_hz: float = 10.0
     mode: str = "fixed"
     dropouts_per_min: float = 0.0
+    multipath_per_min: float = 0.0
     origin_lat_deg: float = 48.137154
     origin_lon_deg: float = 11.576124
     origin_alt_m: float = 520.0
@@ -112,6 +118,22 @@ def _ar1(rng: np.random.Generator, n: int, dt_s: float, sigma: float, tau_s: flo
     return out
 
 
+def fix_rows(fixes: list[FixSample], topic: str = "/gnss/fix") -> list[dict[str, Any]]:
+    """Return fixes as the rows a GNSS sink collects (``reprocess``'s truth takes these)."""
+    return [
+        {
+            "topic": topic,
+            "log_time_ns": f.log_time_ns,
+            "latitude_deg": f.lat_deg,
+            "longitude_deg": f.lon_deg,
+            "altitude_m": f.alt_m,
+            "fix_status": f.status,
+            "covariance_m2": list(f.covariance_enu_m2),
+        }
+        for f in fixes
+    ]
+
+
 def rtk_fixes(
     world: World, params: RtkParams, start_ns: int, rng: np.random.Generator
 ) -> list[FixSample]:
@@ -141,31 +163,103 @@ def rtk_fixes(
     for _ in range(n_out):
         t0 = float(rng.uniform(0.0, world.duration_s))
         keep &= ~((t >= t0) & (t < t0 + float(rng.uniform(1.0, 4.0))))
+    jumped = np.zeros(n, dtype=bool)
+    if params.multipath_per_min > 0:
+        # Drawn from their own generator: the other draws (and drives) stay the same.
+        mp_rng = np.random.default_rng(rng.integers(0, 2**31))
+        for _ in range(int(mp_rng.poisson(params.multipath_per_min * world.duration_s / 60))):
+            t0 = float(mp_rng.uniform(0.0, world.duration_s))
+            span = (t >= t0) & (t < t0 + float(mp_rng.uniform(2.0, 8.0)))
+            angle = float(mp_rng.uniform(0.0, 2 * np.pi))
+            size = float(mp_rng.uniform(0.3, 1.5))
+            east[span] += size * np.cos(angle)
+            north[span] += size * np.sin(angle)
+            jumped |= span
     lat, lon, alt = pymap3d.enu2geodetic(
         east, north, up, params.origin_lat_deg, params.origin_lon_deg, params.origin_alt_m
     )
     var_h = s_h * s_h + wander * wander
     var_v = s_v * s_v + 2.25 * wander * wander
     cov = (var_h, 0.0, 0.0, 0.0, var_h, 0.0, 0.0, 0.0, var_v)
+    cov_jump = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 2.0)
     return [
         FixSample(
             start_ns + round(float(t[i]) * 1e9),
             float(lat[i]),
             float(lon[i]),
             float(alt[i]),
-            status,
-            cov,
+            min(status, 1) if jumped[i] else status,
+            cov_jump if jumped[i] else cov,
         )
         for i in range(n)
         if keep[i]
     ]
 
 
+@dataclass(frozen=True)
+class VehicleOptions:
+    """How the simulated vehicle reports itself.
+
+    Attributes:
+        speed_kph: Send the speed in km/h (:data:`VEHICLE_KPH_DBC`) instead of m/s.
+        imu: Also write a ``sensor_msgs/Imu`` topic (gyro z = yaw rate, with its own bias).
+        second_bus: Put the Mobileye lanes on a second CAN bus, together with a camera
+            heartbeat whose id (0x180) collides with the vehicle bus's speed message.
+    """
+
+    speed_kph: bool = False
+    imu: bool = False
+    second_bus: bool = False
+
+
+HEARTBEAT_ID = 0x180
+"""Id of the second bus's camera heartbeat: the same id as the vehicle bus's speed."""
+
+
+def heartbeat_can(world: World, start_ns: int, rate_hz: float = 10.0) -> list[CanPayload]:
+    """A camera heartbeat on the second bus (id 0x180, a counter and status bytes)."""
+    t = np.arange(0.0, world.duration_s + 1e-9, 1.0 / rate_hz)
+    return [
+        CanPayload(
+            start_ns + round(float(ti) * 1e9) + 500,
+            HEARTBEAT_ID,
+            bytes([0xA5, i % 256, 3, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF]),
+        )
+        for i, ti in enumerate(t)
+    ]
+
+
+def imu_gyro(
+    world: World, start_ns: int, rng: np.random.Generator, rate_hz: float = 100.0
+) -> list[tuple[int, tuple[float, float, float]]]:
+    """Simulate an IMU's gyro (rad/s, x forward, y left, z up) with a constant bias and noise."""
+    t = np.arange(0.0, world.duration_s + 1e-9, 1.0 / rate_hz)
+    path, road = world.path, world.road
+    v = np.interp(t, path.t_s, path.speed_mps)
+    k = np.interp(np.interp(t, path.t_s, path.s_m), road.s_m, path.curvature)
+    bias = rng.normal(0.0, 0.003, 3)
+    noise = rng.normal(0.0, 0.002, (len(t), 3))
+    gyro = noise + bias
+    gyro[:, 2] += k * v
+    return [
+        (start_ns + round(float(ti) * 1e9) + 2000, (float(g[0]), float(g[1]), float(g[2])))
+        for ti, g in zip(t, gyro, strict=True)
+    ]
+
+
 def vehicle_can(
-    world: World, start_ns: int, rng: np.random.Generator, rate_hz: float = 50.0
+    world: World,
+    start_ns: int,
+    rng: np.random.Generator,
+    rate_hz: float = 50.0,
+    speed_kph: bool = False,
 ) -> list[CanPayload]:
-    """Encode speed (0x180) and yaw rate (0x181) at ``rate_hz`` with sensor noise and bias."""
-    db = load_shipped_dbc(VEHICLE_DBC)
+    """Encode speed (0x180) and yaw rate (0x181) at ``rate_hz`` with sensor noise and bias.
+
+    With ``speed_kph`` the speed is sent in km/h (:data:`VEHICLE_KPH_DBC`); the random draws
+    are the same either way, so the two drives differ only in the speed's unit.
+    """
+    db = load_shipped_dbc(VEHICLE_KPH_DBC if speed_kph else VEHICLE_DBC)
     speed_msg = db.get_message_by_name("VehicleSpeed")
     yaw_msg = db.get_message_by_name("YawRate")
     dt = 1.0 / rate_hz
@@ -189,7 +283,7 @@ def vehicle_can(
                 speed_msg.frame_id,
                 speed_msg.encode(
                     {
-                        "VehicleSpeed": round(float(v_meas[i]), 2),
+                        "VehicleSpeed": round(float(v_meas[i]) * (3.6 if speed_kph else 1.0), 2),
                         "SpeedValid": 1,
                         "LongitudinalAccel": round(float(np.clip(accel[i], -32.0, 32.0)), 3),
                         "Counter": counter,

@@ -111,7 +111,7 @@ def test_reprocess_and_tables(drives: list[Path], tmp_path: Path) -> None:
     assert read_provenance(pq)["inputs"]
     code, text = run_cli("tables", "curvature", *runs)
     assert code == 0
-    assert "SUPER 2*a2" in text
+    assert "SUPER raw (2*a2" in text  # the same name as in the report and the plots
     code, text = run_cli("tables", "curvature", str(tmp_path))
     assert code == 1
     assert "not a reprocess run folder" in text

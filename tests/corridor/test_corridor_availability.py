@@ -126,3 +126,25 @@ def test_frame_and_sequence_invariants(rows: list[tuple[float, float, float]], w
             )
         if s.n_unknown == 0:
             assert s.available == (s.longest_outage_frames <= 5)
+
+
+def test_outage_limit_in_seconds_counts_dropped_frames() -> None:
+    from superlane_tools.corridor.availability import FrameAvailability, longest_outage_s
+
+    period = 1 / 15
+    t = (np.arange(30) * period * 1e9).astype(np.int64)
+    avail = np.ones(30, bool)
+    avail[10:15] = False  # five frames: the paper's limit, still available
+    fa = FrameAvailability(avail, np.ones(30, bool), np.full(30, ""))
+    params = AvailabilityParams(window_frames=30, max_outage_s=5 / 15)
+    assert sequence_availability(fa, params, None, t)[0].available is True
+    avail[15] = False  # six frames: an outage
+    fa = FrameAvailability(avail, np.ones(30, bool), np.full(30, ""))
+    assert sequence_availability(fa, params, None, t)[0].available is False
+    # Dropped frames: every recorded frame is available, but 0.5 s of frames are missing.
+    t_drop = np.concatenate([t[:10], t[10:] + int(0.5e9)])
+    all_ok = FrameAvailability(np.ones(30, bool), np.ones(30, bool), np.full(30, ""))
+    seq = sequence_availability(all_ok, params, None, t_drop)[0]
+    assert seq.available is False
+    assert seq.longest_outage_s > 0.4
+    assert longest_outage_s(np.zeros(30, bool), t, period) == 0.0

@@ -7,30 +7,35 @@
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from superlane_tools.can import LoadedDbc
+from superlane_tools.can import MAPPINGS, LoadedDbc, latency_by_xcorr, mobileye_table
 from superlane_tools.can.collect import CanFrames
+from superlane_tools.can.errors import CanError
 from superlane_tools.commands.reprocess.config import ReprocessConfig, TrackingConfig
 from superlane_tools.commands.reprocess.record import DriveFrames
 from superlane_tools.commands.reprocess.signals import (
+    ImuSamples,
     at_frames,
     can_frame_signals,
+    dynamics_reference,
+    gnss_speed,
     mobileye_at_frames,
-    mobileye_table,
     rtk_truth,
 )
 from superlane_tools.corridor import AvailabilityParams, Segment
+from superlane_tools.geo import DEGRADED_NOTE
 from superlane_tools.lanes.lookahead import align_super_curvature, smooth_like_truth
 from superlane_tools.lanes.tracker import COV_INDEX, COV_KEYS, track_lanes, travelled_m
 from superlane_tools.records import Skipped
 from superlane_tools.reporting import Provenance, write_table
 from superlane_tools.reporting import drive_tables as tables
+from superlane_tools.reporting.headline import headline_table
 from superlane_tools.reporting.plots import ExampleFrame
 from superlane_tools.reporting.report import Section, write_report
 
@@ -48,6 +53,7 @@ class DriveTables:
         availability_frames: Availability per frame and method.
         availability_sequences: Availability per sequence and method.
         notes: Missing streams and fallbacks.
+        lost: Input that could not be used (e.g. no CAN id matched by any DBC).
     """
 
     can_signals: pd.DataFrame
@@ -58,6 +64,7 @@ class DriveTables:
     availability_frames: pd.DataFrame
     availability_sequences: pd.DataFrame
     notes: tuple[str, ...]
+    lost: tuple[Skipped, ...] = ()
 
     def files(self) -> dict[str, pd.DataFrame]:
         """Return output file name -> table."""
@@ -81,13 +88,31 @@ def drive_tables(
     segments: Sequence[Segment],
     params: AvailabilityParams,
     corridor_unavailable: str,
+    imu: ImuSamples | None = None,
+    camera: bool = True,
 ) -> DriveTables:
-    """Turn a drive's per-frame record plus its CAN frames and GNSS fixes into its tables."""
+    """Turn a drive's per-frame record plus its CAN frames and GNSS fixes into its tables.
+
+    Raises:
+        CanError: If a used CAN signal has no or an unknown unit, or the Mobileye mapping is
+            unknown.
+    """
     t_ns = frames.t_ns
     fit = frames.fit
     notes: list[str] = []
+    lost: list[Skipped] = []
     signals = can.decode(dbcs)
+    if len(can):
+        coverage = can.coverage(dbcs)
+        notes.append(coverage.line())
+        if coverage.none_matched:
+            detail = f"no CAN id matched by any DBC: 0 of {coverage.seen} ids (wrong DBC?)"
+            lost.append(Skipped("CAN signals", detail, coverage.seen))
     speed_s, yaw_s = can_frame_signals(signals, config.can)
+    rtk = rtk_truth(gnss_rows, t_ns, config.rtk, speed_s)
+    if speed_s is None and (fallback := gnss_speed(rtk)) is not None:
+        speed_s = fallback
+        notes.append("speed: no CAN speed, estimated from the GNSS fixes")
     speed = at_frames(speed_s, t_ns)
     yaw = at_frames(yaw_s, t_ns)
     if not len(can):
@@ -100,18 +125,27 @@ def drive_tables(
             f"no CAN speed signal {config.can.speed_signal!r}: availability by length "
             "marked unknown"
         )
-    me = mobileye_table(signals, config.can.mobileye_right_positive)
+    if config.can.mobileye_mapping not in MAPPINGS:
+        raise CanError(
+            f"unknown can.mobileye_mapping {config.can.mobileye_mapping!r}; "
+            f"shipped: {', '.join(MAPPINGS)}"
+        )
+    mapping = replace(
+        MAPPINGS[config.can.mobileye_mapping], right_positive=config.can.mobileye_right_positive
+    )
+    me = mobileye_table(signals, mapping)
     me_curv = mobileye_at_frames(me, t_ns)
     if len(can) and me.empty:
         notes.append("no Mobileye lane messages on CAN: no Mobileye comparison")
-    rtk = rtk_truth(gnss_rows, t_ns, config.rtk)
-    if rtk.fixes.empty:
-        notes.append("no GNSS/RTK stream: no curvature ground truth")
-    elif rtk.n_degraded or rtk.n_dropouts:
-        notes.append(
-            f"RTK: {rtk.n_degraded} degraded fixes flagged and excluded, "
-            f"{rtk.n_dropouts} dropouts > {config.rtk.max_gap_s} s"
-        )
+    notes += _truth_notes(rtk, config)
+    if yaw_s is None and imu is not None and len(imu):
+        yaw_s = imu.yaw_series(config.rtk.imu_yaw_axis)
+        notes.append(f"yaw rate: IMU gyro about {config.rtk.imu_yaw_axis}")
+    dyn = dynamics_reference(yaw_s, speed_s, t_ns, config.rtk)
+    if dyn is None:
+        notes.append("no yaw-rate / speed reference: no dynamics curvature cross-check")
+    else:
+        notes.append(f"yaw-rate reference: gyro bias {dyn.bias.rps:.2e} rad/s ({dyn.bias.source})")
     curv = pd.DataFrame(
         {
             "frame_index": np.arange(len(t_ns), dtype=np.int32),
@@ -124,6 +158,9 @@ def drive_tables(
             "rtk_valid": rtk.frame_valid,
             "super_curvature": fit.curvature_per_m,
             "mobileye_curvature": me_curv,
+            "dynamics_curvature": (
+                dyn.curvature_per_m if dyn is not None else np.full(len(t_ns), np.nan)
+            ),
         }
     )
     aligned = align_super_curvature(
@@ -141,15 +178,100 @@ def drive_tables(
     curv["super_lateral_sg_curvature"] = aligned.lateral_per_m
     curv["super_path_sg_curvature"] = aligned.path_per_m
     _add_track(curv, frames, config, notes)
+    _add_fair_mobileye(curv, me, t_ns, config, notes)
     curv["super_error"] = curv["super_curvature"] - curv["rtk_curvature"]
     curv["super_path_error"] = curv["super_path_curvature"] - curv["rtk_curvature"]
     curv["mobileye_error"] = curv["mobileye_curvature"] - curv["rtk_curvature"]
     summary = tables.curvature_summary(curv, segments)
+    summary["truth_noise_floor_per_m"] = rtk.noise_floor_per_m
+    summary["truth_degraded"] = rtk.degraded
     unavailable = {"corridor_net": corridor_unavailable} if corridor_unavailable else {}
+    if me.empty:
+        unavailable["mobileye"] = "no Mobileye lane messages"
+    if not camera:
+        unavailable.update(dict.fromkeys(IMAGE_METHODS, "no camera stream"))
+    geometry = {
+        **frames.corridors.by_method(),
+        "mobileye": (
+            mobileye_at_frames(me, t_ns, "corridor_width_m"),
+            mobileye_at_frames(me, t_ns, "corridor_length_m"),
+        ),
+    }
     av_frames, av_seqs, _ = tables.availability_tables(
-        t_ns, frames.corridors.by_method(), unavailable, speed, params, segments
+        t_ns, geometry, unavailable, speed, params, segments
     )
-    return DriveTables(signals, me, rtk.fixes, curv, summary, av_frames, av_seqs, tuple(notes))
+    return DriveTables(
+        signals, me, rtk.fixes, curv, summary, av_frames, av_seqs, tuple(notes), tuple(lost)
+    )
+
+
+IMAGE_METHODS = ("super", "corridor_net", "hough")
+"""Availability methods that need camera frames."""
+
+
+def _truth_notes(rtk: Any, config: ReprocessConfig) -> list[str]:
+    """What the report says about the truth: missing, degraded, gated, its noise floor."""
+    if rtk.fixes.empty:
+        return ["no GNSS/RTK stream: no curvature ground truth"]
+    notes = []
+    if rtk.degraded:
+        notes.append(f"{DEGRADED_NOTE}: plain GNSS fixes only (no RTK fixed fix)")
+    if rtk.n_degraded or rtk.n_dropouts:
+        notes.append(
+            f"RTK: {rtk.n_degraded} degraded fixes flagged and excluded, "
+            f"{rtk.n_dropouts} dropouts > {config.rtk.max_gap_s} s"
+        )
+    notes.append(
+        f"truth: no sample below {config.rtk.min_speed_mps} m/s ({rtk.n_slow} fixes while "
+        f"standing or crawling); fixes decimated to >= {config.rtk.min_step_m} m steps; "
+        f"noise floor {_fmt(rtk.noise_floor_per_m)} 1/m"
+    )
+    return notes
+
+
+def _fmt(value: float) -> str:
+    return "unknown" if not np.isfinite(value) else f"{value:.2e}"
+
+
+def _add_fair_mobileye(
+    curv: pd.DataFrame,
+    me: pd.DataFrame,
+    t_ns: np.ndarray,
+    config: ReprocessConfig,
+    notes: list[str],
+) -> None:
+    """Give Mobileye SUPER's treatment: same smoothing and manoeuvre term, beside the raw value.
+
+    Mobileye's ``2*C2`` describes the road at the vehicle (placement 0 m ahead); its own
+    ``C0`` of both lines gives the lateral position in the lane, as SUPER's fit does.
+    """
+    s_m = curv["s_m"].to_numpy(dtype=np.float64)
+    raw = curv["mobileye_curvature"].to_numpy(dtype=np.float64)
+    left = mobileye_at_frames(me, t_ns, "left_a0_m")
+    right = mobileye_at_frames(me, t_ns, "right_a0_m")
+    fair = align_super_curvature(
+        s_m,
+        raw,
+        np.zeros(len(t_ns)),
+        0.5 * (left + right),
+        left - right,
+        window_m=config.rtk.window_m,
+        ds_m=config.rtk.ds_m,
+    )
+    curv["mobileye_path_curvature"] = fair.path_per_m
+    if np.isfinite(raw).any():
+        truth = curv["rtk_curvature"].to_numpy(dtype=np.float64)
+        t_s = (t_ns - t_ns[0]) / 1e9 if len(t_ns) else np.zeros(0)
+        lag = latency_by_xcorr(t_s, truth, raw)
+        notes.append(
+            f"Mobileye latency by cross-correlation with the truth: {lag.lag_s:.2f} s "
+            f"(correlation {lag.correlation:.2f})"
+        )
+        lane = mobileye_at_frames(me, t_ns, "lane_curvature")
+        both = np.isfinite(lane) & np.isfinite(raw)
+        if both.any():
+            rms = float(np.sqrt(np.mean((lane[both] - raw[both]) ** 2)))
+            notes.append(f"Mobileye 0x737 Lane_Curvature vs 2*C2: RMS difference {rms:.2e} 1/m")
 
 
 def write_outputs(
@@ -229,6 +351,7 @@ def _add_track(
             fit.trackable,
             trk,
             fit.cov,
+            fit.lookahead_m,
         )
         curv["super_heading_rad"] = track.heading_rad
         curv["super_track_used"] = track.used
@@ -298,7 +421,13 @@ def _sections(
         f"Available: corridor width in [{config.kpi.min_width_m}, {config.kpi.max_width_m}] m and "
         f"length >= speed * {config.kpi.time_gap_s} s. Sequences: {config.kpi.window_s} s "
         f"windows (or manifest segments); a sequence is available with no outage longer than "
-        f"{config.kpi.max_outage_frames} frames."
+        f"{config.kpi.max_outage_s:.3g} s (dropped frames count as outage). Columns: "
+        "`n_frames` frames in the sequence, `n_available` frames available, `n_unknown` frames "
+        "whose availability is unknown (no speed), `ratio` = n_available / n_frames, "
+        "`available` the sequence decision (empty: decided by unknown frames), "
+        "`longest_outage_s` the longest outage, `method_ran` whether the method produced output "
+        "on this drive at all (False: not run, e.g. no corridor model; not a result). Mobileye's "
+        "corridor is its two lines (both quality >= 2), width 10 m ahead, length = view range."
     ]
     shown = pd.DataFrame()
     if not av_seqs.empty:
@@ -315,7 +444,7 @@ def _sections(
                 "longest_outage_s",
                 "method_available",
             ]
-        ]
+        ].rename(columns={"method_available": "method_ran"})
     availability = Section(
         "Availability",
         av_lines,
@@ -331,7 +460,20 @@ def _sections(
         (),
         [i for i in images if "example" in i],
     )
-    return [overview, curvature, availability, examples]
+    floor = float(summary["truth_noise_floor_per_m"].iloc[0]) if len(summary) else float("nan")
+    degraded = bool(summary["truth_degraded"].iloc[0]) if len(summary) else False
+    headline = Section(
+        "Headline",
+        [
+            "One number per method: curvature RMSE against the same truth (1/m; the path methods "
+            "get the same placement, smoothing and manoeuvre term) and availability "
+            "(frames and sequences, see Availability). No RMSE can be read below the truth's "
+            "own noise floor."
+            + (" Truth degraded: not RTK (plain GNSS fixes)." if degraded else ""),
+        ],
+        [headline_table(summary, av_seqs, floor)],
+    )
+    return [headline, overview, curvature, availability, examples]
 
 
 UNTRACKED_PATH = (

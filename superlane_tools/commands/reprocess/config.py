@@ -29,12 +29,14 @@ class TopicsConfig:
         camera_info: Camera calibration topic.
         can: CAN frame topic (``can_msgs/msg/Frame``).
         gnss: GNSS fix topic (``sensor_msgs/msg/NavSatFix``).
+        imu: IMU topic (``sensor_msgs/msg/Imu``) for the yaw-rate curvature reference.
     """
 
     frames: str = ""
     camera_info: str = ""
     can: str = ""
     gnss: str = ""
+    imu: str = ""
 
 
 @dataclass(frozen=True)
@@ -80,8 +82,13 @@ class CanConfig:
 
     Attributes:
         dbcs: DBC files; empty: the shipped ``slt_vehicle.dbc`` and ``slt_mobileye_lanes.dbc``.
-        speed_signal: Signal holding the vehicle speed, m/s.
-        yaw_rate_signal: Signal holding the yaw rate, rad/s (left positive).
+            ``BUS=FILE`` binds a DBC to one bus (CAN topic); a plain file decodes every bus.
+        speed_signal: Signal holding the vehicle speed (converted to m/s from its DBC unit).
+        yaw_rate_signal: Signal holding the yaw rate (converted to rad/s; left positive).
+        speed_unit: Unit of the speed signal when its DBC has none or a wrong one ("": DBC).
+        yaw_rate_unit: Unit of the yaw-rate signal ("": the DBC's).
+        mobileye_mapping: Mobileye message and signal names: ``eyeq`` (public EyeQ / 630 names)
+            or ``lka`` (Apollo / AutonomouStuff ``LKA_*``).
         mobileye_right_positive: Mobileye ``C0..C3`` are right positive (the EyeQ convention);
             their sign is flipped into the lane model's left-positive convention.
     """
@@ -89,6 +96,9 @@ class CanConfig:
     dbcs: tuple[str, ...] = ()
     speed_signal: str = "VehicleSpeed"
     yaw_rate_signal: str = "YawRate"
+    speed_unit: str = ""
+    yaw_rate_unit: str = ""
+    mobileye_mapping: str = "eyeq"
     mobileye_right_positive: bool = True
 
 
@@ -105,6 +115,9 @@ class RtkConfig:
         max_gap_s: A gap between fixes longer than this is a dropout, seconds.
         min_run_m: Shorter valid runs are dropped, metres.
         max_frame_gap_s: Frames farther than this from the nearest good fix get no truth, s.
+        min_speed_mps: No truth (RTK or yaw-rate) below this speed: standing, crawling, m/s.
+        min_step_m: Fixes are decimated to this minimum step before arc length, metres.
+        imu_yaw_axis: IMU axis of the yaw rate, with ``-`` when it points down (``z``).
     """
 
     min_status: int = 2
@@ -115,6 +128,9 @@ class RtkConfig:
     max_gap_s: float = 0.5
     min_run_m: float = 10.0
     max_frame_gap_s: float = 0.5
+    min_speed_mps: float = 2.0
+    min_step_m: float = 0.25
+    imu_yaw_axis: str = "z"
 
 
 @dataclass(frozen=True)
@@ -125,7 +141,9 @@ class KpiConfig:
         min_width_m: Narrowest usable corridor, metres.
         max_width_m: Widest usable corridor, metres.
         time_gap_s: The corridor must reach ``speed * time_gap_s`` ahead, seconds.
-        max_outage_frames: A sequence stays available with outages up to this many frames.
+        max_outage_frames: Outage limit in frames, used only when ``max_outage_s`` is 0.
+        max_outage_s: A sequence stays available with outages up to this long, seconds
+            (default the paper's 5 frames at 15 Hz); dropped frames count as outage.
         window_s: Sequence length when the drive is cut into windows, seconds.
         manifest: YAML list of ``{start_s, stop_s, category}`` segments (seconds after the first
             frame); empty: consecutive windows.
@@ -136,6 +154,7 @@ class KpiConfig:
     max_width_m: float = 6.0
     time_gap_s: float = 0.7
     max_outage_frames: int = 5
+    max_outage_s: float = 5.0 / 15.0
     window_s: float = 30.0
     manifest: str = ""
     category: str = ""

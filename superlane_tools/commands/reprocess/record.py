@@ -66,7 +66,7 @@ class FitSeries:
         slope: Road slope ``b``.
         centre_m: Lane-grid centre offset, m (see :meth:`LaneFit.lane_grid`).
         lane_width_m: Ego lane width, m.
-        lookahead_m: Middle of the ego lines' common supported range, m.
+        lookahead_m: Where the fit's 2*a2 measures the road (its effective look-ahead), m.
         near_m: Near end of that range, m.
         far_m: Far end of that range, m.
         trackable: Whether the lane tracker may use the fit.

@@ -20,21 +20,21 @@ from pathlib import Path
 
 import numpy as np
 
-from superlane_tools.can import load_dbc, shipped_dbcs
+from superlane_tools.can import ALL_BUSES, LoadedDbc, load_dbc, parse_dbc_spec, shipped_dbcs
 from superlane_tools.can.collect import CanFrames
-from superlane_tools.commands.errors import PipelineError
 from superlane_tools.commands.reprocess._examples import example_frame
 from superlane_tools.commands.reprocess._finalize import ReportFacts, drive_tables, write_outputs
 from superlane_tools.commands.reprocess._live import LiveOutputs
 from superlane_tools.commands.reprocess.config import ReprocessConfig, load_manifest
 from superlane_tools.commands.reprocess.record import DriveRecorder
+from superlane_tools.commands.reprocess.signals import ImuSamples
 from superlane_tools.commands.reprocess.stages import FrameStages, Prepared
 from superlane_tools.corridor import Segment, TimeSegment, segments_at_times, windows
 from superlane_tools.recording.calibration import resolve_camera
 from superlane_tools.recording.open import open_recording
 from superlane_tools.recording.streams import select_one_each
 from superlane_tools.recording.video import decode_video
-from superlane_tools.records import Skipped
+from superlane_tools.records import Skipped, TopicInfo
 from superlane_tools.reporting import Provenance, input_identity
 from superlane_tools.reporting.gnss_sink import GnssSink
 from superlane_tools.reporting.plots import ExampleFrame
@@ -106,14 +106,25 @@ def reprocess(
     cfg = config or ReprocessConfig()
     src, out = Path(recording_path), Path(out_dir)
     t_start, cpu_start = time.perf_counter(), time.process_time()
-    dbc_paths = [Path(p) for p in cfg.can.dbcs] or shipped_dbcs()
-    dbcs = {p.name: load_dbc(p) for p in dbc_paths}
+    dbcs, dbc_paths = load_dbcs(cfg.can.dbcs)
     with open_recording(src) as rec:
         # 1. Streams, camera and stages.
         streams = select_one_each(rec.topics(), asdict(cfg.topics))
-        if not streams.frames:
-            listing = ", ".join(f"{t.topic} ({t.msgtype})" for t in rec.topics()) or "none"
-            raise PipelineError(f"{src.name}: no camera image topic to reprocess ({listing})")
+        listed = rec.topics()  # every CAN bus unless one is configured; the IMU
+        can_topics = {streams.can} if cfg.topics.can else _typed(listed, "can_msgs/msg/Frame")
+        imu_topics = {cfg.topics.imu} if cfg.topics.imu else _typed(listed, "sensor_msgs/msg/Imu")
+        if not streams.frames:  # truth, dynamics and Mobileye still need no camera
+            from superlane_tools.commands.reprocess._signals_only import reprocess_signals
+
+            found = (can_topics, imu_topics, streams.gnss)
+            done = reprocess_signals(rec, src, out, cfg, (dbcs, dbc_paths), found, command)
+            return ReprocessResult(
+                status="partial" if done.skipped else "ok",
+                skipped=done.skipped,
+                outputs=done.outputs,
+                timings={"total": done.seconds},
+                notes=done.notes,
+            )
         camera, camera_source = resolve_camera(rec, streams, cfg.camera)
         stages = FrameStages(cfg, camera)
         notes = [*streams.notes, f"camera: {camera_source}", *stages.notes]
@@ -137,7 +148,7 @@ def reprocess(
             models=stages.models,
         )
         # 2. One streaming pass: frames through the stages, CAN and GNSS collected.
-        can = CanFrames()
+        can, imu = CanFrames(), ImuSamples()
         gnss = GnssSink(None, None, provenance)
         examples: list[ExampleFrame] = []
         failed: list[str] = []
@@ -169,7 +180,7 @@ def reprocess(
                 if progress is not None:
                     progress(done_count, total)
 
-            wanted = [t for t in (streams.frames, streams.can, streams.gnss) if t]
+            wanted = [t for t in (streams.frames, streams.gnss, *can_topics, *imu_topics) if t]
             index = 0
             for msg in decode_video(rec.messages(topics=wanted)):
                 if msg.topic == streams.frames:
@@ -177,8 +188,10 @@ def reprocess(
                     index += 1
                     while len(pending) > 2 * cfg.workers:
                         handle(pending.popleft().result())
-                elif msg.topic == streams.can:
+                elif msg.topic in can_topics:
                     can.add(msg)
+                elif msg.topic in imu_topics:
+                    imu.add(msg)
                 elif msg.topic == streams.gnss:
                     gnss.add(msg)
             while pending:
@@ -201,8 +214,10 @@ def reprocess(
         _kpi_segments(cfg, t_ns, fps, segments),
         cfg.kpi.availability_params(fps),
         stages.corridor_unavailable,
+        imu=imu,
     )
     notes += derived.notes
+    skipped += derived.lost
     facts = ReportFacts(
         src,
         len(frames),
@@ -231,6 +246,22 @@ def reprocess(
         notes=tuple(notes),
         frames_per_s=n / timings["total"] if timings["total"] > 0 else 0.0,
     )
+
+
+def load_dbcs(specs: Sequence[str]) -> tuple[dict[str, LoadedDbc], list[Path]]:
+    """Load ``[BUS=]FILE`` DBCs (none: the shipped ones); names ``BUS=file`` bind a bus."""
+    parsed = [parse_dbc_spec(p) for p in specs]
+    if not parsed:
+        return {p.name: load_dbc(p) for p in shipped_dbcs()}, list(shipped_dbcs())
+    names = [s.path.name if s.bus == ALL_BUSES else f"{s.bus}={s.path.name}" for s in parsed]
+    loaded = {n: load_dbc(s.path) for n, s in zip(names, parsed, strict=True)}
+    return loaded, [s.path for s in parsed]
+
+
+def _typed(topics: Sequence[TopicInfo], msgtype: str) -> set[str]:
+    """Return the topics of one message type (ROS 1 / ROS 2 spellings alike)."""
+    short = msgtype.replace("/msg/", "/")
+    return {t.topic for t in topics if t.msgtype in (msgtype, short)}
 
 
 def _kpi_segments(

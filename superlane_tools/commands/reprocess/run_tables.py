@@ -15,11 +15,12 @@ import pandas as pd
 
 from superlane_tools.reporting.atomic import write_text_atomic
 from superlane_tools.reporting.errors import OutputError
+from superlane_tools.reporting.names import AVAILABILITY_NAMES, curvature_name
 from superlane_tools.reporting.parquet import read_provenance, write_table
 from superlane_tools.reporting.provenance import Provenance, input_identity
 from superlane_tools.reporting.report import latex_table, markdown_table
 
-METHOD_NAMES = {"super": "SUPER", "corridor_net": "Corridor net", "hough": "Hough"}
+METHOD_NAMES = AVAILABILITY_NAMES
 TABLE_FORMATS = (".md", ".tex", ".parquet")
 
 
@@ -78,14 +79,7 @@ def availability_table(run_dirs: Sequence[Path], by: str = "run") -> pd.DataFram
 def _curvature_row(run: str, rec: Any) -> dict[str, object]:
     return {
         "run": run,
-        "source": {
-            "super": "SUPER 2*a2 (raw)",
-            "super_road": "SUPER road at vehicle (tracked)",
-            "super_path": "SUPER path (tracked road + manoeuvre)",
-            "super_road_sg": "SUPER road at vehicle (untracked)",
-            "super_path_sg": "SUPER path (untracked)",
-            "mobileye": "Mobileye 2*C2",
-        }.get(str(rec.source), str(rec.source)),
+        "source": curvature_name(str(rec.source)),
         "n": int(rec.n),
         "coverage": float(rec.coverage),
         "rmse_per_m": float(rec.rmse),

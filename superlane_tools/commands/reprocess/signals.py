@@ -14,18 +14,22 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from superlane_tools.can import si_factor
 from superlane_tools.commands.reprocess.config import CanConfig, RtkConfig
-from superlane_tools.geo import geodetic_to_enu, valid_fixes
+from superlane_tools.geo import (
+    curvature_noise_floor,
+    geodetic_to_enu,
+    grade_fixes,
+    yaw_rate_curvature,
+)
 from superlane_tools.geo.curvature import CurvatureParams, trajectory_curvature
+from superlane_tools.geo.dynamics import DynamicsCurvature, DynamicsParams
 from superlane_tools.recording.align import align
+from superlane_tools.records import Message
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
-MOBILEYE_SIDES = {"left": ("Left_Lane_A", "Left_Lane_B"), "right": ("Right_Lane_A", "Right_Lane_B")}
-"""Mobileye lane messages per side (part A: C0, C2, C3, quality; part B: C1, view range)."""
-MOBILEYE_PAIR_TOLERANCE_NS = 20_000_000
-"""Part B of a Mobileye lane message is paired with the part A at most this far away."""
 SIGNAL_TOLERANCE_NS = 200_000_000
 """CAN speed / yaw rate / Mobileye values apply to frames at most this far away in time."""
 
@@ -37,14 +41,29 @@ class Series(NamedTuple):
     values: FloatArray
 
 
-def signal_series(signals: pd.DataFrame, name: str) -> Series | None:
-    """Return the samples of the signal called ``name`` (any message), or None if absent."""
+def signal_series(
+    signals: pd.DataFrame, name: str, quantity: str = "", unit: str = ""
+) -> Series | None:
+    """Return the samples of the signal called ``name`` (any message), or None if absent.
+
+    Args:
+        signals: Decoded CAN signals.
+        name: Signal name.
+        quantity: ``speed`` or ``yaw_rate`` to convert the values to SI (m/s, rad/s) from the
+            DBC's unit; "" keeps the values as decoded.
+        unit: Unit overriding the DBC's (for DBCs without units).
+
+    Raises:
+        CanError: If the signal's unit is empty or unknown for ``quantity``.
+    """
     rows = signals[signals["signal"] == name]
     if rows.empty:
         return None
-    return Series(
-        rows["log_time_ns"].to_numpy(dtype=np.int64), rows["value"].to_numpy(dtype=np.float64)
-    )
+    values = rows["value"].to_numpy(dtype=np.float64)
+    if quantity:
+        dbc_unit = str(rows["unit"].iloc[0]) if "unit" in rows.columns else ""
+        values = values * si_factor(unit or dbc_unit, quantity, name)
+    return Series(rows["log_time_ns"].to_numpy(dtype=np.int64), values)
 
 
 def at_frames(series: Series | None, frame_t_ns: IntArray) -> FloatArray:
@@ -55,101 +74,28 @@ def at_frames(series: Series | None, frame_t_ns: IntArray) -> FloatArray:
 
 
 def can_frame_signals(signals: pd.DataFrame, config: CanConfig) -> tuple[Series | None, ...]:
-    """Return the speed and yaw-rate series named by the config (None where absent)."""
-    return signal_series(signals, config.speed_signal), signal_series(
-        signals, config.yaw_rate_signal
-    )
+    """Return the speed (m/s) and yaw-rate (rad/s) series named by the config (None if absent).
 
-
-def _message_wide(signals: pd.DataFrame, message: str) -> pd.DataFrame:
-    rows = signals[signals["message"] == message]
-    if rows.empty:
-        return pd.DataFrame({"log_time_ns": pd.Series(dtype=np.int64)})
-    wide = rows.pivot_table(
-        index="log_time_ns", columns="signal", values="value", aggfunc="last", observed=True
-    )
-    wide.columns = [str(c) for c in wide.columns]
-    return wide.reset_index().sort_values("log_time_ns", ignore_index=True)
-
-
-def mobileye_table(signals: pd.DataFrame, right_positive: bool = True) -> pd.DataFrame:
-    """Build one row per Mobileye lane update: both ego lines in the lane model's convention.
-
-    Coefficients are converted to ``y = a0 + a1 x + a2 x^2 + a3 x^3`` with ``y`` left positive
-    (EyeQ's ``C0..C3`` are right positive: ``a_k = -C_k``). Curvature per side is ``2 * a2``
-    (1/m, left positive); ``curvature`` is the mean of the high-quality sides (quality >= 2), or
-    of all sides when none is high quality.
-
-    Returns:
-        Columns ``log_time_ns`` and, per side ``left``/``right``: ``{side}_a0_m``,
-        ``{side}_a1_rad``, ``{side}_a2_per_m``, ``{side}_a3_per_m2``, ``{side}_quality``,
-        ``{side}_view_range_m``, ``{side}_curvature``; then ``curvature``. Empty when the
-        recording has no Mobileye lane messages.
+    Raises:
+        CanError: If a used signal's unit is empty or unknown (see ``can.speed_unit``).
     """
-    sign = -1.0 if right_positive else 1.0
-    sides: dict[str, pd.DataFrame] = {}
-    for side, (msg_a, msg_b) in MOBILEYE_SIDES.items():
-        part_a = _message_wide(signals, msg_a)
-        if part_a.empty:
-            continue
-        part_b = _message_wide(signals, msg_b)
-        t_a = part_a["log_time_ns"].to_numpy(dtype=np.int64)
-        frame = pd.DataFrame({"log_time_ns": t_a})
-
-        def col(df: pd.DataFrame, name: str, times: IntArray) -> FloatArray:
-            if name not in df.columns or df.empty:
-                return np.full(times.shape, np.nan)
-            return align(
-                df["log_time_ns"].to_numpy(dtype=np.int64),
-                df[name].to_numpy(dtype=np.float64),
-                times,
-                "nearest",
-                MOBILEYE_PAIR_TOLERANCE_NS,
-            )
-
-        frame[f"{side}_a0_m"] = sign * col(part_a, "Curve_Parameter_C0", t_a)
-        frame[f"{side}_a1_rad"] = sign * col(part_b, "Curve_Parameter_C1", t_a)
-        frame[f"{side}_a2_per_m"] = sign * col(part_a, "Curve_Parameter_C2", t_a)
-        frame[f"{side}_a3_per_m2"] = sign * col(part_a, "Curve_Parameter_C3", t_a)
-        frame[f"{side}_quality"] = col(part_a, "Quality", t_a)
-        view = col(part_b, "View_Range", t_a)
-        avail = col(part_b, "View_Range_Available", t_a)
-        frame[f"{side}_view_range_m"] = np.where(avail == 0, np.nan, view)
-        frame[f"{side}_curvature"] = 2.0 * frame[f"{side}_a2_per_m"]
-        sides[side] = frame
-    if not sides:
-        return pd.DataFrame({"log_time_ns": pd.Series(dtype=np.int64)})
-    merged: pd.DataFrame | None = None
-    for frame in sides.values():
-        merged = (
-            frame
-            if merged is None
-            else pd.merge_asof(
-                merged.sort_values("log_time_ns"),
-                frame.sort_values("log_time_ns"),
-                on="log_time_ns",
-                direction="nearest",
-                tolerance=MOBILEYE_PAIR_TOLERANCE_NS,
-            )
-        )
-    assert merged is not None
-    curv = np.stack([merged[f"{s}_curvature"].to_numpy(dtype=np.float64) for s in sides], axis=1)
-    qual = np.stack([merged[f"{s}_quality"].to_numpy(dtype=np.float64) for s in sides], axis=1)
-    good = np.isfinite(curv) & (qual >= 2)
-    use = np.where(good.any(axis=1, keepdims=True), good, np.isfinite(curv))
-    with np.errstate(invalid="ignore"):
-        mean = np.where(use, curv, 0.0).sum(axis=1) / use.sum(axis=1)
-    merged["curvature"] = np.where(use.any(axis=1), mean, np.nan)
-    return merged.reset_index(drop=True)
+    return signal_series(signals, config.speed_signal, "speed", config.speed_unit), signal_series(
+        signals, config.yaw_rate_signal, "yaw_rate", config.yaw_rate_unit
+    )
 
 
-def mobileye_at_frames(table: pd.DataFrame, frame_t_ns: IntArray) -> FloatArray:
-    """Return the Mobileye curvature (1/m, left positive) at frame times; NaN without data."""
-    if table.empty or "curvature" not in table.columns:
+def mobileye_at_frames(
+    table: pd.DataFrame, frame_t_ns: IntArray, column: str = "curvature"
+) -> FloatArray:
+    """Return a Mobileye column (default the curvature, 1/m, left positive) at frame times.
+
+    NaN without data, and where the nearest update is invalid (NaN), never 0.0.
+    """
+    if table.empty or column not in table.columns:
         return np.full(frame_t_ns.shape, np.nan)
     return align(
         table["log_time_ns"].to_numpy(dtype=np.int64),
-        table["curvature"].to_numpy(dtype=np.float64),
+        table[column].to_numpy(dtype=np.float64),
         frame_t_ns,
         "nearest",
         SIGNAL_TOLERANCE_NS,
@@ -168,6 +114,11 @@ class RtkTruth(NamedTuple):
         n_good: Fixes accepted as ground truth.
         n_degraded: Fixes rejected (not RTK fixed, covariance too large, invalid).
         n_dropouts: Gaps longer than ``max_gap_s`` between consecutive fixes.
+        degraded: True when the truth rests on plain (non-RTK) GNSS fixes.
+        noise_floor_per_m: Curvature noise the fix noise alone causes (from the fixes'
+            covariance, speed and rate; 2 cm assumed for RTK fixes without covariance), 1/m;
+            NaN when unknown.
+        n_slow: Good fixes excluded because the vehicle stood or crawled.
     """
 
     fixes: pd.DataFrame
@@ -178,43 +129,47 @@ class RtkTruth(NamedTuple):
     n_good: int
     n_degraded: int
     n_dropouts: int
+    degraded: bool = False
+    noise_floor_per_m: float = math.nan
+    n_slow: int = 0
 
 
-def _fix_quality(frame: pd.DataFrame, config: RtkConfig) -> tuple[NDArray[np.bool_], list[str]]:
-    lat = frame["latitude_deg"].to_numpy(dtype=np.float64)
-    lon = frame["longitude_deg"].to_numpy(dtype=np.float64)
-    alt = frame["altitude_m"].to_numpy(dtype=np.float64)
-    usable = valid_fixes(lat, lon, alt)
-    status = frame["fix_status"].to_numpy(dtype=np.float64, na_value=math.nan)
+def _worst_variance(frame: pd.DataFrame) -> FloatArray:
+    """Worse of the east and north variances per fix, m^2 (NaN where unknown)."""
     var = np.full(len(frame), np.nan)
-    var_n = var.copy()
     for i, cov in enumerate(frame["covariance_m2"]):
-        if cov is not None and len(cov) == 9:
-            var[i], var_n[i] = float(cov[0]), float(cov[4])
-    worst = np.fmax(var, var_n)
-    reasons: list[str] = []
-    good = np.zeros(len(frame), dtype=bool)
-    for i in range(len(frame)):
-        if not usable[i]:
-            reasons.append("invalid position")
-        elif np.isfinite(status[i]) and status[i] < config.min_status:
-            reasons.append(f"not RTK fixed (status {int(status[i])})")
-        elif np.isfinite(worst[i]) and worst[i] > config.max_horizontal_var_m2:
-            reasons.append(f"covariance {worst[i]:.3g} m^2")
-        else:
-            reasons.append("")
-            good[i] = True
-    return good, reasons
+        if cov is not None and len(cov) == 9 and (cov[0] > 0 or cov[4] > 0):
+            var[i] = max(float(cov[0]), float(cov[4]))
+    return var
+
+
+def curvature_params(config: RtkConfig) -> CurvatureParams:
+    """Return the arc-length curvature estimate's parameters of an ``[rtk]`` config section."""
+    return CurvatureParams(
+        ds_m=config.ds_m,
+        window_m=config.window_m,
+        polyorder=config.polyorder,
+        max_gap_s=config.max_gap_s,
+        min_run_m=config.min_run_m,
+        min_speed_mps=config.min_speed_mps,
+        min_step_m=config.min_step_m,
+    )
 
 
 def rtk_truth(
-    rows: Sequence[Mapping[str, Any]], frame_t_ns: IntArray, config: RtkConfig
+    rows: Sequence[Mapping[str, Any]],
+    frame_t_ns: IntArray,
+    config: RtkConfig,
+    speed: Series | None = None,
 ) -> RtkTruth:
     """Turn collected fixes (``GnssSink.rows``) into the flagged trajectory and frame curvature.
 
     Fixes that are not RTK fixed (``status < min_status``), have a horizontal variance above
-    ``max_horizontal_var_m2`` or an invalid position are flagged and excluded; gaps longer than
-    ``max_gap_s`` split the trajectory (see :mod:`superlane_tools.geo.curvature`).
+    ``max_horizontal_var_m2`` or an invalid position are flagged and excluded; a drive without
+    any RTK fix uses its plain fixes and is flagged degraded (``truth degraded: not RTK``).
+    Gaps longer than ``max_gap_s`` split the trajectory; fixes below ``min_speed_mps`` (CAN
+    speed when given, else the fixes' own) give no truth (see
+    :mod:`superlane_tools.geo.curvature`).
     """
     n_frames = frame_t_ns.shape[0]
     nan = np.full(n_frames, np.nan)
@@ -222,7 +177,17 @@ def rtk_truth(
     if frame.empty:
         return RtkTruth(frame, nan, nan.copy(), nan.copy(), np.zeros(n_frames, bool), 0, 0, 0)
     frame = frame.sort_values("log_time_ns", kind="stable", ignore_index=True)
-    good, reasons = _fix_quality(frame, config)
+    var = _worst_variance(frame)
+    grades = grade_fixes(
+        frame["latitude_deg"].to_numpy(dtype=np.float64),
+        frame["longitude_deg"].to_numpy(dtype=np.float64),
+        frame["altitude_m"].to_numpy(dtype=np.float64),
+        frame["fix_status"].to_numpy(dtype=np.float64, na_value=math.nan),
+        var,
+        config.min_status,
+        config.max_horizontal_var_m2,
+    )
+    good, reasons = grades.good, grades.reasons
     t = frame["log_time_ns"].to_numpy(dtype=np.int64)
     east = np.full(len(frame), np.nan)
     north, up = east.copy(), east.copy()
@@ -236,15 +201,18 @@ def rtk_truth(
         east, north, up = enu.east_m, enu.north_m, enu.up_m
     gap_s = np.concatenate([[0.0], np.diff(t) / 1e9])
     dropout = gap_s > config.max_gap_s
-    params = CurvatureParams(
-        ds_m=config.ds_m,
-        window_m=config.window_m,
-        polyorder=config.polyorder,
-        max_gap_s=config.max_gap_s,
-        min_run_m=config.min_run_m,
-    )
-    at_fix = trajectory_curvature(t, east, north, good, t, params)
-    at_frame = trajectory_curvature(t, east, north, good, frame_t_ns, params)
+    params = curvature_params(config)
+    fix_speed_mps = None
+    if speed is not None:
+        fix_speed_mps = align(speed.t_ns, speed.values, t, "linear", SIGNAL_TOLERANCE_NS)
+    if fix_speed_mps is None or not np.isfinite(fix_speed_mps).any():
+        from superlane_tools.geo import fix_speed
+
+        fix_speed_mps = fix_speed(t, np.where(good, east, np.nan), np.where(good, north, np.nan))
+    at_fix = trajectory_curvature(t, east, north, good, t, params, fix_speed_mps)
+    at_frame = trajectory_curvature(t, east, north, good, frame_t_ns, params, fix_speed_mps)
+    with np.errstate(invalid="ignore"):
+        slow = good & ~(fix_speed_mps >= config.min_speed_mps)
     good_t = t[good]
     valid = at_frame.valid.copy()
     if good_t.size:
@@ -274,6 +242,8 @@ def rtk_truth(
             "curvature_valid": at_fix.valid,
         }
     )
+    fixes["speed_mps"] = fix_speed_mps
+    fixes["slow"] = slow
     return RtkTruth(
         fixes,
         at_frame.s_m,
@@ -283,4 +253,100 @@ def rtk_truth(
         int(good.sum()),
         int((~good).sum()),
         int(dropout.sum()),
+        grades.degraded,
+        _noise_floor(t, var, good & ~slow, fix_speed_mps, grades.degraded, config),
+        int(slow.sum()),
+    )
+
+
+def _noise_floor(
+    t: IntArray,
+    var: FloatArray,
+    used: NDArray[np.bool_],
+    speed: FloatArray,
+    degraded: bool,
+    config: RtkConfig,
+) -> float:
+    """Curvature noise floor of the truth from its fixes' covariance, speed and rate, 1/m."""
+    if used.sum() < 3:
+        return math.nan
+    known = var[used][np.isfinite(var[used])]
+    if known.size:
+        sigma = float(np.sqrt(np.median(known)))
+    elif degraded:
+        return math.nan  # plain GNSS without covariance: its noise is not known
+    else:
+        sigma = RTK_ASSUMED_SIGMA_M
+    rate = 1e9 / float(np.median(np.diff(t[used])))
+    v = float(np.nanmedian(speed[used]))
+    return curvature_noise_floor(
+        sigma, v, rate, config.window_m, config.polyorder, config.min_step_m
+    )
+
+
+RTK_ASSUMED_SIGMA_M = 0.02
+"""Horizontal noise of an RTK fixed fix without a covariance, metres (one axis)."""
+
+
+class ImuSamples:
+    """Collects ``sensor_msgs/Imu`` angular velocities (rad/s, IMU frame) during the pass."""
+
+    def __init__(self) -> None:
+        self.times: list[int] = []
+        self.gyro: list[tuple[float, float, float]] = []
+
+    def add(self, msg: Message) -> None:
+        """Keep one Imu message's time and angular velocity."""
+        w = msg.data.angular_velocity
+        self.times.append(msg.log_time_ns)
+        self.gyro.append((float(w.x), float(w.y), float(w.z)))
+
+    def __len__(self) -> int:
+        return len(self.times)
+
+    def yaw_series(self, axis: str) -> Series | None:
+        """Return the yaw rate (rad/s, left positive) about ``axis`` (``z``, ``-z``, ``x``, ...).
+
+        Raises:
+            ConfigError: If the axis is not one of x, y, z with an optional minus sign.
+        """
+        from superlane_tools.errors import ConfigError
+
+        name = axis.strip().lower()
+        sign = -1.0 if name.startswith("-") else 1.0
+        index = {"x": 0, "y": 1, "z": 2}.get(name.lstrip("+-"))
+        if index is None:
+            raise ConfigError(
+                f"dynamics.imu_yaw_axis must be x, y or z (optionally -), not {axis!r}"
+            )
+        if not self.times:
+            return None
+        values = sign * np.asarray(self.gyro, dtype=np.float64)[:, index]
+        order = np.argsort(np.asarray(self.times, dtype=np.int64), kind="stable")
+        return Series(np.asarray(self.times, dtype=np.int64)[order], values[order])
+
+
+def dynamics_reference(
+    yaw: Series | None, speed: Series | None, frame_t_ns: IntArray, config: RtkConfig
+) -> DynamicsCurvature | None:
+    """Return the yaw-rate / speed path curvature at frame times, smoothed like the RTK truth.
+
+    None when the yaw rate or the speed is missing.
+    """
+    if yaw is None or speed is None or len(yaw.t_ns) < 3:
+        return None
+    params = DynamicsParams(curvature=curvature_params(config))
+    return yaw_rate_curvature(yaw.t_ns, yaw.values, speed.t_ns, speed.values, frame_t_ns, params)
+
+
+def gnss_speed(truth: RtkTruth) -> Series | None:
+    """Return the speed estimated from the good fixes (m/s), the fallback for CAN speed."""
+    fixes = truth.fixes
+    if fixes.empty or "speed_mps" not in fixes.columns:
+        return None
+    rows = fixes[fixes["good"] & np.isfinite(fixes["speed_mps"])]
+    if rows.empty:
+        return None
+    return Series(
+        rows["log_time_ns"].to_numpy(dtype=np.int64), rows["speed_mps"].to_numpy(dtype=np.float64)
     )

@@ -138,7 +138,7 @@ def test_curvature_sign_and_scale_match_ground_truth(run_dir: Path, drive: Path)
 
 def test_availability_tables(run_dir: Path) -> None:
     frames = pd.read_parquet(run_dir / "availability_frames.parquet")
-    assert set(frames["method"]) == {"super", "corridor_net", "hough"}
+    assert set(frames["method"]) == {"super", "corridor_net", "hough", "mobileye"}
     net = frames[frames["method"] == "corridor_net"]
     if (net["reason"].str.startswith("method unavailable")).all():
         assert (~net["available"]).all()
@@ -146,9 +146,18 @@ def test_availability_tables(run_dir: Path) -> None:
     assert 2.5 < sup["width_m"].median() < 4.5
     assert (sup.loc[~sup["available"], "reason"] != "").all()
     assert set(sup["reason"]) <= {"", "too short", "too narrow", "too wide", "no corridor"}
+    me = frames[frames["method"] == "mobileye"]
+    assert me["available"].mean() > 0.5  # the simulated Mobileye sees both lines, quality 3
+    assert 2.5 < me["width_m"].median() < 4.5
     seqs = pd.read_parquet(run_dir / "availability_sequences.parquet")
-    assert len(seqs) == 3
+    assert len(seqs) == 4
     assert (seqs["n_frames"] == 60).all()
+    report = (run_dir / "report.md").read_text()
+    assert report.index("## Headline") < report.index("## Run")
+    assert "truth noise floor (1/m)" in report
+    html = (run_dir / "report.html").read_text()
+    assert "<code>" in html
+    assert "`" not in html
 
 
 def test_oracle_backend_curvature(drive: Path, tmp_path: Path) -> None:
@@ -174,6 +183,8 @@ def test_oracle_backend_curvature(drive: Path, tmp_path: Path) -> None:
         "super_road_sg",
         "super_path_sg",
         "mobileye",
+        "mobileye_path",
+        "dynamics",
     }
     curv = pd.read_parquet(tmp_path / "oracle" / "curvature.parquet")
     path = curv["super_path_curvature"].to_numpy()

@@ -1,0 +1,304 @@
+"""Mobileye lane messages: ego-line coefficients in the lane model's convention, by mapping.
+
+Message and signal names and the sign/curvature conventions come from a
+:class:`MobileyeMapping`. Two mappings ship: ``eyeq`` (the public EyeQ / 630 names of the
+shared ``Mobileye.dbc`` and ``slt_mobileye_lanes.dbc``: ``Left_Lane_A`` ... with
+``Curve_Parameter_C0..C3``) and ``lka`` (Apollo / AutonomouStuff ``LKA_Left_Lane_A`` ... with
+``Position_Parameter_C0``, ``Heading_Angle_Parameter_C1``, ``Curvature_Parameter_C2``,
+``Curvature_Derivative_Parameter_C3``). An update whose sides are all below the quality gate
+(or missing) has no curvature (NaN), never 0.0.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from superlane_tools.can.errors import CanError
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+PAIR_TOLERANCE_NS = 20_000_000
+"""Part B of a lane message is paired with the part A at most this far away."""
+
+
+@dataclass(frozen=True)
+class MobileyeMapping:
+    """Where a Mobileye unit's ego-lane values live on CAN, and their conventions.
+
+    Attributes:
+        left_a: Message with the left line's C0, C2, C3 and quality.
+        left_b: Message with the left line's C1 and view range.
+        right_a: Message with the right line's C0, C2, C3 and quality.
+        right_b: Message with the right line's C1 and view range.
+        c0: Lateral offset signal, metres.
+        c1: Heading signal, radians.
+        c2: Curvature signal (see ``c2_is_half_curvature``), 1/m.
+        c3: Curvature-rate signal, 1/m^2.
+        quality: Quality signal (0..3).
+        view_range: View-range signal, metres.
+        view_range_available: View-range validity flag ("" when the unit has none).
+        right_positive: ``C0..C3`` are right positive (flipped into the left-positive model).
+        c2_is_half_curvature: The lane polynomial is ``C0 + C1 x + C2 x^2 + C3 x^3``, so the
+            curvature is ``2*C2`` (EyeQ); False when the ``C2`` signal is the curvature itself.
+        min_quality: Sides below this quality do not count (NaN when no side reaches it).
+        curvature_message: Message with a separate lane curvature (EyeQ 0x737 ``Lane``), "".
+        curvature_signal: Its curvature signal (``Lane_Curvature``), 1/m, same sign as ``C2``.
+    """
+
+    left_a: str = "Left_Lane_A"
+    left_b: str = "Left_Lane_B"
+    right_a: str = "Right_Lane_A"
+    right_b: str = "Right_Lane_B"
+    c0: str = "Curve_Parameter_C0"
+    c1: str = "Curve_Parameter_C1"
+    c2: str = "Curve_Parameter_C2"
+    c3: str = "Curve_Parameter_C3"
+    quality: str = "Quality"
+    view_range: str = "View_Range"
+    view_range_available: str = "View_Range_Available"
+    right_positive: bool = True
+    c2_is_half_curvature: bool = True
+    min_quality: int = 2
+    curvature_message: str = "Lane"
+    curvature_signal: str = "Lane_Curvature"
+
+
+MAPPINGS: dict[str, MobileyeMapping] = {
+    "eyeq": MobileyeMapping(),
+    "lka": MobileyeMapping(
+        left_a="LKA_Left_Lane_A",
+        left_b="LKA_Left_Lane_B",
+        right_a="LKA_Right_Lane_A",
+        right_b="LKA_Right_Lane_B",
+        c0="Position_Parameter_C0",
+        c1="Heading_Angle_Parameter_C1",
+        c2="Curvature_Parameter_C2",
+        c3="Curvature_Derivative_Parameter_C3",
+        view_range_available="View_range_availability",
+        curvature_message="",
+        curvature_signal="",
+    ),
+}
+"""Shipped mappings: ``eyeq`` (public EyeQ / 630 names) and ``lka`` (Apollo/AutonomouStuff)."""
+
+
+def mapping(name: str, right_positive: bool | None = None) -> MobileyeMapping:
+    """Return a shipped mapping by name, optionally with its sign convention overridden.
+
+    Raises:
+        CanError: For an unknown name.
+    """
+    if name not in MAPPINGS:
+        raise CanError(f"unknown Mobileye mapping {name!r}; shipped: {', '.join(MAPPINGS)}")
+    base = MAPPINGS[name]
+    if right_positive is None or right_positive == base.right_positive:
+        return base
+    from dataclasses import replace
+
+    return replace(base, right_positive=right_positive)
+
+
+def _wide(signals: pd.DataFrame, message: str) -> pd.DataFrame:
+    rows = signals[signals["message"] == message] if message else signals.iloc[0:0]
+    if rows.empty:
+        return pd.DataFrame({"log_time_ns": pd.Series(dtype=np.int64)})
+    wide = rows.pivot_table(
+        index="log_time_ns", columns="signal", values="value", aggfunc="last", observed=True
+    )
+    wide.columns = [str(c) for c in wide.columns]
+    return wide.reset_index().sort_values("log_time_ns", ignore_index=True)
+
+
+def _column(df: pd.DataFrame, name: str, times: IntArray) -> FloatArray:
+    """Values of ``name`` nearest to ``times`` (within the pairing tolerance), NaN elsewhere."""
+    out = np.full(times.shape, np.nan)
+    if not name or name not in df.columns or df.empty:
+        return out
+    src_t = df["log_time_ns"].to_numpy(dtype=np.int64)
+    src_v = df[name].to_numpy(dtype=np.float64)
+    idx = np.clip(np.searchsorted(src_t, times), 1, max(src_t.size - 1, 1))
+    lo = np.clip(idx - 1, 0, src_t.size - 1)
+    hi = np.clip(idx, 0, src_t.size - 1)
+    pick = np.where(np.abs(times - src_t[lo]) <= np.abs(src_t[hi] - times), lo, hi)
+    near = np.abs(src_t[pick] - times) <= PAIR_TOLERANCE_NS
+    out[near] = src_v[pick][near]
+    return out
+
+
+def mobileye_table(signals: pd.DataFrame, spec: MobileyeMapping | None = None) -> pd.DataFrame:
+    """Build one row per Mobileye lane update: both ego lines in the lane model's convention.
+
+    Coefficients become ``y = a0 + a1 x + a2 x^2 + a3 x^3`` with ``y`` left positive (for a
+    right-positive unit ``a_k = -C_k``). Curvature per side is ``2 * a2`` (or ``a2`` when the
+    unit's C2 is the curvature), 1/m, left positive. ``curvature`` is the mean over the sides
+    with quality >= ``min_quality``; NaN when no side qualifies (an invalid update is missing,
+    not a straight road). ``lane_curvature`` is the separate curvature message (EyeQ 0x737)
+    in the same convention, for a cross-check of C2 (NaN when absent).
+
+    Args:
+        signals: Decoded CAN signals (``message``, ``signal``, ``value``, ``log_time_ns``).
+        spec: The mapping (default: ``eyeq``).
+
+    Returns:
+        Columns ``log_time_ns`` and, per side ``left``/``right``: ``{side}_a0_m``,
+        ``{side}_a1_rad``, ``{side}_a2_per_m``, ``{side}_a3_per_m2``, ``{side}_quality``,
+        ``{side}_view_range_m``, ``{side}_curvature``; then ``curvature``,
+        ``lane_curvature``, ``corridor_width_m`` (between the lines 10 m ahead) and
+        ``corridor_length_m`` (shorter view range), NaN unless both lines pass the quality
+        gate. Empty when the recording has no Mobileye lane messages.
+    """
+    m = spec or MobileyeMapping()
+    sign = -1.0 if m.right_positive else 1.0
+    k_factor = 2.0 if m.c2_is_half_curvature else 1.0
+    sides: dict[str, pd.DataFrame] = {}
+    for side, (msg_a, msg_b) in {
+        "left": (m.left_a, m.left_b),
+        "right": (m.right_a, m.right_b),
+    }.items():
+        part_a = _wide(signals, msg_a)
+        if part_a.empty:
+            continue
+        part_b = _wide(signals, msg_b)
+        t_a = part_a["log_time_ns"].to_numpy(dtype=np.int64)
+        frame = pd.DataFrame({"log_time_ns": t_a})
+        frame[f"{side}_a0_m"] = sign * _column(part_a, m.c0, t_a)
+        frame[f"{side}_a1_rad"] = sign * _column(part_b, m.c1, t_a)
+        frame[f"{side}_a2_per_m"] = sign * _column(part_a, m.c2, t_a)
+        frame[f"{side}_a3_per_m2"] = sign * _column(part_a, m.c3, t_a)
+        frame[f"{side}_quality"] = _column(part_a, m.quality, t_a)
+        view = _column(part_b, m.view_range, t_a)
+        if m.view_range_available:
+            avail = _column(part_b, m.view_range_available, t_a)
+            view = np.where(avail == 0, np.nan, view)
+        frame[f"{side}_view_range_m"] = view
+        frame[f"{side}_curvature"] = k_factor * frame[f"{side}_a2_per_m"]
+        sides[side] = frame
+    if not sides:
+        return pd.DataFrame({"log_time_ns": pd.Series(dtype=np.int64)})
+    merged: pd.DataFrame | None = None
+    for frame in sides.values():
+        merged = (
+            frame
+            if merged is None
+            else pd.merge_asof(
+                merged.sort_values("log_time_ns"),
+                frame.sort_values("log_time_ns"),
+                on="log_time_ns",
+                direction="nearest",
+                tolerance=PAIR_TOLERANCE_NS,
+            )
+        )
+    assert merged is not None
+    merged["curvature"] = _mean_of_good(merged, list(sides), m.min_quality)
+    width, length = _corridor(merged, m.min_quality, CORRIDOR_WIDTH_AT_M)
+    merged["corridor_width_m"] = width
+    merged["corridor_length_m"] = length
+    lane = _wide(signals, m.curvature_message)
+    t = merged["log_time_ns"].to_numpy(dtype=np.int64)
+    merged["lane_curvature"] = sign * _column(lane, m.curvature_signal, t)
+    return merged.reset_index(drop=True)
+
+
+CORRIDOR_WIDTH_AT_M = 10.0
+"""Distance ahead at which Mobileye's corridor width is measured, metres."""
+
+
+def _corridor(merged: pd.DataFrame, min_quality: int, at_m: float) -> tuple[FloatArray, FloatArray]:
+    """Mobileye's ego corridor: width between its lines at ``at_m`` ahead, length = view range.
+
+    NaN (no corridor) unless both lines have quality >= ``min_quality``; the length is the
+    shorter of the two view ranges, from the camera as for the other methods.
+    """
+    n = len(merged)
+    if not {"left_a0_m", "right_a0_m"} <= set(merged.columns):
+        return np.full(n, np.nan), np.full(n, np.nan)
+
+    def at(side: str) -> FloatArray:
+        a0, a1, a2, a3 = (
+            merged[f"{side}_{k}"].to_numpy(dtype=np.float64)
+            for k in ("a0_m", "a1_rad", "a2_per_m", "a3_per_m2")
+        )
+        cubic: FloatArray = a0 + at_m * (np.nan_to_num(a1) + at_m * (a2 + at_m * np.nan_to_num(a3)))
+        return cubic
+
+    ok = (merged["left_quality"].to_numpy() >= min_quality) & (
+        merged["right_quality"].to_numpy() >= min_quality
+    )
+    width = np.where(ok, at("left") - at("right"), np.nan)
+    length = np.fmin(
+        merged["left_view_range_m"].to_numpy(dtype=np.float64),
+        merged["right_view_range_m"].to_numpy(dtype=np.float64),
+    )
+    return width, np.where(ok, length, np.nan)
+
+
+def _mean_of_good(merged: pd.DataFrame, sides: list[str], min_quality: int) -> FloatArray:
+    """Mean curvature over sides with quality >= ``min_quality``; NaN where none qualifies."""
+    curv = np.stack([merged[f"{s}_curvature"].to_numpy(dtype=np.float64) for s in sides], axis=1)
+    qual = np.stack([merged[f"{s}_quality"].to_numpy(dtype=np.float64) for s in sides], axis=1)
+    with np.errstate(invalid="ignore"):
+        good = np.isfinite(curv) & (qual >= min_quality)
+    count = good.sum(axis=1)
+    total = np.where(good, curv, 0.0).sum(axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(count > 0, total / np.maximum(count, 1), np.nan)
+
+
+class Latency(NamedTuple):
+    """A delay estimate by cross-correlation.
+
+    Attributes:
+        lag_s: How much later the signal follows the reference, seconds (NaN if unknown).
+        correlation: Normalised correlation at that lag.
+    """
+
+    lag_s: float
+    correlation: float
+
+
+def latency_by_xcorr(
+    t_s: FloatArray, reference: FloatArray, signal: FloatArray, max_lag_s: float = 1.0
+) -> Latency:
+    """Estimate how far ``signal`` lags ``reference`` by cross-correlating them.
+
+    Both series are sampled at ``t_s`` (uniform steps assumed, e.g. camera frames); NaN
+    samples are excluded from each lag's correlation.
+
+    Args:
+        t_s: Sample times, seconds.
+        reference: The reference (e.g. the truth's curvature).
+        signal: The delayed signal (e.g. Mobileye curvature).
+        max_lag_s: Largest lag searched either way, seconds.
+
+    Returns:
+        The lag with the highest normalised correlation.
+    """
+    t = np.asarray(t_s, dtype=np.float64)
+    ref = np.asarray(reference, dtype=np.float64)
+    sig = np.asarray(signal, dtype=np.float64)
+    if t.size < 10:
+        return Latency(float("nan"), float("nan"))
+    dt = float(np.median(np.diff(t)))
+    if not dt > 0:
+        return Latency(float("nan"), float("nan"))
+    best = (float("nan"), -np.inf)
+    for lag in range(-int(max_lag_s / dt), int(max_lag_s / dt) + 1):
+        a = ref[: ref.size - lag] if lag >= 0 else ref[-lag:]
+        b = sig[lag:] if lag >= 0 else sig[: sig.size + lag]
+        ok = np.isfinite(a) & np.isfinite(b)
+        if ok.sum() < 10:
+            continue
+        aa, bb = a[ok] - a[ok].mean(), b[ok] - b[ok].mean()
+        denom = float(np.sqrt((aa * aa).sum() * (bb * bb).sum()))
+        if denom <= 0:
+            continue
+        corr = float((aa * bb).sum() / denom)
+        if corr > best[1]:
+            best = (lag * dt, corr)
+    return Latency(best[0], best[1] if np.isfinite(best[1]) else float("nan"))

@@ -1,0 +1,157 @@
+"""Reprocess a recording without a camera: truth, the dynamics reference and Mobileye.
+
+An engineer evaluating a production Mobileye against RTK has no camera stream. Everything that
+needs no image is still computed -- the RTK (or plain GNSS) truth, the yaw-rate / speed
+reference, the Mobileye comparison and its availability -- on a 15 Hz grid of evaluation times
+over the GNSS/CAN span; SUPER, the corridor network and Hough are stated as not computed.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from superlane_tools.can import LoadedDbc
+from superlane_tools.can.collect import CanFrames
+from superlane_tools.commands.errors import PipelineError
+from superlane_tools.commands.reprocess._finalize import ReportFacts, drive_tables, write_outputs
+from superlane_tools.commands.reprocess.config import ReprocessConfig
+from superlane_tools.commands.reprocess.record import Corridors, DriveFrames, FitSeries
+from superlane_tools.commands.reprocess.signals import ImuSamples
+from superlane_tools.corridor import Segment, windows
+from superlane_tools.records import Skipped
+from superlane_tools.reporting import Provenance, input_identity
+from superlane_tools.reporting import drive_tables as tables
+from superlane_tools.reporting.gnss_sink import GnssSink
+
+
+class SignalsOnly(NamedTuple):
+    """What a camera-less reprocess wrote and stated."""
+
+    outputs: tuple[Path, ...]
+    notes: tuple[str, ...]
+    skipped: tuple[Skipped, ...]
+    seconds: float
+
+
+GRID_HZ = 15.0
+"""Evaluation rate without camera frames (the corridor paper's camera rate), Hz."""
+NO_CAMERA = "no camera stream"
+
+
+def no_camera_frames(t_ns: np.ndarray) -> DriveFrames:
+    """Return a drive record at evaluation times ``t_ns`` with no image result (all NaN).
+
+    The arrays are shared and read-only: nothing writes into a record.
+    """
+    n = t_ns.size
+    nan = np.full(n, np.nan)
+    nan.flags.writeable = False
+    return DriveFrames(
+        t_ns=t_ns,
+        decoded=np.zeros(n, dtype=bool),
+        corridors=Corridors(nan, nan, nan, nan, nan, nan),
+        fit=FitSeries(
+            curvature_per_m=nan,
+            heading_rad=nan,
+            slope=nan,
+            centre_m=nan,
+            lane_width_m=nan,
+            lookahead_m=nan,
+            near_m=nan,
+            far_m=nan,
+            trackable=np.zeros(n, dtype=bool),
+            cov=np.full((n, 3, 3), np.nan),
+        ),
+        stage_s=np.zeros((n, len(tables.STAGES))),
+        stage_cpu_s=np.zeros((n, len(tables.STAGES))),
+    )
+
+
+def reprocess_signals(
+    rec: Any,
+    src: Path,
+    out: Path,
+    cfg: ReprocessConfig,
+    loaded: tuple[dict[str, LoadedDbc], list[Path]],
+    topics: tuple[set[str], set[str], str],
+    command: str,
+) -> SignalsOnly:
+    """Collect CAN, GNSS and IMU, then write the tables and report that need no camera.
+
+    Args:
+        rec: The open recording.
+        src: Its path.
+        out: Output folder.
+        cfg: Configuration.
+        loaded: DBCs by name (``BUS=FILE`` names bind a bus) and their files.
+        topics: CAN topics, IMU topics and the GNSS topic.
+        command: Command line for the provenance.
+
+    Returns:
+        Files written, report notes, what was lost and the seconds it took.
+
+    Raises:
+        PipelineError: If the recording has neither CAN nor GNSS.
+    """
+    t_start = time.perf_counter()
+    dbcs, dbc_paths = loaded
+    can_topics, imu_topics, gnss_topic = topics
+    if not can_topics and not gnss_topic:
+        listing = ", ".join(f"{t.topic} ({t.msgtype})" for t in rec.topics()) or "none"
+        raise PipelineError(f"{src.name}: no camera, CAN or GNSS stream to reprocess ({listing})")
+    provenance = Provenance(
+        command=command or f"reprocess({src.name!r})",
+        inputs=(input_identity(src), *(input_identity(p) for p in dbc_paths)),
+        config=cfg.to_dict(),
+    )
+    out.mkdir(parents=True, exist_ok=True)
+    can, imu = CanFrames(), ImuSamples()
+    gnss = GnssSink(None, None, provenance)
+    first = last = None
+    wanted = [*can_topics, *imu_topics, *([gnss_topic] if gnss_topic else [])]
+    for msg in rec.messages(topics=wanted):
+        if msg.topic in can_topics:
+            can.add(msg)
+        elif msg.topic in imu_topics:
+            imu.add(msg)
+        elif msg.topic == gnss_topic:
+            gnss.add(msg)
+        first = msg.log_time_ns if first is None else min(first, msg.log_time_ns)
+        last = msg.log_time_ns if last is None else max(last, msg.log_time_ns)
+    skipped = list(rec.skipped)
+    step = round(1e9 / GRID_HZ)
+    t_ns = (
+        np.arange(first, last + 1, step, dtype=np.int64)
+        if first is not None and last is not None
+        else np.zeros(0, dtype=np.int64)
+    )
+    notes = [
+        f"{NO_CAMERA}: SUPER, the corridor network and Hough not computed; truth, yaw-rate "
+        f"reference and Mobileye evaluated at {t_ns.size} instants ({GRID_HZ:g} Hz)"
+    ]
+    size = max(1, round(cfg.kpi.window_s * GRID_HZ))
+    segments = [Segment(s.start, s.stop, cfg.kpi.category) for s in windows(t_ns.size, size)]
+    frames = no_camera_frames(t_ns)
+    derived = drive_tables(
+        frames,
+        can,
+        dbcs,
+        gnss.rows,
+        cfg,
+        segments,
+        cfg.kpi.availability_params(GRID_HZ),
+        NO_CAMERA,
+        imu=imu,
+        camera=False,
+    )
+    notes += derived.notes
+    skipped += derived.lost
+    facts = ReportFacts(
+        src, len(frames), f"none ({NO_CAMERA})", NO_CAMERA, tuple(notes), tuple(skipped)
+    )
+    written = write_outputs(out, derived, provenance, cfg, [], facts)
+    return SignalsOnly(tuple(written), tuple(notes), tuple(skipped), time.perf_counter() - t_start)
