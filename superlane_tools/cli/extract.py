@@ -15,6 +15,7 @@ from superlane_tools.cli._common import (
     console,
     err_console,
     exit_with,
+    progress,
     report_skipped,
 )
 from superlane_tools.errors import ExitCode, UsageError
@@ -63,7 +64,11 @@ def extract_cmd(
     dbc: Annotated[
         list[Path] | None,
         typer.Option(
-            "--dbc", metavar="FILE", help="DBC file to decode CAN signals with (repeatable)."
+            "--dbc",
+            metavar="FILE",
+            help="DBC file to decode CAN signals with (repeatable).",
+            exists=True,
+            dir_okay=False,
         ),
     ] = None,
     frames: Annotated[
@@ -77,7 +82,10 @@ def extract_cmd(
     config: Annotated[
         Path | None,
         typer.Option(
-            "--config", help="YAML {frames: [...], camera_info: [...], can: [...], gnss: [...]}."
+            "--config",
+            help="YAML {frames: [...], camera_info: [...], can: [...], gnss: [...]}.",
+            exists=True,
+            dir_okay=False,
         ),
     ] = None,
 ) -> None:
@@ -88,8 +96,6 @@ def extract_cmd(
     can_raw.parquet, can_signals.parquet (with --dbc) and rtk.parquet (with ENU east/north/up,
     speed and heading).
     """
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
-
     from superlane_tools.pipeline import ExtractConfig, extract, load_stream_config
 
     with cli_errors():
@@ -108,31 +114,18 @@ def extract_cmd(
         def show_dbc(name: str, loaded: object) -> None:
             repairs = getattr(loaded, "repairs", [])
             err_console.print(
-                f"slt: dbc {name}: loaded with {len(repairs)} repair(s)",
-                markup=False,
-                soft_wrap=True,
+                f"slt: dbc {name}: loaded with {len(repairs)} repair(s)", markup=False
             )
             for line in repairs:
-                err_console.print(f"slt: dbc {name}: {line}", markup=False, soft_wrap=True)
+                err_console.print(f"slt: dbc {name}: {line}", markup=False)
 
-        with Progress(
-            TextColumn("extract"),
-            BarColumn(),
-            MofNCompleteColumn(),
-            console=err_console,
-            transient=True,
-        ) as bar:
-            task = bar.add_task("extract", total=None)
-
-            def tick(done: int, total: int | None) -> None:
-                bar.update(task, completed=done, total=total)
-
+        with progress("extract", unit="messages") as bar:
             result = extract(
                 recording,
                 out,
                 settings,
                 command=command_line(),
-                progress=tick,
+                progress=bar.update,
                 on_dbc=show_dbc,
             )
     for kind, names in result.selected.items():

@@ -9,10 +9,12 @@ import typer
 
 from superlane_tools.cli._common import (
     EXIT_CODES_HELP,
+    check_camera,
     cli_errors,
     command_line,
     err_console,
     exit_with,
+    progress,
     report_skipped,
 )
 
@@ -29,11 +31,22 @@ def fit_cmd(
     seg_dir: Annotated[
         Path, typer.Argument(help="Folder of class-id PNG masks (searched recursively).")
     ],
-    camera: Annotated[str, typer.Option(help="Camera profile name or camera YAML file.")],
+    camera: Annotated[
+        str,
+        typer.Option(
+            metavar="NAME|YAML",
+            help="Camera profile name or camera YAML file.",
+            callback=check_camera,
+        ),
+    ],
     out: Annotated[Path, typer.Option(help="Output Parquet file (one row per mask).")],
     classes: Annotated[
         Path | None,
-        typer.Option(help="YAML mapping class nodes to mask ids [default: SEG_DIR/classes.yaml]."),
+        typer.Option(
+            help="YAML mapping class nodes to mask ids [default: SEG_DIR/classes.yaml].",
+            exists=True,
+            dir_okay=False,
+        ),
     ] = None,
     sequential: Annotated[
         bool, typer.Option(help="Warm-start each frame from the previous one (a video sequence).")
@@ -45,13 +58,13 @@ def fit_cmd(
         Path | None,
         typer.Option(
             help="Folder of the camera images (same relative paths as the masks): lane colour "
-            "is read from the image when the masks have no level-4 marking classes."
+            "is read from the image when the masks have no level-4 marking classes.",
+            exists=True,
+            file_okay=False,
         ),
     ] = None,
 ) -> None:
     """Fit lanes, heading, curvature and road slope to every mask under SEG_DIR."""
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeRemainingColumn
-
     from superlane_tools.camera import load_camera
     from superlane_tools.lanes import FitParams
     from superlane_tools.pipeline.lanes_fit import fit_masks, load_classes
@@ -60,19 +73,7 @@ def fit_cmd(
         cam = load_camera(camera)
         class_map = load_classes(classes if classes is not None else seg_dir / "classes.yaml")
         params = FitParams(slope=not no_slope)
-        with Progress(
-            "[progress.description]{task.description}",
-            BarColumn(),
-            MofNCompleteColumn(),
-            TimeRemainingColumn(),
-            console=err_console,
-            transient=True,
-        ) as bar:
-            task = bar.add_task("fitting lanes", total=None)
-
-            def on_progress(done: int, total: int) -> None:
-                bar.update(task, completed=done, total=total)
-
+        with progress("fitting lanes", unit="masks") as bar:
             result = fit_masks(
                 seg_dir,
                 cam,
@@ -81,7 +82,7 @@ def fit_cmd(
                 params,
                 sequential=sequential,
                 command=command_line(),
-                progress=on_progress,
+                progress=bar.update,
                 images_dir=images,
             )
         err_console.print(
@@ -93,7 +94,14 @@ def fit_cmd(
 @lanes_app.command("export-tusimple")
 def export_cmd(
     lanes_parquet: Annotated[Path, typer.Argument(help="lanes.parquet from `slt lanes fit`.")],
-    camera: Annotated[str, typer.Option(help="Camera profile name or camera YAML file.")],
+    camera: Annotated[
+        str,
+        typer.Option(
+            metavar="NAME|YAML",
+            help="Camera profile name or camera YAML file.",
+            callback=check_camera,
+        ),
+    ],
     out: Annotated[Path, typer.Option(help="Output TuSimple JSON-lines file.")],
     h_samples: Annotated[
         str, typer.Option(help="Image rows START:STOP:STEP (stop exclusive).")

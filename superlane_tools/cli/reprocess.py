@@ -10,10 +10,12 @@ import typer
 
 from superlane_tools.cli._common import (
     EXIT_CODES_HELP,
+    check_camera,
     cli_errors,
     command_line,
     console,
     exit_with,
+    progress,
     report_skipped,
 )
 
@@ -30,18 +32,29 @@ def reprocess_cmd(
         Path | None, typer.Option("--out", "-o", help="Output folder (default runs/<name>/).")
     ] = None,
     config: Annotated[
-        Path | None, typer.Option("--config", help="Config file (.toml or .yaml).")
+        Path | None,
+        typer.Option("--config", help="Config file (.toml or .yaml).", exists=True, dir_okay=False),
     ] = None,
     print_config: Annotated[
         bool, typer.Option("--print-config", help="Print the default config (YAML) and exit.")
     ] = False,
     camera: Annotated[
         str | None,
-        typer.Option("--camera", help="'auto' (CameraInfo + extrinsics), a profile or a YAML."),
+        typer.Option(
+            "--camera",
+            metavar="auto|NAME|YAML",
+            help="'auto' (CameraInfo + extrinsics), a profile or a YAML.",
+            callback=check_camera,
+        ),
     ] = None,
     dbc: Annotated[
         list[Path] | None,
-        typer.Option("--dbc", help="DBC file (repeatable; replaces the shipped DBCs)."),
+        typer.Option(
+            "--dbc",
+            help="DBC file (repeatable; replaces the shipped DBCs).",
+            exists=True,
+            dir_okay=False,
+        ),
     ] = None,
     backend: Annotated[
         str | None,
@@ -52,7 +65,12 @@ def reprocess_cmd(
     ] = None,
     oracle_labels: Annotated[
         Path | None,
-        typer.Option("--oracle-labels", help="Leaf-id label PNG folder for --backend oracle."),
+        typer.Option(
+            "--oracle-labels",
+            help="Leaf-id label PNG folder for --backend oracle.",
+            exists=True,
+            file_okay=False,
+        ),
     ] = None,
     category: Annotated[
         str | None, typer.Option("--category", help="Category label of this drive's sequences.")
@@ -120,36 +138,10 @@ def reprocess_cmd(
 
 
 def _run(recording: Path, target: Path, cfg: Any) -> Any:
-    import time
-
-    from rich.progress import (
-        BarColumn,
-        MofNCompleteColumn,
-        Progress,
-        TextColumn,
-        TimeElapsedColumn,
-    )
-
-    from superlane_tools.cli._common import err_console
     from superlane_tools.pipeline.reprocess import reprocess
 
-    start = time.perf_counter()
-    with Progress(
-        TextColumn("reprocess"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TextColumn("{task.fields[rate]}"),
-        TimeElapsedColumn(),
-        console=err_console,
-        transient=True,
-    ) as bar:
-        task = bar.add_task("reprocess", total=None, rate="")
-
-        def tick(done: int, total: int | None) -> None:
-            rate = done / max(time.perf_counter() - start, 1e-9)
-            bar.update(task, completed=done, total=total, rate=f"{rate:.1f} frames/s")
-
-        return reprocess(recording, target, cfg, progress=tick, command=command_line())
+    with progress("reprocess", unit="frames") as bar:
+        return reprocess(recording, target, cfg, progress=bar.update, command=command_line())
 
 
 def register(app: typer.Typer) -> None:
