@@ -164,3 +164,42 @@ def test_extras_are_used(extra: str) -> None:
     for module in _third_party(PACKAGE):
         used |= _distributions(module)
     assert _declared()[extra] - set(RUNTIME_ONLY) <= used, _declared()[extra] - used
+
+
+LOCKS = {"core": ("core",), "dev": ("core", "dev", "train", "ray")}
+"""Lock file in requirements/ -> the dependency groups its install profile resolves."""
+
+
+def _lock(name: str) -> dict[str, str]:
+    pins: dict[str, str] = {}
+    for line in (REPO / "requirements" / f"{name}.txt").read_text().splitlines():
+        if not line.strip() or line.startswith("#"):
+            continue
+        match = re.fullmatch(r"([A-Za-z0-9][A-Za-z0-9._-]*)==([0-9][^\s;]*)", line.strip())
+        assert match, f"requirements/{name}.txt: not an exact pin: {line!r}"
+        pins[_name(match.group(1))] = match.group(2)
+    return pins
+
+
+@pytest.mark.parametrize("lock", sorted(LOCKS))
+def test_lock_pins_every_declared_dependency_and_no_cuda(lock: str) -> None:
+    from packaging.requirements import Requirement
+    from packaging.version import Version
+
+    pins = _lock(lock)
+    assert not [n for n in pins if n.startswith("nvidia-") or n == "torch"], (
+        "torch is installed first as the CPU build (pip install torch==2.13.0); a pinned torch "
+        "or nvidia-* wheel would pull CUDA"
+    )
+    project = tomllib.loads((REPO / "pyproject.toml").read_text())["project"]
+    groups = {"core": project["dependencies"], **project["optional-dependencies"]}
+    for group in LOCKS[lock]:
+        for text in groups[group]:
+            req = Requirement(text)
+            name = _name(req.name)
+            if name == "torch":
+                continue
+            assert name in pins, f"requirements/{lock}.txt lacks {name} ({group})"
+            assert Version(pins[name]) in req.specifier, f"{name}=={pins[name]} vs {text}"
+    if lock == "core":
+        assert not set(pins) & {"ray", "pytest", "onnx", "click"}, "core lock holds extras"

@@ -137,9 +137,32 @@ def reprocess_cmd(
     exit_with(report_skipped(result.skipped))
 
 
+def _warm_up_in_background(backend: str) -> None:
+    """Load or compile the lane-fit kernels on a side thread while decoding and segmentation run.
+
+    The first run after an install compiles them (seconds, with a ``note:`` line); started here,
+    that overlaps the image stages instead of stalling the first lane fit. A failure is left to
+    the fit itself to report.
+    """
+    import contextlib
+    import threading
+
+    def warm() -> None:
+        from superlane_tools.lanes.multilane_fit import warm_up
+
+        with contextlib.suppress(Exception):  # the fit raises the same error, with context
+            warm_up(backend)
+
+    threading.Thread(target=warm, name="slt-kernel-warm-up", daemon=True).start()
+
+
 def _run(recording: Path, target: Path, cfg: Any) -> Any:
+    from superlane_tools.lanes import FitParams
     from superlane_tools.pipeline.reprocess import reprocess
 
+    backend = FitParams.from_dict(dict(getattr(cfg, "fit", {}))).backend
+    if backend == "numba":
+        _warm_up_in_background(backend)
     with progress("reprocess", unit="frames") as bar:
         return reprocess(recording, target, cfg, progress=bar.update, command=command_line())
 
