@@ -256,18 +256,34 @@ def _eval_scaled(
 
 
 @_jit
+def _set_row(sim: Any, j: int, values: Any) -> None:
+    """``sim[j] = values``, element by element (see :func:`_sort_simplex` for why)."""
+    for k in range(values.size):
+        sim[j, k] = values[k]
+
+
+@_jit
 def _sort_simplex(sim: Any, fsim: Any) -> None:
-    """Stable insertion sort of the simplex by cost (numpy's argsort on <= 16 items)."""
+    """Stable insertion sort of the simplex by cost (numpy's argsort on <= 16 items).
+
+    Rows are copied element by element: whole-row assignment makes numba compile its generic
+    broadcasting setitem (about 2 s of the first run's kernel compilation), for 2-5 numbers.
+    """
+    n_dim = sim.shape[1]
+    row = np.empty(n_dim)
     for i in range(1, fsim.size):
         f = fsim[i]
-        row = sim[i].copy()
+        for k in range(n_dim):
+            row[k] = sim[i, k]
         j = i - 1
         while j >= 0 and fsim[j] > f:
             fsim[j + 1] = fsim[j]
-            sim[j + 1] = sim[j]
+            for k in range(n_dim):
+                sim[j + 1, k] = sim[j, k]
             j -= 1
         fsim[j + 1] = f
-        sim[j + 1] = row
+        for k in range(n_dim):
+            sim[j + 1, k] = row[k]
 
 
 @_jit
@@ -345,13 +361,13 @@ def nelder_mead(
             fxe = _eval_scaled(trial, base, free, scale, iq, r, riq, rr, cfg, hist)
             nfev += 1
             if fxe < fxr:
-                sim[n] = trial
+                _set_row(sim, n, trial)
                 fsim[n] = fxe
             else:
-                sim[n] = xr
+                _set_row(sim, n, xr)
                 fsim[n] = fxr
         elif fxr < fsim[n - 1]:
-            sim[n] = xr
+            _set_row(sim, n, xr)
             fsim[n] = fxr
         else:
             shrink = False
@@ -362,7 +378,7 @@ def nelder_mead(
                 fxc = _eval_scaled(trial, base, free, scale, iq, r, riq, rr, cfg, hist)
                 nfev += 1
                 if fxc <= fxr:
-                    sim[n] = trial
+                    _set_row(sim, n, trial)
                     fsim[n] = fxc
                 else:
                     shrink = True
@@ -373,7 +389,7 @@ def nelder_mead(
                 fxcc = _eval_scaled(trial, base, free, scale, iq, r, riq, rr, cfg, hist)
                 nfev += 1
                 if fxcc < fsim[n]:
-                    sim[n] = trial
+                    _set_row(sim, n, trial)
                     fsim[n] = fxcc
                 else:
                     shrink = True
@@ -525,8 +541,12 @@ def row_coverage(rows_px: Any, labels: Any, n_lines: int) -> Any:
     out = np.zeros((n_lines, 3), dtype=np.int64)
     if rows_px.size == 0 or n_lines == 0:
         return out
-    lo = int(np.rint(rows_px.min()))
-    hi = int(np.rint(rows_px.max()))
+    low = high = rows_px[0]  # finite pixel rows; a loop, not .min()/.max() (compile time)
+    for i in range(1, rows_px.size):
+        low = min(low, rows_px[i])
+        high = max(high, rows_px[i])
+    lo = int(np.rint(low))
+    hi = int(np.rint(high))
     seen = np.zeros((n_lines, hi - lo + 1), dtype=np.bool_)
     for n in range(n_lines):
         out[n, 1] = hi + 1
@@ -691,7 +711,8 @@ def refit_gauss_newton(
             fit_vertical, near_m,
         )  # fmt: skip
         p = solve_ridged(normal, rhs)
-        offsets[:] = p[:n_lines]
+        for k in range(n_lines):  # not a slice assignment (see _sort_simplex)
+            offsets[k] = p[k]
         a1 = p[n_lines]
         a2 = p[n_lines + 1] if order == 2 else 0.0
         if not (fit_slope or fit_vertical):
