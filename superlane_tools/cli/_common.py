@@ -51,7 +51,11 @@ def _metavar(param: Any) -> str | None:
         annotation = get_args(annotation)[0]
     if annotation is bool:
         return None
-    word = _TYPE_METAVARS.get(annotation, "VALUE")
+    choices = getattr(descriptor, "choices", None) if getattr(descriptor, "is_choice", 0) else None
+    if choices:
+        word = "|".join(str(getattr(c, "value", c)) for c in choices)
+    else:
+        word = _TYPE_METAVARS.get(annotation, "VALUE")
     return f"{word}..." if many else word
 
 
@@ -64,13 +68,14 @@ def apply_conventions(command: Command) -> None:
     Applied once to the root group (:class:`SltGroup`), so commands that other modules register
     follow the conventions without repeating them.
     """
+    taken = {opt for param in command.params for opt in getattr(param, "opts", ())}
     for param in command.params:
         if param.metavar is None and not getattr(param, "is_flag", False):
             param.metavar = _metavar(param)
         if type(param) is TyperArgument:
             param.__class__ = _PlainArgument
-        if param.param_type_name == "option" and "--out" in param.opts and "-o" not in param.opts:
-            param.opts.append("-o")
+        if param.param_type_name == "option" and "--out" in param.opts and "-o" not in taken:
+            param.opts.append("-o")  # (-o taken by another option: the convention test says so)
     for sub in getattr(command, "commands", {}).values():
         apply_conventions(sub)
 
