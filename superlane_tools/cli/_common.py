@@ -151,6 +151,15 @@ def check_camera(value: str | None) -> str | None:
     return value
 
 
+def camera_option(help_text: str, metavar: str = "NAME|YAML") -> Any:
+    """Return the shared ``--camera`` option: a bundled profile name or a camera YAML file.
+
+    The value is loaded once while the command line is parsed (:func:`check_camera`), so a
+    camera that does not load is a usage error (exit 2) before any work starts.
+    """
+    return typer.Option("--camera", metavar=metavar, help=help_text, callback=check_camera)
+
+
 def debug_enabled() -> bool:
     """Return True when ``SLT_DEBUG`` asks for full tracebacks on internal errors."""
     return os.environ.get("SLT_DEBUG", "") not in {"", "0"}

@@ -10,7 +10,7 @@ import typer
 
 from superlane_tools.cli._common import (
     EXIT_CODES_HELP,
-    check_camera,
+    camera_option,
     cli_errors,
     command_line,
     err_console,
@@ -39,12 +39,7 @@ def corridor(
     ] = None,
     camera: Annotated[
         str | None,
-        typer.Option(
-            "--camera",
-            metavar="NAME|YAML",
-            help="Camera profile name or YAML: adds width_m and length_m.",
-            callback=check_camera,
-        ),
+        camera_option("Camera profile name or YAML: adds width_m and length_m."),
     ] = None,
     smooth: Annotated[
         int,

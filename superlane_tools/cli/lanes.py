@@ -9,7 +9,7 @@ import typer
 
 from superlane_tools.cli._common import (
     EXIT_CODES_HELP,
-    check_camera,
+    camera_option,
     cli_errors,
     command_line,
     err_console,
@@ -31,14 +31,7 @@ def fit_cmd(
     seg_dir: Annotated[
         Path, typer.Argument(help="Folder of class-id PNG masks (searched recursively).")
     ],
-    camera: Annotated[
-        str,
-        typer.Option(
-            metavar="NAME|YAML",
-            help="Camera profile name or camera YAML file.",
-            callback=check_camera,
-        ),
-    ],
+    camera: Annotated[str, camera_option("Camera profile name or camera YAML file.")],
     out: Annotated[Path, typer.Option(help="Output Parquet file (one row per mask).")],
     classes: Annotated[
         Path | None,
@@ -94,14 +87,7 @@ def fit_cmd(
 @lanes_app.command("export-tusimple")
 def export_cmd(
     lanes_parquet: Annotated[Path, typer.Argument(help="lanes.parquet from `slt lanes fit`.")],
-    camera: Annotated[
-        str,
-        typer.Option(
-            metavar="NAME|YAML",
-            help="Camera profile name or camera YAML file.",
-            callback=check_camera,
-        ),
-    ],
+    camera: Annotated[str, camera_option("Camera profile name or camera YAML file.")],
     out: Annotated[Path, typer.Option(help="Output TuSimple JSON-lines file.")],
     h_samples: Annotated[
         str, typer.Option(help="Image rows START:STOP:STEP (stop exclusive).")

@@ -10,7 +10,7 @@ import typer
 
 from superlane_tools.cli._common import (
     EXIT_CODES_HELP,
-    check_camera,
+    camera_option,
     cli_errors,
     command_line,
     console,
@@ -40,12 +40,7 @@ def reprocess_cmd(
     ] = False,
     camera: Annotated[
         str | None,
-        typer.Option(
-            "--camera",
-            metavar="auto|NAME|YAML",
-            help="'auto' (CameraInfo + extrinsics), a profile or a YAML.",
-            callback=check_camera,
-        ),
+        camera_option("'auto' (CameraInfo + extrinsics), a profile or a YAML.", "auto|NAME|YAML"),
     ] = None,
     dbc: Annotated[
         list[Path] | None,

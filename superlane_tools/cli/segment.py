@@ -9,7 +9,7 @@ import typer
 
 from superlane_tools.cli._common import (
     EXIT_CODES_HELP,
-    check_camera,
+    camera_option,
     cli_errors,
     err_console,
     progress,
@@ -39,12 +39,7 @@ def segment(
     ] = None,
     camera: Annotated[
         str | None,
-        typer.Option(
-            "--camera",
-            metavar="NAME|YAML",
-            help="Camera profile name or YAML file (improves the classical backend).",
-            callback=check_camera,
-        ),
+        camera_option("Camera profile name or YAML file (improves the classical backend)."),
     ] = None,
     overlays: Annotated[
         bool, typer.Option("--overlay", help="Also write colour overlays to OUT/overlays/*.jpg.")
