@@ -203,3 +203,53 @@ def test_lock_pins_every_declared_dependency_and_no_cuda(lock: str) -> None:
             assert Version(pins[name]) in req.specifier, f"{name}=={pins[name]} vs {text}"
     if lock == "core":
         assert not set(pins) & {"ray", "pytest", "onnx", "click"}, "core lock holds extras"
+
+
+def _annotation_nodes(tree: ast.AST) -> set[int]:
+    ids: set[int] = set()
+    for node in ast.walk(tree):
+        annotations: list[ast.expr | None] = []
+        if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+            args = node.args
+            every = [*args.posonlyargs, *args.args, *args.kwonlyargs, args.vararg, args.kwarg]
+            annotations = [a.annotation for a in every if a is not None]
+            annotations.append(node.returns)
+        elif isinstance(node, ast.AnnAssign):
+            annotations = [node.annotation]
+        for annotation in annotations:
+            if annotation is not None:
+                ids.update(id(n) for n in ast.walk(annotation))
+    return ids
+
+
+def test_type_only_imports_are_under_type_checking() -> None:
+    """A module-level import used only in annotations must not cost an import at run time.
+
+    Exempt: the CLI (Typer reads its annotations at run time), and names from a distribution
+    the same file imports at run time anyway (``numpy.typing`` beside ``numpy``).
+    """
+    problems = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        if PACKAGE / "cli" in path.parents:
+            continue
+        tree = ast.parse(path.read_text())
+        imported: dict[str, tuple[str, int]] = {}
+        for node in tree.body:
+            if isinstance(node, ast.Import):
+                for alias in node.names:
+                    name = alias.asname or alias.name.split(".")[0]
+                    imported[name] = (alias.name.split(".")[0], node.lineno)
+            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                for alias in node.names:
+                    imported[alias.asname or alias.name] = (node.module.split(".")[0], node.lineno)
+        in_annotations = _annotation_nodes(tree)
+        used = {
+            n.id for n in ast.walk(tree) if isinstance(n, ast.Name) and id(n) not in in_annotations
+        }
+        runtime_modules = {module for name, (module, _) in imported.items() if name in used}
+        for name, (module, line) in imported.items():
+            if module in sys.stdlib_module_names or module in OWN or module == "__future__":
+                continue
+            if name not in used and module not in runtime_modules:
+                problems.append(f"{path.relative_to(REPO)}:{line}: {name} ({module}) only types")
+    assert not problems, "\n".join(problems)
