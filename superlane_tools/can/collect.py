@@ -3,14 +3,17 @@
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 from numpy.typing import NDArray
 
 from superlane_tools.can.buses import Coverage, bind_dbcs, dbc_coverage, decode_buses
 from superlane_tools.can.dbc import LoadedDbc
 from superlane_tools.records import Message
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 
 class CanFrames:

@@ -1,34 +1,107 @@
-"""Shared CLI plumbing: error-to-exit-code mapping, console, progress bars."""
+"""Shared CLI plumbing: conventions, error-to-exit-code mapping, consoles, the progress helper."""
 
 from __future__ import annotations
 
 import os
 import shlex
 import sys
+import time
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
-from typing import NoReturn
+from types import TracebackType
+from typing import TYPE_CHECKING, Any, NoReturn, get_args, get_origin
 
-import click
 import typer
 from rich.console import Console
+from typer._click.globals import get_current_context
+from typer.core import TyperArgument, TyperGroup
 
 from superlane_tools.errors import ExitCode, SltError
 from superlane_tools.records import Skipped
 
-err_console = Console(stderr=True, highlight=False)
-console = Console(highlight=False)
+if TYPE_CHECKING:
+    from typer._click.core import Command, Context
+
+# soft_wrap: one message is one line on stderr (grep, log collectors), whatever the width.
+err_console = Console(stderr=True, highlight=False, soft_wrap=True)
+console = Console(highlight=False, soft_wrap=True)
 
 EXIT_CODES_HELP = (
     "Exit codes: 0 ok, 1 error (bad input, nothing usable written), 2 usage, "
     "3 partial (outputs written but some input data was lost or skipped)."
 )
 
+CONTEXT_SETTINGS: dict[str, Any] = {"help_option_names": ["-h", "--help"], "show_default": True}
+"""Root context settings; click hands them down to every command and group."""
+
+PROGRESS_INTERVAL_ENV = "SLT_PROGRESS_INTERVAL_S"
+"""Seconds between one-line progress reports when stderr is not a terminal (default 10)."""
+
+_TYPE_METAVARS: dict[Any, str] = {Path: "PATH", str: "TEXT", int: "INTEGER", float: "NUMBER"}
+
+
+def _metavar(param: Any) -> str | None:
+    """Return the metavar a parameter shows in help: a word, not a Python type."""
+    if param.param_type_name == "argument":
+        return str(param.name).upper()  # the usage line adds "..." to a variadic argument
+    many = getattr(param, "nargs", 1) == -1 or getattr(param, "multiple", False)
+    descriptor = getattr(param, "type_descriptor", None)
+    annotation = getattr(descriptor, "annotation", None)
+    if get_origin(annotation) in (list, tuple) and get_args(annotation):
+        annotation = get_args(annotation)[0]
+    if annotation is bool:
+        return None
+    choices = getattr(descriptor, "choices", None) if getattr(descriptor, "is_choice", 0) else None
+    if choices:
+        word = "|".join(str(getattr(c, "value", c)) for c in choices)
+    else:
+        word = _TYPE_METAVARS.get(annotation, "VALUE")
+    return f"{word}..." if many else word
+
+
+def apply_conventions(command: Command) -> None:
+    """Give ``command`` and everything under it the CLI conventions.
+
+    Every parameter without an explicit metavar gets a word (``RECORDING``, ``PATH``,
+    ``PATH...``) instead of a Python type, and every ``--out`` option also answers to ``-o``.
+    ``-h`` and shown defaults come from :data:`CONTEXT_SETTINGS`, which click hands down.
+    Applied once to the root group (:class:`SltGroup`), so commands that other modules register
+    follow the conventions without repeating them.
+    """
+    taken = {opt for param in command.params for opt in getattr(param, "opts", ())}
+    for param in command.params:
+        if param.metavar is None and not getattr(param, "is_flag", False):
+            param.metavar = _metavar(param)
+        if type(param) is TyperArgument:
+            param.__class__ = _PlainArgument
+        if param.param_type_name == "option" and "--out" in param.opts and "-o" not in taken:
+            param.opts.append("-o")  # (-o taken by another option: the convention test says so)
+    for sub in getattr(command, "commands", {}).values():
+        apply_conventions(sub)
+
+
+class _PlainArgument(TyperArgument):
+    """A positional argument shown by its metavar alone (``INPUTS...``), no type after it."""
+
+    def display_type_rich(self, ctx: Context) -> str | None:  # noqa: ARG002 (override)
+        return None
+
+    def _rich_display_name(self) -> str:
+        return f"{self.metavar}..." if self.nargs != 1 else str(self.metavar)
+
+
+class SltGroup(TyperGroup):
+    """The root ``slt`` group: applies :func:`apply_conventions` to the whole command tree."""
+
+    def __init__(self, **attrs: Any) -> None:
+        super().__init__(**attrs)
+        apply_conventions(self)
+
 
 def fail(message: str, code: ExitCode = ExitCode.ERROR) -> NoReturn:
     """Print one ``slt: error: ...`` line to stderr and exit with ``code``."""
-    err_console.print(f"slt: error: {message}", markup=False, soft_wrap=True)
+    err_console.print(f"slt: error: {message}", markup=False)
     raise typer.Exit(int(code))
 
 
@@ -44,11 +117,66 @@ def cli_errors() -> Iterator[None]:
 
 
 def report_skipped(skipped: Sequence[Skipped]) -> ExitCode:
-    """Print what was skipped or lost, one line each; return PARTIAL if anything was."""
+    """Print what was skipped or lost, one line per kind; return PARTIAL if anything was.
+
+    Entries of one kind (``Skipped.what``) make one line: the kind, the number of items (or of
+    entries), the first entry's detail and how many more there were, e.g.
+    ``slt: skipped: bad NMEA checksum (11): line 3: ...; and 10 more``.
+    """
+    kinds: dict[str, list[Skipped]] = {}
     for item in skipped:
-        count = f" ({item.n_items})" if item.n_items else ""
-        err_console.print(f"slt: skipped: {item.what}{count}: {item.detail}", markup=False)
+        kinds.setdefault(item.what, []).append(item)
+    for what, items in kinds.items():
+        n = sum(item.n_items for item in items) or (len(items) if len(items) > 1 else 0)
+        count = f" ({n})" if n else ""
+        more = f"; and {len(items) - 1} more" if len(items) > 1 else ""
+        detail = " ".join(items[0].detail.split())
+        err_console.print(f"slt: skipped: {what}{count}: {detail}{more}", markup=False)
     return ExitCode.PARTIAL if skipped else ExitCode.OK
+
+
+def check_camera(value: str | None) -> str | None:
+    """Typer callback for ``--camera``: a profile or YAML that does not load is a usage error.
+
+    ``auto`` (camera from the recording) passes through; any other value is loaded once here
+    so that ``--camera nope`` exits 2 with click's usage message, before any work starts.
+    """
+    if value is None or value == "auto":
+        return value
+    from superlane_tools.camera import load_camera
+
+    try:
+        load_camera(value)
+    except SltError as err:
+        raise typer.BadParameter(str(err)) from err
+    return value
+
+
+def check_dbc_specs(values: list[Path] | None) -> list[Path] | None:
+    """Typer callback for ``--dbc [BUS=]FILE``: a malformed spec or a missing file is a usage error.
+
+    The file part of each value must be an existing file, so ``--dbc /missing.dbc`` exits 2
+    before any work starts, with or without a ``BUS=`` prefix.
+    """
+    from superlane_tools.can.buses import parse_dbc_spec
+
+    for value in values or []:
+        try:
+            spec = parse_dbc_spec(str(value))
+        except SltError as err:
+            raise typer.BadParameter(str(err)) from err
+        if not spec.path.is_file():
+            raise typer.BadParameter(f"DBC file {str(spec.path)!r} does not exist.")
+    return values
+
+
+def camera_option(help_text: str, metavar: str = "NAME|YAML") -> Any:
+    """Return the shared ``--camera`` option: a bundled profile name or a camera YAML file.
+
+    The value is loaded once while the command line is parsed (:func:`check_camera`), so a
+    camera that does not load is a usage error (exit 2) before any work starts.
+    """
+    return typer.Option("--camera", metavar=metavar, help=help_text, callback=check_camera)
 
 
 def debug_enabled() -> bool:
@@ -62,12 +190,114 @@ def exit_with(code: ExitCode) -> None:
         raise typer.Exit(int(code))
 
 
-def _current_context() -> click.Context | None:
-    """Return the active click context; recent typer versions run on a vendored click copy."""
-    vendored = getattr(getattr(typer, "_click", None), "globals", None)
-    getter = getattr(vendored, "get_current_context", None) or click.get_current_context
-    ctx: click.Context | None = getter(silent=True)
-    return ctx
+class ProgressLine:
+    """Progress of one long step: a rich bar on a terminal, periodic lines on stderr otherwise.
+
+    On a pipe, in cron or under a log collector there is no bar to redraw, so every
+    ``SLT_PROGRESS_INTERVAL_S`` seconds (default 10) one line such as
+    ``slt: progress: reprocess 120/240 (50%) 11.3/s 10 s`` goes to stderr. Use it through
+    :func:`progress`.
+    """
+
+    def __init__(self, label: str, total: int | None, unit: str) -> None:
+        self.label = label
+        self.total = total
+        self.done = 0
+        self.unit = unit
+        self.note = ""
+        self._start = time.perf_counter()
+        self._last_line = self._start
+        self._interval = float(os.environ.get(PROGRESS_INTERVAL_ENV, "10"))
+        self._bar: Any = None
+        self._task: Any = None
+
+    def __enter__(self) -> ProgressLine:
+        if err_console.is_terminal:
+            from rich.progress import (
+                BarColumn,
+                MofNCompleteColumn,
+                Progress,
+                TextColumn,
+                TimeElapsedColumn,
+            )
+
+            self._bar = Progress(
+                TextColumn("{task.description}"),
+                BarColumn(),
+                MofNCompleteColumn(),
+                TextColumn("{task.fields[note]}"),
+                TimeElapsedColumn(),
+                console=err_console,
+                transient=True,
+            )
+            self._bar.__enter__()
+            self._task = self._bar.add_task(self.label, total=self.total, note="")
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        if self._bar is not None:
+            self._bar.__exit__(exc_type, exc, tb)
+
+    def update(
+        self, done: int, total: int | None = None, note: str = "", label: str | None = None
+    ) -> None:
+        """Set the number of items done (and the total, a short note, the label)."""
+        self.done = done
+        if total is not None:
+            self.total = total
+        if label is not None:
+            self.label = label
+        elapsed = time.perf_counter() - self._start
+        rate = f"{done / elapsed:.1f}/s" if elapsed > 0 else ""
+        self.note = " ".join(part for part in (note, rate) if part)
+        if self._bar is not None:
+            self._bar.update(
+                self._task, completed=done, total=self.total, note=self.note, description=self.label
+            )
+            return
+        now = time.perf_counter()
+        if now - self._last_line >= self._interval:
+            self._last_line = now
+            err_console.print(self.line(), markup=False)
+
+    def advance(self, n: int = 1) -> None:
+        """Count ``n`` more items done."""
+        self.update(self.done + n)
+
+    def line(self) -> str:
+        """Return the one-line progress report."""
+        of = f"/{self.total}" if self.total else ""
+        pct = f" ({100.0 * self.done / self.total:.0f}%)" if self.total else ""
+        unit = f" {self.unit}" if self.unit else ""
+        elapsed = time.perf_counter() - self._start
+        note = f" {self.note}" if self.note else ""
+        return f"slt: progress: {self.label} {self.done}{of}{unit}{pct}{note} {elapsed:.0f} s"
+
+    def echo(self, message: str) -> None:
+        """Print one message line to stderr (above the bar on a terminal)."""
+        target = self._bar.console if self._bar is not None else err_console
+        target.print(message, markup=False)
+
+
+def progress(label: str, total: int | None = None, unit: str = "") -> ProgressLine:
+    """Return the progress display of one long step; use it as a context manager.
+
+    Args:
+        label: What is being done, e.g. ``reprocess``.
+        total: Number of items, when known.
+        unit: Item name for the one-line report, e.g. ``frames``.
+    """
+    return ProgressLine(label, total, unit)
+
+
+def _current_context() -> Context | None:
+    """Return the active click context (typer runs on its vendored click)."""
+    return get_current_context(silent=True)
 
 
 def command_line() -> str:

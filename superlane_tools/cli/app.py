@@ -24,7 +24,13 @@ from superlane_tools.cli import (
     train,
 )
 from superlane_tools.cli import eval as eval_cmd
-from superlane_tools.cli._common import EXIT_CODES_HELP, debug_enabled, err_console
+from superlane_tools.cli._common import (
+    CONTEXT_SETTINGS,
+    EXIT_CODES_HELP,
+    SltGroup,
+    debug_enabled,
+    err_console,
+)
 from superlane_tools.errors import ExitCode
 
 app = typer.Typer(
@@ -37,6 +43,8 @@ app = typer.Typer(
     pretty_exceptions_show_locals=False,
     add_completion=False,
     rich_markup_mode=None,
+    cls=SltGroup,
+    context_settings=CONTEXT_SETTINGS,
 )
 
 

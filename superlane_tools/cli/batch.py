@@ -15,6 +15,7 @@ from superlane_tools.cli._common import (
     console,
     err_console,
     exit_with,
+    progress,
 )
 from superlane_tools.errors import ExitCode, UsageError
 
@@ -34,6 +35,8 @@ def batch_cmd(
             "-m",
             help="CSV/Parquet/YAML with path and optional category, vehicle, date, sequence, "
             "start_s, end_s.",
+            exists=True,
+            dir_okay=False,
         ),
     ] = None,
     out: Annotated[
@@ -49,7 +52,10 @@ def batch_cmd(
         typer.Option(help="Ray cluster to join, e.g. 'auto' (default: a private local Ray)."),
     ] = None,
     config: Annotated[
-        Path | None, typer.Option("--config", help="Job configuration (TOML, YAML or JSON).")
+        Path | None,
+        typer.Option(
+            "--config", help="Job configuration (TOML, YAML or JSON).", exists=True, dir_okay=False
+        ),
     ] = None,
     retries: Annotated[
         int, typer.Option(help="Extra attempts for a failing recording.", min=0)
@@ -71,8 +77,6 @@ def batch_cmd(
     holds the fleet tables and report.md / report.html. Exit 3 when some recordings failed
     or lost data, 1 when all failed.
     """
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
-
     from superlane_tools.commands.batch import (
         BatchParams,
         BatchProgress,
@@ -98,26 +102,16 @@ def batch_cmd(
             ray_address=ray_address,
             command=command_line(),
         )
-        with Progress(
-            TextColumn("{task.description}"),
-            BarColumn(),
-            MofNCompleteColumn(),
-            TextColumn("{task.fields[counts]}"),
-            console=err_console,
-            transient=True,
-        ) as bar:
-            task = bar.add_task("identify", total=len(entries), counts="")
+        with progress("identify", len(entries), "recordings") as bar:
 
             def tick(p: BatchProgress) -> None:
                 counts = " ".join(f"{k} {v}" for k, v in p.counts.items() if v)
                 name = "identify" if p.phase == "hashing" else f"{params.kind} ({engine})"
-                bar.update(task, description=name, completed=p.done, total=p.total, counts=counts)
+                bar.update(p.done, p.total, note=counts, label=name)
                 last = p.last
                 if last is not None and last.status == "failed":
-                    bar.console.print(
-                        f"slt: {last.recording_id}: attempt {last.attempt} failed: {last.error}",
-                        markup=False,
-                        soft_wrap=True,
+                    bar.echo(
+                        f"slt: {last.recording_id}: attempt {last.attempt} failed: {last.error}"
                     )
 
             report = run_batch(entries, params, progress=tick)
@@ -127,7 +121,7 @@ def batch_cmd(
         markup=False,
     )
     for rid, reason in report.failures:
-        err_console.print(f"slt: failed: {rid}: {reason}", markup=False, soft_wrap=True)
+        err_console.print(f"slt: failed: {rid}: {reason}", markup=False)
     console.print(f"status: {report.status_path}", markup=False)
     if report.summary:
         console.print(f"summary: {report.summary[0].parent}", markup=False)

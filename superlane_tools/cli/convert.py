@@ -7,7 +7,13 @@ from typing import Annotated
 
 import typer
 
-from superlane_tools.cli._common import EXIT_CODES_HELP, cli_errors, command_line, err_console
+from superlane_tools.cli._common import (
+    EXIT_CODES_HELP,
+    camera_option,
+    cli_errors,
+    command_line,
+    err_console,
+)
 from superlane_tools.errors import UsageError
 
 _KINDS = ("video", "nmea", "gpx", "can", "csv")
@@ -63,9 +69,8 @@ def convert_cmd(
     ] = None,
     camera: Annotated[
         str | None,
-        typer.Option(
-            metavar="PROFILE",
-            help="Camera profile/YAML of the video: adds CameraInfo and the slt_camera record.",
+        camera_option(
+            "Camera profile/YAML of the video: adds CameraInfo and the slt_camera record."
         ),
     ] = None,
 ) -> None:

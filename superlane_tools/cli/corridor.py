@@ -10,9 +10,11 @@ import typer
 
 from superlane_tools.cli._common import (
     EXIT_CODES_HELP,
+    camera_option,
     cli_errors,
     command_line,
     err_console,
+    progress,
     report_skipped,
 )
 from superlane_tools.errors import ExitCode
@@ -37,7 +39,7 @@ def corridor(
     ] = None,
     camera: Annotated[
         str | None,
-        typer.Option("--camera", help="Camera profile name or YAML: adds width_m and length_m."),
+        camera_option("Camera profile name or YAML: adds width_m and length_m."),
     ] = None,
     smooth: Annotated[
         int,
@@ -74,7 +76,6 @@ def _run(
     import cv2
     import numpy as np
     import pandas as pd
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
 
     from superlane_tools.camera.profiles import load_camera
     from superlane_tools.corridor.geometry import CorridorParams, corridor_from_mask
@@ -94,11 +95,9 @@ def _run(
     params = CorridorParams(threshold=threshold)
     rows: list[dict[str, object]] = []
     skipped: list[Skipped] = []
-    columns = (TextColumn("corridor"), BarColumn(), MofNCompleteColumn())
-    with Progress(*columns, console=err_console, transient=True) as progress:
-        task = progress.add_task("corridor", total=frames.total)
+    with progress("corridor", frames.total, "images") as bar:
         for frame in frames:
-            progress.advance(task)
+            bar.advance()
             image = frame.image
             if image is None or image.shape[0] < 8 or image.shape[1] < 8:
                 skipped.append(Skipped("unreadable image", frame.problem or frame.name, 1))

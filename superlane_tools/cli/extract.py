@@ -10,11 +10,13 @@ import typer
 
 from superlane_tools.cli._common import (
     EXIT_CODES_HELP,
+    check_dbc_specs,
     cli_errors,
     command_line,
     console,
     err_console,
     exit_with,
+    progress,
     report_skipped,
 )
 from superlane_tools.errors import ExitCode, UsageError
@@ -83,6 +85,7 @@ def extract_cmd(
             metavar="[BUS=]FILE",
             help="DBC file to decode CAN signals with (repeatable); BUS=FILE (can0=pt.dbc) "
             "binds it to one bus (CAN topic or channel), a plain FILE decodes every bus.",
+            callback=check_dbc_specs,
         ),
     ] = None,
     frames: Annotated[
@@ -96,7 +99,10 @@ def extract_cmd(
     config: Annotated[
         Path | None,
         typer.Option(
-            "--config", help="YAML {frames: [...], camera_info: [...], can: [...], gnss: [...]}."
+            "--config",
+            help="YAML {frames: [...], camera_info: [...], can: [...], gnss: [...]}.",
+            exists=True,
+            dir_okay=False,
         ),
     ] = None,
     verbose: Annotated[
@@ -110,8 +116,6 @@ def extract_cmd(
     can_raw.parquet, can_signals.parquet (with --dbc) and rtk.parquet (with ENU east/north/up,
     speed and heading).
     """
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
-
     from superlane_tools.commands.extract import ExtractConfig, extract, load_stream_config
 
     with cli_errors():
@@ -133,31 +137,18 @@ def extract_cmd(
             repairs = getattr(loaded, "repairs", [])
             hint = " (--verbose or `slt dbc show` lists them)" if repairs and not verbose else ""
             err_console.print(
-                f"slt: dbc {name}: loaded with {len(repairs)} repair(s){hint}",
-                markup=False,
-                soft_wrap=True,
+                f"slt: dbc {name}: loaded with {len(repairs)} repair(s){hint}", markup=False
             )
             for line in repairs if verbose else []:
-                err_console.print(f"slt: dbc {name}: {line}", markup=False, soft_wrap=True)
+                err_console.print(f"slt: dbc {name}: {line}", markup=False)
 
-        with Progress(
-            TextColumn("extract"),
-            BarColumn(),
-            MofNCompleteColumn(),
-            console=err_console,
-            transient=True,
-        ) as bar:
-            task = bar.add_task("extract", total=None)
-
-            def tick(done: int, total: int | None) -> None:
-                bar.update(task, completed=done, total=total)
-
+        with progress("extract", unit="messages") as bar:
             result = extract(
                 recording,
                 out,
                 settings,
                 command=command_line(),
-                progress=tick,
+                progress=bar.update,
                 on_dbc=show_dbc,
             )
     for kind, names in result.selected.items():

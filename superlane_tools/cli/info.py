@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from superlane_tools.cli._common import EXIT_CODES_HELP, cli_errors, console, err_console
+from superlane_tools.cli._common import EXIT_CODES_HELP, cli_errors, console, progress
 from superlane_tools.errors import ExitCode
 
 if TYPE_CHECKING:
@@ -135,8 +135,6 @@ def info(
     ] = False,
 ) -> None:
     """Show topics, types, counts, median rates, largest gaps and header-stamp offsets."""
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
-
     from superlane_tools.cli._common import report_skipped
     from superlane_tools.recording import open_recording, summarize
     from superlane_tools.recording.inspect import (
@@ -154,16 +152,8 @@ def info(
     with cli_errors(), open_recording(recording) as rec:
         expected = [t.message_count for t in rec.topics()]
         total = sum(c for c in expected if c is not None) if None not in expected else None
-        with Progress(
-            TextColumn("reading"),
-            BarColumn(),
-            MofNCompleteColumn(),
-            console=err_console,
-            transient=True,
-            disable=as_json or not err_console.is_terminal,
-        ) as bar:
-            task = bar.add_task("read", total=total)
-            summary = summarize(rec, progress=lambda n: bar.update(task, completed=n))
+        with progress("reading", total, "messages") as bar:
+            summary = summarize(rec, progress=bar.update)
         can_topics = [t.topic for t in summary.topics if t.msgtype in CAN_MSGTYPES]
         can_rows = can_id_stats(rec, can_topics) if can_topics else []
     _emit(summary, file_info, "every message", can_rows, as_json)

@@ -9,10 +9,12 @@ import typer
 
 from superlane_tools.cli._common import (
     EXIT_CODES_HELP,
+    camera_option,
     cli_errors,
     command_line,
     err_console,
     exit_with,
+    progress,
     report_skipped,
 )
 
@@ -29,11 +31,15 @@ def fit_cmd(
     seg_dir: Annotated[
         Path, typer.Argument(help="Folder of class-id PNG masks (searched recursively).")
     ],
-    camera: Annotated[str, typer.Option(help="Camera profile name or camera YAML file.")],
+    camera: Annotated[str, camera_option("Camera profile name or camera YAML file.")],
     out: Annotated[Path, typer.Option(help="Output Parquet file (one row per mask).")],
     classes: Annotated[
         Path | None,
-        typer.Option(help="YAML mapping class nodes to mask ids [default: SEG_DIR/classes.yaml]."),
+        typer.Option(
+            help="YAML mapping class nodes to mask ids [default: SEG_DIR/classes.yaml].",
+            exists=True,
+            dir_okay=False,
+        ),
     ] = None,
     sequential: Annotated[
         bool,
@@ -49,13 +55,13 @@ def fit_cmd(
         Path | None,
         typer.Option(
             help="Folder of the camera images (same relative paths as the masks): lane colour "
-            "is read from the image when the masks have no level-4 marking classes."
+            "is read from the image when the masks have no level-4 marking classes.",
+            exists=True,
+            file_okay=False,
         ),
     ] = None,
 ) -> None:
     """Fit lanes, heading, curvature and road slope to every mask under SEG_DIR."""
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeRemainingColumn
-
     from superlane_tools.camera import load_camera
     from superlane_tools.commands.lanes.fit import fit_masks, load_classes
     from superlane_tools.lanes import FitParams
@@ -64,19 +70,7 @@ def fit_cmd(
         cam = load_camera(camera)
         class_map = load_classes(classes if classes is not None else seg_dir / "classes.yaml")
         params = FitParams(slope=not no_slope)
-        with Progress(
-            "[progress.description]{task.description}",
-            BarColumn(),
-            MofNCompleteColumn(),
-            TimeRemainingColumn(),
-            console=err_console,
-            transient=True,
-        ) as bar:
-            task = bar.add_task("fitting lanes", total=None)
-
-            def on_progress(done: int, total: int) -> None:
-                bar.update(task, completed=done, total=total)
-
+        with progress("fitting lanes", unit="masks") as bar:
             result = fit_masks(
                 seg_dir,
                 cam,
@@ -85,7 +79,7 @@ def fit_cmd(
                 params,
                 sequential=sequential,
                 command=command_line(),
-                progress=on_progress,
+                progress=bar.update,
                 images_dir=images,
             )
         err_console.print(
@@ -97,7 +91,7 @@ def fit_cmd(
 @lanes_app.command("export-tusimple")
 def export_cmd(
     lanes_parquet: Annotated[Path, typer.Argument(help="lanes.parquet from `slt lanes fit`.")],
-    camera: Annotated[str, typer.Option(help="Camera profile name or camera YAML file.")],
+    camera: Annotated[str, camera_option("Camera profile name or camera YAML file.")],
     out: Annotated[Path, typer.Option(help="Output TuSimple JSON-lines file.")],
     h_samples: Annotated[
         str,
@@ -149,7 +143,7 @@ def export_cmd(
 @lanes_app.command("export-kitti")
 def export_kitti_cmd(
     lanes_parquet: Annotated[Path, typer.Argument(help="lanes.parquet from `slt lanes fit`.")],
-    camera: Annotated[str, typer.Option(help="Camera profile name or camera YAML file.")],
+    camera: Annotated[str, camera_option("Camera profile name or camera YAML file.")],
     out: Annotated[Path, typer.Option(help="Output folder of KITTI ego-lane PNGs.")],
 ) -> None:
     """Rasterise each frame's fitted ego lane as a KITTI submission PNG (um_lane_NNNNNN.png)."""

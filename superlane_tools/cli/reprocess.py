@@ -10,10 +10,13 @@ import typer
 
 from superlane_tools.cli._common import (
     EXIT_CODES_HELP,
+    camera_option,
+    check_dbc_specs,
     cli_errors,
     command_line,
     console,
     exit_with,
+    progress,
     report_skipped,
 )
 
@@ -30,14 +33,15 @@ def reprocess_cmd(
         Path | None, typer.Option("--out", "-o", help="Output folder (default runs/<name>/).")
     ] = None,
     config: Annotated[
-        Path | None, typer.Option("--config", help="Config file (.toml or .yaml).")
+        Path | None,
+        typer.Option("--config", help="Config file (.toml or .yaml).", exists=True, dir_okay=False),
     ] = None,
     print_config: Annotated[
         bool, typer.Option("--print-config", help="Print the default config (YAML) and exit.")
     ] = False,
     camera: Annotated[
         str | None,
-        typer.Option("--camera", help="'auto' (CameraInfo + extrinsics), a profile or a YAML."),
+        camera_option("'auto' (CameraInfo + extrinsics), a profile or a YAML.", "auto|NAME|YAML"),
     ] = None,
     dbc: Annotated[
         list[Path] | None,
@@ -46,6 +50,7 @@ def reprocess_cmd(
             metavar="[BUS=]FILE",
             help="DBC file (repeatable; replaces the shipped DBCs); BUS=FILE binds it to one "
             "CAN bus (topic), e.g. can0=pt.dbc.",
+            callback=check_dbc_specs,
         ),
     ] = None,
     backend: Annotated[
@@ -57,7 +62,12 @@ def reprocess_cmd(
     ] = None,
     oracle_labels: Annotated[
         Path | None,
-        typer.Option("--oracle-labels", help="Leaf-id label PNG folder for --backend oracle."),
+        typer.Option(
+            "--oracle-labels",
+            help="Leaf-id label PNG folder for --backend oracle.",
+            exists=True,
+            file_okay=False,
+        ),
     ] = None,
     category: Annotated[
         str | None, typer.Option("--category", help="Category label of this drive's sequences.")
@@ -143,37 +153,34 @@ def reprocess_cmd(
     exit_with(report_skipped(result.skipped))
 
 
+def _warm_up_in_background(backend: str) -> None:
+    """Load or compile the lane-fit kernels on a side thread while decoding and segmentation run.
+
+    The first run after an install compiles them (seconds, with a ``note:`` line); started here,
+    that overlaps the image stages instead of stalling the first lane fit. A failure is left to
+    the fit itself to report.
+    """
+    import contextlib
+    import threading
+
+    def warm() -> None:
+        from superlane_tools.lanes.multilane_fit import warm_up
+
+        with contextlib.suppress(Exception):  # the fit raises the same error, with context
+            warm_up(backend)
+
+    threading.Thread(target=warm, name="slt-kernel-warm-up", daemon=True).start()
+
+
 def _run(recording: Path, target: Path, cfg: Any) -> Any:
-    import time
-
-    from rich.progress import (
-        BarColumn,
-        MofNCompleteColumn,
-        Progress,
-        TextColumn,
-        TimeElapsedColumn,
-    )
-
-    from superlane_tools.cli._common import err_console
     from superlane_tools.commands.reprocess import reprocess
+    from superlane_tools.lanes import FitParams
 
-    start = time.perf_counter()
-    with Progress(
-        TextColumn("reprocess"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TextColumn("{task.fields[rate]}"),
-        TimeElapsedColumn(),
-        console=err_console,
-        transient=True,
-    ) as bar:
-        task = bar.add_task("reprocess", total=None, rate="")
-
-        def tick(done: int, total: int | None) -> None:
-            rate = done / max(time.perf_counter() - start, 1e-9)
-            bar.update(task, completed=done, total=total, rate=f"{rate:.1f} frames/s")
-
-        return reprocess(recording, target, cfg, progress=tick, command=command_line())
+    backend = FitParams.from_dict(dict(getattr(cfg, "fit", {}))).backend
+    if backend == "numba":
+        _warm_up_in_background(backend)
+    with progress("reprocess", unit="frames") as bar:
+        return reprocess(recording, target, cfg, progress=bar.update, command=command_line())
 
 
 def register(app: typer.Typer) -> None:

@@ -7,7 +7,14 @@ from typing import Annotated
 
 import typer
 
-from superlane_tools.cli._common import EXIT_CODES_HELP, cli_errors, err_console, report_skipped
+from superlane_tools.cli._common import (
+    EXIT_CODES_HELP,
+    camera_option,
+    cli_errors,
+    err_console,
+    progress,
+    report_skipped,
+)
 from superlane_tools.errors import ExitCode
 from superlane_tools.records import Skipped
 
@@ -32,9 +39,7 @@ def segment(
     ] = None,
     camera: Annotated[
         str | None,
-        typer.Option(
-            "--camera", help="Camera profile name or YAML file (improves the classical backend)."
-        ),
+        camera_option("Camera profile name or YAML file (improves the classical backend)."),
     ] = None,
     overlays: Annotated[
         bool, typer.Option("--overlay", help="Also write colour overlays to OUT/overlays/*.jpg.")
@@ -55,14 +60,6 @@ def _run(
     camera_name: str | None,
     overlays: bool,
 ) -> ExitCode:
-    from rich.progress import (
-        BarColumn,
-        MofNCompleteColumn,
-        Progress,
-        TextColumn,
-        TimeRemainingColumn,
-    )
-
     from superlane_tools.camera.profiles import load_camera
     from superlane_tools.scene import backend_from_name, segment_images
     from superlane_tools.scene.recording_frames import InputFrames
@@ -72,16 +69,14 @@ def _run(
     seg_backend = backend_from_name(backend_name, model=model, camera=cam)
     skipped: list[Skipped] = []
     written = seen = 0
-    columns = (TextColumn("segment"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn())
-    with Progress(*columns, console=err_console, transient=True) as progress:
-        task = progress.add_task("segment", total=frames.total)
+    with progress("segment", frames.total, "images") as bar:
         for result in segment_images(frames, out, seg_backend, overlays=overlays):
             seen += 1
             if result.skipped is not None:
                 skipped.append(result.skipped)
             else:
                 written += 1
-            progress.advance(task)
+            bar.advance()
     skipped.extend(frames.skipped)
     err_console.print(
         f"slt: segmented {written} of {seen} images with the {seg_backend.name} backend into {out}",

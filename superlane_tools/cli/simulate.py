@@ -6,9 +6,8 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeRemainingColumn
 
-from superlane_tools.cli._common import cli_errors, command_line, console, fail
+from superlane_tools.cli._common import cli_errors, command_line, console, fail, progress
 from superlane_tools.errors import ExitCode
 
 simulate_app = typer.Typer(
@@ -17,17 +16,6 @@ simulate_app = typer.Typer(
     pretty_exceptions_show_locals=False,
     rich_markup_mode=None,
 )
-
-
-def _progress_bar(label: str) -> Progress:
-    return Progress(
-        f"[bold]{label}",
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeRemainingColumn(),
-        console=console,
-        transient=True,
-    )
 
 
 @simulate_app.callback(invoke_without_command=True)
@@ -113,12 +101,7 @@ def simulate(
             multipath_per_min=rtk_multipath,
         )
         rtk.validate()
-        with _progress_bar(f"simulate {scenario}") as bar:
-            task = bar.add_task("frames", total=None)
-
-            def step(done: int, total: int) -> None:
-                bar.update(task, completed=done, total=total)
-
+        with progress(f"simulate {scenario}", unit="frames") as bar:
             result = simulate_drive(
                 scenario,
                 duration,
@@ -134,7 +117,7 @@ def simulate(
                 rtk=rtk,
                 vehicle=VehicleOptions(speed_kph=speed_kph, imu=imu, second_bus=second_bus),
                 command=command_line(),
-                progress=step,
+                progress=bar.update,
             )
         o = result.outputs
         console.print(
@@ -167,12 +150,7 @@ def dataset(
         from superlane_tools.simulation.dataset import simulate_dataset
 
         names = tuple(n.strip() for item in (scenarios or []) for n in item.split(",") if n.strip())
-        with _progress_bar("dataset") as bar:
-            task = bar.add_task("samples", total=frames)
-
-            def step(done: int, total: int) -> None:
-                bar.update(task, completed=done, total=total)
-
+        with progress("dataset", frames, "samples") as bar:
             result = simulate_dataset(
                 out,
                 frames,
@@ -183,7 +161,7 @@ def dataset(
                 image_format=image_format,
                 randomize=randomize,
                 command=command_line(),
-                progress=step,
+                progress=bar.update,
             )
         console.print(f"wrote {result.samples} samples to {result.folder}", markup=False)
 

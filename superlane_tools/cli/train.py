@@ -8,7 +8,13 @@ from typing import Annotated
 
 import typer
 
-from superlane_tools.cli._common import EXIT_CODES_HELP, cli_errors, command_line, err_console
+from superlane_tools.cli._common import (
+    EXIT_CODES_HELP,
+    cli_errors,
+    command_line,
+    err_console,
+    progress,
+)
 from superlane_tools.errors import UsageError
 
 TASKS = ("segmentation", "corridor")
@@ -64,8 +70,6 @@ def train(
         from superlane_tools.training import require_torch
 
         require_torch()
-        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
-
         from superlane_tools.training.train import TrainParams
         from superlane_tools.training.train import train as run_training
 
@@ -85,12 +89,10 @@ def train(
             threads=threads,
             command=command_line(),
         )
-        columns = (TextColumn("train {task.description}"), BarColumn(), MofNCompleteColumn())
-        with Progress(*columns, console=err_console, transient=True) as progress:
-            bar = progress.add_task("loss ?", total=None)
+        with progress(f"train {task}", unit="steps") as bar:
 
             def update(step: int, total: int, loss: float) -> None:
-                progress.update(bar, completed=step, total=total, description=f"loss {loss:.4f}")
+                bar.update(step, total, note=f"loss {loss:.4f}")
 
             result = run_training(params, update)
         err_console.print(

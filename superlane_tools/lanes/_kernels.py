@@ -5,9 +5,12 @@ reference in :mod:`superlane_tools.lanes.cost` (same formulas, same operation or
 scipy's bounded Nelder-Mead step for step, so both backends agree to rounding.
 
 Imported lazily (numba's import costs ~0.5 s and the first call compiles for seconds): only
-functions that run a fit import this module. ``cache=True`` keeps compiled code next to this
-file, or in numba's per-user cache when the install is read-only; where neither is writable the
-kernels are compiled in memory each process.
+functions that run a fit import this module. Compiled kernels are cached on disk in the user's
+cache folder (:func:`kernel_cache_dir`: ``$SLT_CACHE_DIR/numba``, else
+``$XDG_CACHE_HOME/superlane-tools/numba``, else ``~/.cache/superlane-tools/numba``), so a
+second process loads them instead of compiling, also when the package is installed read-only.
+Where no cache folder is writable the kernels are compiled in memory each process. The first
+compilation in a process prints one line to stderr, :data:`COMPILE_NOTE`.
 
 The cost configuration travels as one float array ``cfg`` (see the ``CFG_*`` indices). The road
 is ``z = b x + c x^2`` ahead of the camera foot; ``c = 0`` (the paper's linear road) takes the
@@ -17,11 +20,16 @@ exact flat-slope path of :func:`road_den`.
 from __future__ import annotations
 
 import math
+import os
+import sys
+import tempfile
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any, TypeVar, cast
 
 import numba
 import numpy as np
+from numba.core import event
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -44,12 +52,78 @@ CFG_INV_SIGMA = 7
 CFG_SIZE = 8
 
 
-def _jit(func: F) -> F:
-    """Compile ``func`` with an on-disk cache, or without one where no cache dir is writable."""
+CACHE_ENV = "SLT_CACHE_DIR"
+"""Environment variable naming superlane-tools' cache root (kernels go to its ``numba/``)."""
+COMPILE_NOTE = "note: compiling lane-fit kernels (first run only)"
+
+
+def kernel_cache_dir() -> Path:
+    """Return the folder of the compiled-kernel cache (it may not exist yet).
+
+    ``$SLT_CACHE_DIR/numba`` when set, else ``$XDG_CACHE_HOME/superlane-tools/numba``, else the
+    platform's user cache folder (``~/.cache`` on Linux, ``~/Library/Caches`` on macOS,
+    ``%LOCALAPPDATA%`` on Windows) ``/superlane-tools/numba``.
+    """
+    root = os.environ.get(CACHE_ENV)
+    if root:
+        return Path(root).expanduser() / "numba"
+    xdg = os.environ.get("XDG_CACHE_HOME")
+    if xdg:
+        base = Path(xdg).expanduser()
+    elif sys.platform == "win32" and os.environ.get("LOCALAPPDATA"):
+        base = Path(os.environ["LOCALAPPDATA"])
+    elif sys.platform == "darwin":
+        base = Path.home() / "Library" / "Caches"
+    else:
+        base = Path.home() / ".cache"
+    return base / "superlane-tools" / "numba"
+
+
+def _writable(folder: Path) -> bool:
     try:
-        return cast("F", numba.njit(cache=True, fastmath=False, nogil=True)(func))
+        folder.mkdir(parents=True, exist_ok=True)
+        tempfile.TemporaryFile(dir=folder).close()
+    except OSError:
+        return False
+    return True
+
+
+_CACHE_DIR = kernel_cache_dir()
+_CACHE_OK = _writable(_CACHE_DIR)
+
+
+class _CompileNote(event.Listener):
+    """Print :data:`COMPILE_NOTE` once, when numba starts compiling a kernel of this module."""
+
+    printed = False
+
+    def on_start(self, event: Any) -> None:
+        func = getattr(event.data.get("dispatcher"), "py_func", None)
+        if not _CompileNote.printed and getattr(func, "__module__", None) == __name__:
+            _CompileNote.printed = True
+            print(COMPILE_NOTE, file=sys.stderr, flush=True)
+
+    def on_end(self, event: Any) -> None:
+        """Nothing to do when a compilation ends."""
+
+
+event.register("numba:compile", _CompileNote())  # type: ignore[no-untyped-call]
+
+
+def _jit(func: F) -> F:
+    """Compile ``func`` lazily, cached in :func:`kernel_cache_dir` (in memory if unwritable)."""
+    options: dict[str, Any] = {"fastmath": False, "nogil": True}
+    if not _CACHE_OK:
+        return cast("F", numba.njit(cache=False, **options)(func))
+    config: Any = numba.config
+    previous = config.CACHE_DIR
+    config.CACHE_DIR = str(_CACHE_DIR)  # read once, when the dispatcher finds its cache
+    try:
+        return cast("F", numba.njit(cache=True, **options)(func))
     except RuntimeError:  # numba: "cannot cache function ...: no locator available"
-        return cast("F", numba.njit(cache=False, fastmath=False, nogil=True)(func))
+        return cast("F", numba.njit(cache=False, **options)(func))
+    finally:
+        config.CACHE_DIR = previous
 
 
 @_jit
@@ -182,18 +256,34 @@ def _eval_scaled(
 
 
 @_jit
+def _set_row(sim: Any, j: int, values: Any) -> None:
+    """``sim[j] = values``, element by element (see :func:`_sort_simplex` for why)."""
+    for k in range(values.size):
+        sim[j, k] = values[k]
+
+
+@_jit
 def _sort_simplex(sim: Any, fsim: Any) -> None:
-    """Stable insertion sort of the simplex by cost (numpy's argsort on <= 16 items)."""
+    """Stable insertion sort of the simplex by cost (numpy's argsort on <= 16 items).
+
+    Rows are copied element by element: whole-row assignment makes numba compile its generic
+    broadcasting setitem (about 2 s of the first run's kernel compilation), for 2-5 numbers.
+    """
+    n_dim = sim.shape[1]
+    row = np.empty(n_dim)
     for i in range(1, fsim.size):
         f = fsim[i]
-        row = sim[i].copy()
+        for k in range(n_dim):
+            row[k] = sim[i, k]
         j = i - 1
         while j >= 0 and fsim[j] > f:
             fsim[j + 1] = fsim[j]
-            sim[j + 1] = sim[j]
+            for k in range(n_dim):
+                sim[j + 1, k] = sim[j, k]
             j -= 1
         fsim[j + 1] = f
-        sim[j + 1] = row
+        for k in range(n_dim):
+            sim[j + 1, k] = row[k]
 
 
 @_jit
@@ -271,13 +361,13 @@ def nelder_mead(
             fxe = _eval_scaled(trial, base, free, scale, iq, r, riq, rr, cfg, hist)
             nfev += 1
             if fxe < fxr:
-                sim[n] = trial
+                _set_row(sim, n, trial)
                 fsim[n] = fxe
             else:
-                sim[n] = xr
+                _set_row(sim, n, xr)
                 fsim[n] = fxr
         elif fxr < fsim[n - 1]:
-            sim[n] = xr
+            _set_row(sim, n, xr)
             fsim[n] = fxr
         else:
             shrink = False
@@ -288,7 +378,7 @@ def nelder_mead(
                 fxc = _eval_scaled(trial, base, free, scale, iq, r, riq, rr, cfg, hist)
                 nfev += 1
                 if fxc <= fxr:
-                    sim[n] = trial
+                    _set_row(sim, n, trial)
                     fsim[n] = fxc
                 else:
                     shrink = True
@@ -299,7 +389,7 @@ def nelder_mead(
                 fxcc = _eval_scaled(trial, base, free, scale, iq, r, riq, rr, cfg, hist)
                 nfev += 1
                 if fxcc < fsim[n]:
-                    sim[n] = trial
+                    _set_row(sim, n, trial)
                     fsim[n] = fxcc
                 else:
                     shrink = True
@@ -451,8 +541,12 @@ def row_coverage(rows_px: Any, labels: Any, n_lines: int) -> Any:
     out = np.zeros((n_lines, 3), dtype=np.int64)
     if rows_px.size == 0 or n_lines == 0:
         return out
-    lo = int(np.rint(rows_px.min()))
-    hi = int(np.rint(rows_px.max()))
+    low = high = rows_px[0]  # finite pixel rows; a loop, not .min()/.max() (compile time)
+    for i in range(1, rows_px.size):
+        low = min(low, rows_px[i])
+        high = max(high, rows_px[i])
+    lo = int(np.rint(low))
+    hi = int(np.rint(high))
     seen = np.zeros((n_lines, hi - lo + 1), dtype=np.bool_)
     for n in range(n_lines):
         out[n, 1] = hi + 1
@@ -617,7 +711,8 @@ def refit_gauss_newton(
             fit_vertical, near_m,
         )  # fmt: skip
         p = solve_ridged(normal, rhs)
-        offsets[:] = p[:n_lines]
+        for k in range(n_lines):  # not a slice assignment (see _sort_simplex)
+            offsets[k] = p[k]
         a1 = p[n_lines]
         a2 = p[n_lines + 1] if order == 2 else 0.0
         if not (fit_slope or fit_vertical):

@@ -12,6 +12,7 @@ bounded per-line correction.
 from __future__ import annotations
 
 import math
+import threading
 import time
 
 import numpy as np
@@ -287,6 +288,7 @@ def _road_only(
 
 
 _WARM_BACKENDS: set[str] = set()
+_WARM_LOCK = threading.RLock()  # re-entered by the warm-up's own fit_frame call
 
 
 def warm_up(backend: str = "numba") -> float:
@@ -294,23 +296,26 @@ def warm_up(backend: str = "numba") -> float:
 
     :func:`fit_frame` calls this before it starts its clock, so ``fit_time_s`` (and the
     TuSimple ``run_time`` derived from it) is the per-frame cost, not numba's one-off kernel
-    loading (about 0.4 s from its cache, seconds when it must compile).
+    loading (about 0.4 s from its cache, seconds when it must compile). Thread-safe: a call
+    made while another thread warms up (``slt reprocess`` starts one early, on a side thread)
+    waits for it, outside the caller's clock.
 
     Returns:
         Seconds spent, 0 when the backend was already warm.
     """
-    if backend in _WARM_BACKENDS:
-        return 0.0
-    _WARM_BACKENDS.add(backend)
-    t0 = time.perf_counter()
-    cam = CameraModel(Intrinsics(640, 360, 500.0, 500.0, 319.5, 179.5), Extrinsics(1.5, 0.05))
-    x = np.linspace(5.0, 40.0, 120)
-    lines = [
-        cam.project(np.stack([x, np.full_like(x, off), np.zeros_like(x)], axis=1))[0]
-        for off in (-5.25, -1.75, 1.75, 5.25)
-    ]
-    fit_frame(np.concatenate(lines), None, cam, FitParams(backend=backend))  # type: ignore[arg-type]
-    return time.perf_counter() - t0
+    with _WARM_LOCK:
+        if backend in _WARM_BACKENDS:
+            return 0.0
+        _WARM_BACKENDS.add(backend)
+        t0 = time.perf_counter()
+        cam = CameraModel(Intrinsics(640, 360, 500.0, 500.0, 319.5, 179.5), Extrinsics(1.5, 0.05))
+        x = np.linspace(5.0, 40.0, 120)
+        lines = [
+            cam.project(np.stack([x, np.full_like(x, off), np.zeros_like(x)], axis=1))[0]
+            for off in (-5.25, -1.75, 1.75, 5.25)
+        ]
+        fit_frame(np.concatenate(lines), None, cam, FitParams(backend=backend))  # type: ignore[arg-type]
+        return time.perf_counter() - t0
 
 
 def fit_frame(

@@ -9,14 +9,16 @@ collapses is repeated from the loss-curve search and the plausible one kept.
 from __future__ import annotations
 
 import math
-
-import numpy as np
-from numpy.typing import NDArray
+from typing import TYPE_CHECKING
 
 from superlane_tools.camera.model import CameraModel
 from superlane_tools.lanes.multilane_fit import fit_frame
 from superlane_tools.lanes.params import FitParams
 from superlane_tools.lanes.result import LaneFit
+
+if TYPE_CHECKING:
+    import numpy as np
+    from numpy.typing import NDArray
 
 WARM_START_MAX_AGE = 15
 """Frames a plausible fit may seed the warm start after it (gated warm start), frames."""

@@ -79,7 +79,7 @@ def test_cli_all_failed_is_error(tmp_path: Path, make_drives: Callable[..., list
         (("--engine", "spark"), "unknown engine"),
         (("--job", "dance"), "unknown job kind"),
         (("--ray-address", "auto"), "--ray-address needs --engine ray"),
-        (("--config", "missing.yaml"), "cannot read config"),
+        (("--config", "missing.yaml"), "missing.yaml"),  # click: the file does not exist
     ],
 )
 def test_cli_usage_errors(

@@ -89,7 +89,7 @@ def test_segment_refuses_bad_requests(tmp_path: Path) -> None:
     bad_cam = runner.invoke(
         app, ["segment", str(folder), "--out", str(tmp_path / "o"), "--camera", "nope"]
     )
-    assert bad_cam.exit_code == 1
+    assert bad_cam.exit_code == 2  # a bad option value is a usage error
     assert "nope" in bad_cam.output
     assert "Traceback" not in bad_cam.output
 

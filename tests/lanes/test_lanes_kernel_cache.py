@@ -1,0 +1,87 @@
+"""The lane-fit kernel cache: user cache folder, one note when compiling, read-only installs."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import stat
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from superlane_tools.lanes import _kernels
+from superlane_tools.lanes._kernels import COMPILE_NOTE, kernel_cache_dir
+
+PACKAGE = Path(_kernels.__file__).resolve().parents[1]
+WARM = "from superlane_tools.lanes.multilane_fit import warm_up; warm_up()"
+
+
+def test_cache_dir_follows_env(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    monkeypatch.setenv("SLT_CACHE_DIR", str(tmp_path / "slt"))
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert kernel_cache_dir() == tmp_path / "slt" / "numba"
+    monkeypatch.delenv("SLT_CACHE_DIR")
+    assert kernel_cache_dir() == tmp_path / "xdg" / "superlane-tools" / "numba"
+    monkeypatch.delenv("XDG_CACHE_HOME")
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    if sys.platform.startswith("linux"):
+        assert kernel_cache_dir() == tmp_path / "home" / ".cache" / "superlane-tools" / "numba"
+
+
+def _files(root: Path) -> set[Path]:
+    return {p.relative_to(root) for p in root.rglob("*")}
+
+
+def _warm(site: Path, cache: Path) -> subprocess.CompletedProcess[str]:
+    env = {
+        **os.environ,
+        "PYTHONPATH": str(site),
+        "PYTHONDONTWRITEBYTECODE": "1",
+        "SLT_CACHE_DIR": str(cache),
+    }
+    return subprocess.run(
+        [sys.executable, "-c", WARM], env=env, capture_output=True, text=True, check=False
+    )
+
+
+@pytest.mark.slow
+def test_second_process_loads_kernels_from_a_read_only_install(tmp_path: Path) -> None:
+    """A copy of the package with no write permission: compile once, then load from the cache."""
+    site = tmp_path / "site"
+    shutil.copytree(PACKAGE, site / "superlane_tools", ignore=shutil.ignore_patterns("__pycache__"))
+    for path in [site, *site.rglob("*")]:
+        mode = path.stat().st_mode
+        path.chmod(mode & ~(stat.S_IWUSR | stat.S_IWGRP | stat.S_IWOTH))
+    before = _files(site)
+    cache = tmp_path / "cache"
+    try:
+        first = _warm(site, cache)
+        assert first.returncode == 0, first.stderr
+        assert first.stderr.count(COMPILE_NOTE) == 1, first.stderr
+        cached = list((cache / "numba").rglob("*.nbi"))
+        assert len(cached) >= 10, cached
+        second = _warm(site, cache)
+        assert second.returncode == 0, second.stderr
+        assert COMPILE_NOTE not in second.stderr
+        assert _files(site) == before  # nothing written beside the installed sources
+    finally:
+        for path in [site, *site.rglob("*")]:
+            path.chmod(path.stat().st_mode | stat.S_IWUSR)
+
+
+def test_unwritable_cache_compiles_in_memory(tmp_path: Path) -> None:
+    blocker = tmp_path / "file"
+    blocker.write_text("a file where the cache folder should be")
+    env = {**os.environ, "SLT_CACHE_DIR": str(blocker), "PYTHONDONTWRITEBYTECODE": "1"}
+    code = (
+        "from superlane_tools.lanes import _kernels as k; "
+        "import numpy as np; print(k._CACHE_OK, k.road_den(0.1, 0.0, 0.0))"
+    )
+    res = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=False
+    )
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.split() == ["False", "0.1"]
+    assert res.stderr.count(COMPILE_NOTE) == 1
