@@ -58,7 +58,6 @@ from superlane_tools.reporting.atomic import write_text_atomic
 REPO = Path(__file__).resolve().parents[1]
 SLT = str(Path(sys.executable).with_name("slt"))
 MARKING_IDS = np.array(leaf_ids_under("lane_marking"))
-LABELLED = tuple(f"{i:04d}.png" for i in range(6))
 KITTI_NAME = "um_000000"
 
 
@@ -84,6 +83,40 @@ def _links(sources: list[Path], folder: Path) -> Path:
     return folder
 
 
+def validation_frames(data: Path, work: Path) -> tuple[Path, Path, list[Path]]:
+    """Write the fixed real validation split as PNGs with one ``labels.json``.
+
+    The split: the last ``TUSIMPLE_VAL_FRAMES`` (30) frames of ``tusimple/train_frames`` (never
+    trained on; named ``val_NNNN.png``) and the 6 labelled frames of ``tusimple/frames``.
+    Returns the frame folder, its labels file and the frame paths.
+    """
+    from superlane_tools.training.datasets import (
+        TUSIMPLE_VAL_FRAMES,
+        _split_rows,
+        tusimple_labels,
+    )
+
+    folder = work / "val_frames"
+    folder.mkdir(parents=True, exist_ok=True)
+    lines = []
+    train_frames = data / "tusimple" / "train_frames"
+    labels = tusimple_labels(train_frames)
+    for label in labels[_split_rows(len(labels), "val", TUSIMPLE_VAL_FRAMES)]:
+        name = f"val_{Path(label['raw_file']).stem}.png"
+        if not (folder / name).is_file():
+            cv2.imwrite(str(folder / name), cv2.imread(str(train_frames / label["raw_file"])))
+        lines.append({**label, "raw_file": name})
+    frames_src = data / "tusimple" / "frames"
+    for label in tusimple_labels(frames_src):
+        link = folder / label["raw_file"]
+        if not link.exists():
+            link.symlink_to((frames_src / label["raw_file"]).resolve())
+        lines.append(label)
+    labels_path = work / "val_labels.json"
+    labels_path.write_text("".join(json.dumps(x) + "\n" for x in lines), encoding="utf-8")
+    return folder, labels_path, [folder / x["raw_file"] for x in lines]
+
+
 def marking_support(seg_dir: Path, labels_json: Path) -> tuple[float, float]:
     """Return (recall within 3 px, precision within 10 px) of marking pixels vs the labels."""
     found = total = near = marked = 0
@@ -104,14 +137,22 @@ def marking_support(seg_dir: Path, labels_json: Path) -> tuple[float, float]:
     return found / max(total, 1), near / max(marked, 1)
 
 
-def tusimple_chain(backend: str, frames: Path, labels: Path, work: Path) -> dict[str, Any]:
+def backend_args(spec: str) -> tuple[str, list[str]]:
+    """Return (label, ``slt segment`` options) of ``classical``, ``onnx`` or ``onnx=MODEL``."""
+    name, _, model = spec.partition("=")
+    if not model:
+        return name, ["--backend", name]
+    return f"{name}_{Path(model).name.removesuffix('.onnx')}", ["--backend", name, "--model", model]
+
+
+def tusimple_chain(spec: str, frames: Path, labels: Path, work: Path) -> dict[str, Any]:
     """Run the four-command chain for one backend; return scores, commands and timings."""
+    backend, options = backend_args(spec)
     seg, lanes = work / f"seg_{backend}", work / f"lanes_{backend}.parquet"
     pred = work / f"pred_{backend}.json"
     t0 = time.perf_counter()
     commands = [
-        slt("segment", frames, "--out", seg, "--backend", backend, "--camera", "tusimple",
-            "--overlay")[0],
+        slt("segment", frames, "--out", seg, *options, "--camera", "tusimple", "--overlay")[0],
         slt("lanes", "fit", seg, "--camera", "tusimple", "--out", lanes)[0],
         slt("lanes", "export-tusimple", lanes, "--camera", "tusimple", "--h-samples",
             "160:720:10", "--out", pred, "--raw-ext", ".png")[0],
@@ -137,13 +178,13 @@ def tusimple_chain(backend: str, frames: Path, labels: Path, work: Path) -> dict
     }
 
 
-def kitti_chain(backend: str, data: Path, work: Path) -> dict[str, Any]:
+def kitti_chain(spec: str, data: Path, work: Path) -> dict[str, Any]:
     """Segment and fit KITTI ``um_000000``; score the fitted ego lane against the lane GT."""
+    backend, options = backend_args(spec)
     folder = _links([data / "kitti_road" / f"image_{KITTI_NAME}.png"], work / "kitti_frames")
     seg, lanes = work / f"kitti_seg_{backend}", work / f"kitti_lanes_{backend}.parquet"
     commands = [
-        slt("segment", folder, "--out", seg, "--backend", backend, "--camera", "kitti",
-            "--overlay")[0],
+        slt("segment", folder, "--out", seg, *options, "--camera", "kitti", "--overlay")[0],
         slt("lanes", "fit", seg, "--camera", "kitti", "--out", lanes)[0],
     ]  # fmt: skip
     row = pq.read_table(lanes).to_pylist()[0]
@@ -206,12 +247,13 @@ def overlay_sheet(
     cv2.imwrite(str(out), sheet, [cv2.IMWRITE_PNG_COMPRESSION, 9])
 
 
-def unlabeled_chain(backend: str, data: Path, work: Path) -> Path:
+def unlabeled_chain(spec: str, data: Path, work: Path) -> Path:
     """Segment, fit and export the unlabelled TuSimple frames (for overlays only)."""
+    backend, options = backend_args(spec)
     src = data / "tusimple" / "frames" / "unlabeled"
     seg, lanes = work / f"unl_seg_{backend}", work / f"unl_lanes_{backend}.parquet"
     pred = work / f"unl_pred_{backend}.json"
-    slt("segment", src, "--out", seg, "--backend", backend, "--camera", "tusimple")
+    slt("segment", src, "--out", seg, *options, "--camera", "tusimple")
     slt("lanes", "fit", seg, "--camera", "tusimple", "--out", lanes)
     slt("lanes", "export-tusimple", lanes, "--camera", "tusimple", "--h-samples", "160:720:10",
         "--out", pred, "--raw-ext", ".jpg")  # fmt: skip
@@ -317,18 +359,18 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--json", type=Path, default=None)
     args = ap.parse_args(argv)
     frames_src = args.data / "tusimple" / "frames"
-    labels = frames_src / "labels.json"
-    if not labels.is_file():
+    if not (frames_src / "labels.json").is_file():
         print(f"no real data at {args.data}", file=sys.stderr)
         return 1
     with tempfile.TemporaryDirectory() as tmp:
         work = args.work or Path(tmp)
         work.mkdir(parents=True, exist_ok=True)
-        frames = _links([frames_src / n for n in LABELLED], work / "frames")
+        frames, labels, frame_paths = validation_frames(args.data, work)
         results: dict[str, Any] = {}
-        for backend in args.backends.split(","):
-            tus = tusimple_chain(backend, frames, labels, work)
-            kit = kitti_chain(backend, args.data, work)
+        for spec in args.backends.split(","):
+            backend = backend_args(spec)[0]
+            tus = tusimple_chain(spec, frames, labels, work)
+            kit = kitti_chain(spec, args.data, work)
             results[backend] = {"tusimple": tus, "kitti": kit}
             off = tus["official"]
             print(
@@ -343,10 +385,10 @@ def main(argv: list[str] | None = None) -> int:
                     Path(tus["seg"]),
                     Path(tus["pred"]),
                     labels,
-                    [frames_src / n for n in LABELLED],
+                    frame_paths[-12:],
                     args.overlays / f"real_frames_{backend}.png",
                 )
-                unl = unlabeled_chain(backend, args.data, work)
+                unl = unlabeled_chain(spec, args.data, work)
                 overlay_sheet(
                     work / f"unl_seg_{backend}",
                     unl,

@@ -75,7 +75,42 @@ def _onnx(model: str | None, camera: CameraModel | None) -> SegmentationBackend:
     return OnnxSegmentationBackend(model)
 
 
-_FACTORIES: dict[str, BackendFactory] = {"classical": _classical, "onnx": _onnx}
+REAL_METRIC = "tusimple_val_end_to_end"
+"""Card metrics section with the end-to-end LaneEval accuracy on real validation frames."""
+
+
+def auto_choice(model: str | None = None) -> tuple[str, str]:
+    """Return ``(backend name, reason)`` of the ``auto`` backend.
+
+    ``auto`` uses the shipped segmentation model when its card says it is at least as accurate
+    end to end on real validation frames (official LaneEval, :data:`REAL_METRIC`) as the
+    classical backend measured in the same run, and the classical backend otherwise (or when
+    no model is shipped). A given ``model`` always means ONNX.
+    """
+    if model:
+        return "onnx", "a model was given"
+    from superlane_tools.models import list_models
+    from superlane_tools.scene.model_card import card_path_for, load_card
+    from superlane_tools.scene.onnx_backend import DEFAULT_SEGMENTATION_MODEL, resolve_model
+
+    if DEFAULT_SEGMENTATION_MODEL not in list_models():
+        return "classical", f"no shipped model {DEFAULT_SEGMENTATION_MODEL}"
+    card = load_card(card_path_for(resolve_model(DEFAULT_SEGMENTATION_MODEL)[0]))
+    real = card.metrics.get(REAL_METRIC) or {}
+    acc, classical = real.get("laneeval_accuracy"), real.get("classical_laneeval_accuracy")
+    if acc is None or classical is None:
+        return "classical", f"{card.name} has no real-frame accuracy in its card"
+    if float(acc) >= float(classical):
+        return "onnx", f"{card.name}: LaneEval {acc:.3f} >= classical {classical:.3f} (real frames)"
+    return "classical", f"classical: LaneEval {classical:.3f} > {card.name} {acc:.3f} (real frames)"
+
+
+def _auto(model: str | None, camera: CameraModel | None) -> SegmentationBackend:
+    name, _ = auto_choice(model)
+    return _FACTORIES[name](model, camera)
+
+
+_FACTORIES: dict[str, BackendFactory] = {"auto": _auto, "classical": _classical, "onnx": _onnx}
 
 
 def known_backends() -> tuple[str, ...]:
