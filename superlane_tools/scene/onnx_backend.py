@@ -28,8 +28,8 @@ from superlane_tools.scene.model_card import (
 )
 from superlane_tools.scene.model_errors import ModelError
 
-DEFAULT_SEGMENTATION_MODEL = "super_seg_v2"
-DEFAULT_CORRIDOR_MODEL = "ego_corridor_v2"
+DEFAULT_SEGMENTATION_MODEL = "super_seg_v3"
+DEFAULT_CORRIDOR_MODEL = "ego_corridor_v3"
 
 
 class LoadedModel(NamedTuple):
@@ -135,7 +135,7 @@ class OnnxSegmentationBackend:
     image's resolution (decoded at the network's resolution, then resized nearest-neighbour).
 
     Args:
-        model: Model file path or bundled model name (default ``super_seg_v2``).
+        model: Model file path or bundled model name (default ``super_seg_v3``).
         threads: onnxruntime intra-op threads.
 
     Raises:

@@ -233,14 +233,11 @@ class FrameStages:
                     "fell back to the classical backend"
                 )
             else:
-                iou = _card_lane_iou(DEFAULT_SEGMENTATION_MODEL)
-                name = "onnx" if iou >= AUTO_MIN_LANE_IOU else "classical"
+                from superlane_tools.scene.backend import auto_choice  # same rule as `slt segment`
+
+                name, why = auto_choice()
                 if name == "classical":
-                    self.notes.append(
-                        f"shipped model {DEFAULT_SEGMENTATION_MODEL} measured lane-marking IoU "
-                        f"{iou:.2f} < {AUTO_MIN_LANE_IOU} on held-out simulator data (model card): "
-                        "the classical backend feeds the lane fit (--backend onnx forces the model)"
-                    )
+                    self.notes.append(f"auto backend: {why} (--backend onnx forces the model)")
         if name == "onnx":
             from superlane_tools.scene.onnx_backend import OnnxSegmentationBackend
 
