@@ -156,9 +156,10 @@ def evaluate(seg: Path, cor: Path, test: Path, realdata: Path | None) -> dict[st
     return {k: {"metrics": v.metrics, "ms_per_frame": v.ms_per_frame} for k, v in results.items()}
 
 
-def _record_pipeline(card_path: Path, timing: dict[str, Any]) -> None:
-    from superlane_tools.scene.model_card import load_card, write_card
+def _record_pipeline(model: Path, timing: dict[str, Any]) -> None:
+    from superlane_tools.scene.model_card import card_path_for, load_card, write_card
 
+    card_path = card_path_for(model)
     card = load_card(card_path)
     argv = " ".join(sys.argv[1:]) if Path(sys.argv[0]).name == "train_models.py" else ""
     training = {
