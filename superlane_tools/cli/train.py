@@ -75,6 +75,9 @@ def train(
         int, typer.Option("--dice-bands", min=1, help="Row bands of the lane-marking Dice.")
     ] = 1,
     device: Annotated[str, typer.Option("--device", help="torch device: cpu or cuda.")] = "cpu",
+    init: Annotated[
+        Path | None, typer.Option("--init", help="Start from a checkpoint's weights (fine-tune).")
+    ] = None,
     resume: Annotated[
         bool, typer.Option("--resume", help="Continue from MODEL.ckpt.pt if it exists.")
     ] = False,
@@ -110,6 +113,7 @@ def train(
             dice_bands=dice_bands,
             device=device,
             resume=resume,
+            init=init,
             batch=batch,
             lr=lr,
             size=_size(size),

@@ -95,6 +95,7 @@ class TrainParams:
         device: torch device (``cpu`` or ``cuda``).
         checkpoint_every: Save a resumable checkpoint beside ``out`` every this many steps.
         resume: Continue from that checkpoint when it exists.
+        init: Start from the weights of this checkpoint (fine-tuning; fresh optimiser).
         name: Model name for the card (default: the output file stem).
         command: The command line that started training, recorded in the card.
     """
@@ -122,6 +123,7 @@ class TrainParams:
     device: str = "cpu"
     checkpoint_every: int = 200
     resume: bool = False
+    init: Path | None = None
     name: str = ""
     command: str = ""
 
@@ -309,6 +311,7 @@ def train(params: TrainParams, progress: Progress | None = None) -> TrainResult:
                 _dataset_command(d) or f"none for {d} (not a simulator folder)" for d in folders
             ),
             "training_command": params.command or "library call",
+            "init": "random (seeded)" if params.init is None else str(params.init),
             "architecture": params.architecture,
             "adapter": params.adapter if params.task == "segmentation" else "n/a",
             "seed": params.seed,
@@ -464,6 +467,12 @@ def _fit(
         gen.set_state(state["generator"])
         step_losses = list(state["losses"])
         first = int(state["step"])
+    elif params.init is not None:
+        if not params.init.is_file():
+            raise TrainingError(f"--init {params.init}: no such checkpoint")
+        model.load_state_dict(
+            torch.load(params.init, map_location=device, weights_only=False)["model"]
+        )
     model.train()
     for step in range(first, total):
         x, y, heads = _batch(sets, probs, params, gen, out_size)
