@@ -245,7 +245,12 @@ def _dataset_rows(sets: Sequence[LoadedSet]) -> list[dict[str, Any]]:
     rows = []
     for loaded in sets:
         spec = loaded.spec
-        trained = [h.name for h, on in zip(HEADS, loaded.heads, strict=True) if on]
+        codes = np.unique(loaded.codes) if loaded.codes is not None else np.zeros(0, np.uint8)
+        trained = [
+            h.name
+            for h, on in zip(HEADS, loaded.heads, strict=True)
+            if on and bool((head_target_lut(h)[codes] != IGNORE).any())
+        ]
         rows.append(
             {
                 "reader": spec.reader,
