@@ -1,4 +1,4 @@
-"""Real-frame end-to-end lane accuracy: TuSimple LaneEval on 6 labelled frames, KITTI ego lane.
+"""Real-frame end-to-end lane accuracy: TuSimple LaneEval on the real validation split, KITTI.
 
 For each segmentation backend the documented CLI chain runs as subprocesses, exactly as a user
 would type it:
@@ -11,8 +11,9 @@ slt lanes export-tusimple lanes.parquet --camera tusimple --h-samples 160:720:10
 slt eval tusimple pred.json DATA/tusimple/frames/labels.json --json
 ```
 
-``FRAMES`` is a folder of links to the six labelled PNGs (the data folder also holds
-``labels.json`` and ``unlabeled/``, which ``slt segment`` would otherwise pick up). The same chain
+``FRAMES`` is the fixed real validation split, written as PNGs with one ``labels.json``: the last
+30 frames of ``tusimple/train_frames`` (never trained on) and the 6 labelled frames of
+``tusimple/frames``. ``--backends`` takes ``classical``, ``onnx`` or ``onnx=MODEL``. The same chain
 with ``--camera kitti`` runs on KITTI ``um_000000``; the ego lane between the fitted ego-left and
 ego-right lines, rasterised up to the shorter line's fitted range, is scored against
 ``gt_um_lane_000000.png`` (:mod:`superlane_tools.evaluation.kitti`). The four ``unlabeled/``
@@ -58,7 +59,6 @@ from superlane_tools.reporting.atomic import write_text_atomic
 REPO = Path(__file__).resolve().parents[1]
 SLT = str(Path(sys.executable).with_name("slt"))
 MARKING_IDS = np.array(leaf_ids_under("lane_marking"))
-LABELLED = tuple(f"{i:04d}.png" for i in range(6))
 KITTI_NAME = "um_000000"
 
 
@@ -84,11 +84,53 @@ def link_frames(sources: list[Path], folder: Path) -> Path:
     return folder
 
 
+def validation_frames(data: Path, work: Path) -> tuple[list[tuple[Path, str]], Path, list[Path]]:
+    """Write the fixed real validation split as PNGs with one ``labels.json``.
+
+    The split: the last ``TUSIMPLE_VAL_FRAMES`` (30) frames of ``tusimple/train_frames`` (never
+    trained on; named ``val_NNNN.png``) and the 6 labelled frames of ``tusimple/frames``. Frames
+    go into one folder per ``h_samples`` range (the export must use the labels' rows).
+    Returns ``[(folder, "START:STOP:STEP")]``, the labels file and the frame paths.
+    """
+    from superlane_tools.training.datasets import (
+        TUSIMPLE_VAL_FRAMES,
+        _split_rows,
+        tusimple_labels,
+    )
+
+    lines: list[dict[str, Any]] = []
+    groups: dict[str, Path] = {}
+    paths: list[Path] = []
+
+    def add(label: dict[str, Any], source: Path, name: str) -> None:
+        rows = label["h_samples"]
+        key = f"{rows[0]}:{rows[-1] + rows[1] - rows[0]}:{rows[1] - rows[0]}"
+        folder = groups.setdefault(key, work / f"val_frames_{rows[0]}")
+        folder.mkdir(parents=True, exist_ok=True)
+        if not (folder / name).is_file():
+            cv2.imwrite(str(folder / name), cv2.imread(str(source)))
+        lines.append({**label, "raw_file": name})
+        paths.append(folder / name)
+
+    train_frames = data / "tusimple" / "train_frames"
+    labels = tusimple_labels(train_frames)
+    for label in labels[_split_rows(len(labels), "val", TUSIMPLE_VAL_FRAMES)]:
+        name = f"val_{Path(label['raw_file']).stem}.png"
+        add(label, train_frames / label["raw_file"], name)
+    frames_src = data / "tusimple" / "frames"
+    for label in tusimple_labels(frames_src):
+        add(label, frames_src / label["raw_file"], str(label["raw_file"]))
+    labels_path = work / "val_labels.json"
+    labels_path.write_text("".join(json.dumps(x) + "\n" for x in lines), encoding="utf-8")
+    return [(folder, key) for key, folder in groups.items()], labels_path, paths
+
+
 def marking_support(seg_dir: Path, labels_json: Path) -> tuple[float, float]:
     """Return (recall within 3 px, precision within 10 px) of marking pixels vs the labels."""
     found = total = near = marked = 0
     for rec in load_jsonl(labels_json):
-        mask = np.isin(cv2.imread(str(seg_dir / rec.raw_file), cv2.IMREAD_UNCHANGED), MARKING_IDS)
+        found_path = next(seg_dir.rglob(rec.raw_file))
+        mask = np.isin(cv2.imread(str(found_path), cv2.IMREAD_UNCHANGED), MARKING_IDS)
         gt = np.zeros(mask.shape, dtype=np.uint8)
         for lane in rec.lanes:
             pts = [(x, y) for x, y in zip(lane, rec.h_samples, strict=True) if x >= 0]
@@ -104,18 +146,42 @@ def marking_support(seg_dir: Path, labels_json: Path) -> tuple[float, float]:
     return found / max(total, 1), near / max(marked, 1)
 
 
-def tusimple_chain(backend: str, frames: Path, labels: Path, work: Path) -> dict[str, Any]:
-    """Run the four-command chain for one backend; return scores, commands and timings."""
-    seg, lanes = work / f"seg_{backend}", work / f"lanes_{backend}.parquet"
+def backend_args(spec: str) -> tuple[str, list[str]]:
+    """Return (label, ``slt segment`` options) of ``classical``, ``onnx`` or ``onnx=MODEL``."""
+    name, _, model = spec.partition("=")
+    if not model:
+        return name, ["--backend", name]
+    return f"{name}_{Path(model).name.removesuffix('.onnx')}", ["--backend", name, "--model", model]
+
+
+def tusimple_chain(
+    spec: str, groups: list[tuple[Path, str]], labels: Path, work: Path
+) -> dict[str, Any]:
+    """Run the four-command chain for one backend; return scores, commands and timings.
+
+    Segment, fit and export run per frame folder (each with its labels' ``h_samples``); the
+    exported predictions are concatenated and scored by one ``slt eval tusimple``.
+    """
+    backend, options = backend_args(spec)
+    seg = work / f"seg_{backend}"
     pred = work / f"pred_{backend}.json"
     t0 = time.perf_counter()
-    commands = [
-        slt("segment", frames, "--out", seg, "--backend", backend, "--camera", "tusimple",
-            "--overlay")[0],
-        slt("lanes", "fit", seg, "--camera", "tusimple", "--out", lanes)[0],
-        slt("lanes", "export-tusimple", lanes, "--camera", "tusimple", "--h-samples",
-            "160:720:10", "--out", pred, "--raw-ext", ".png")[0],
-    ]  # fmt: skip
+    commands = []
+    parts = []
+    for folder, rows in groups:
+        seg_part = seg / folder.name
+        lanes = work / f"lanes_{backend}_{folder.name}.parquet"
+        part = work / f"pred_{backend}_{folder.name}.json"
+        commands += [
+            slt("segment", folder, "--out", seg_part, *options, "--camera", "tusimple",
+                "--overlay")[0],
+            slt("lanes", "fit", seg_part, "--camera", "tusimple", "--out", lanes)[0],
+            slt("lanes", "export-tusimple", lanes, "--camera", "tusimple", "--h-samples", rows,
+                "--out", part, "--raw-ext", ".png")[0],
+        ]  # fmt: skip
+        parts.append(part.read_text(encoding="utf-8"))
+    pred.write_text("".join(parts), encoding="utf-8")
+    commands.append(f"cat WORK/pred_{backend}_*.json > {pred}")
     cmd, out = slt("eval", "tusimple", pred, labels, "--json")
     commands.append(cmd)
     official = json.loads(out)
@@ -137,13 +203,13 @@ def tusimple_chain(backend: str, frames: Path, labels: Path, work: Path) -> dict
     }
 
 
-def kitti_chain(backend: str, data: Path, work: Path) -> dict[str, Any]:
+def kitti_chain(spec: str, data: Path, work: Path) -> dict[str, Any]:
     """Segment and fit KITTI ``um_000000``; score the fitted ego lane against the lane GT."""
+    backend, options = backend_args(spec)
     folder = link_frames([data / "kitti_road" / f"image_{KITTI_NAME}.png"], work / "kitti_frames")
     seg, lanes = work / f"kitti_seg_{backend}", work / f"kitti_lanes_{backend}.parquet"
     commands = [
-        slt("segment", folder, "--out", seg, "--backend", backend, "--camera", "kitti",
-            "--overlay")[0],
+        slt("segment", folder, "--out", seg, *options, "--camera", "kitti", "--overlay")[0],
         slt("lanes", "fit", seg, "--camera", "kitti", "--out", lanes)[0],
     ]  # fmt: skip
     row = pq.read_table(lanes).to_pylist()[0]
@@ -191,7 +257,7 @@ def overlay_sheet(
     tiles = []
     for src in images:
         img = cv2.imread(str(src))
-        lab = cv2.imread(str(seg / f"{src.stem}.png"), cv2.IMREAD_UNCHANGED)
+        lab = cv2.imread(str(next(seg.rglob(f"{src.stem}.png"))), cv2.IMREAD_UNCHANGED)
         img[lab == leaf_ids_under("road")[0]] //= 2
         img[np.isin(lab, MARKING_IDS)] = (255, 0, 255)
         if src.name in gts:
@@ -206,12 +272,13 @@ def overlay_sheet(
     cv2.imwrite(str(out), sheet, [cv2.IMWRITE_PNG_COMPRESSION, 9])
 
 
-def unlabeled_chain(backend: str, data: Path, work: Path) -> Path:
+def unlabeled_chain(spec: str, data: Path, work: Path) -> Path:
     """Segment, fit and export the unlabelled TuSimple frames (for overlays only)."""
+    backend, options = backend_args(spec)
     src = data / "tusimple" / "frames" / "unlabeled"
     seg, lanes = work / f"unl_seg_{backend}", work / f"unl_lanes_{backend}.parquet"
     pred = work / f"unl_pred_{backend}.json"
-    slt("segment", src, "--out", seg, "--backend", backend, "--camera", "tusimple")
+    slt("segment", src, "--out", seg, *options, "--camera", "tusimple")
     slt("lanes", "fit", seg, "--camera", "tusimple", "--out", lanes)
     slt("lanes", "export-tusimple", lanes, "--camera", "tusimple", "--h-samples", "160:720:10",
         "--out", pred, "--raw-ext", ".jpg")  # fmt: skip
@@ -272,9 +339,12 @@ def render_report(results: dict[str, Any], data: Path, work: Path) -> str:
     lines = [
         "# Real frames: end-to-end lane accuracy",
         "",
-        "Generated by `python pipelines/real_frames_eval.py --report reports/real_frames.md`",
-        "(numbers below are from that run). DATA = the real-data folder (TuSimple `frames/`:",
-        "6 labelled + 4 unlabelled frames; KITTI `um_000000`), WORK = the work folder.",
+        "Generated by `python pipelines/real_frames_eval.py --backends "
+        "classical,onnx=super_seg_v2,onnx=super_seg_v3 --report reports/real_frames.md`",
+        "(numbers below are from that run). Real validation split, never trained on: the last",
+        "30 frames of TuSimple `train_frames/` (`val_NNNN.png`) and the 6 labelled frames of",
+        "`frames/` (`000N.png`), 36 frames; KITTI `um_000000`. DATA = the real-data folder,",
+        "WORK = the work folder.",
         "",
         "| backend | LaneEval acc | FP | FN | F1 | acc without run-time gate | marking recall 3 px"
         " | marking precision 10 px | KITTI ego IoU | KITTI F / P / R |",
@@ -311,24 +381,24 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--data", type=Path, default=_default_data())
     ap.add_argument("--work", type=Path, default=None, help="work folder (default: a temp dir)")
-    ap.add_argument("--backends", default="classical,onnx")
+    ap.add_argument("--backends", default="classical,onnx")  # onnx=MODEL for a given model
     ap.add_argument("--report", type=Path, default=None, help="Markdown report to write")
     ap.add_argument("--overlays", type=Path, default=None, help="folder for overlay PNGs")
     ap.add_argument("--json", type=Path, default=None)
     args = ap.parse_args(argv)
     frames_src = args.data / "tusimple" / "frames"
-    labels = frames_src / "labels.json"
-    if not labels.is_file():
+    if not (frames_src / "labels.json").is_file():
         print(f"no real data at {args.data}", file=sys.stderr)
         return 1
     with tempfile.TemporaryDirectory() as tmp:
         work = args.work or Path(tmp)
         work.mkdir(parents=True, exist_ok=True)
-        frames = link_frames([frames_src / n for n in LABELLED], work / "frames")
+        groups, labels, frame_paths = validation_frames(args.data, work)
         results: dict[str, Any] = {}
-        for backend in args.backends.split(","):
-            tus = tusimple_chain(backend, frames, labels, work)
-            kit = kitti_chain(backend, args.data, work)
+        for spec in args.backends.split(","):
+            backend = backend_args(spec)[0]
+            tus = tusimple_chain(spec, groups, labels, work)
+            kit = kitti_chain(spec, args.data, work)
             results[backend] = {"tusimple": tus, "kitti": kit}
             off = tus["official"]
             print(
@@ -343,10 +413,10 @@ def main(argv: list[str] | None = None) -> int:
                     Path(tus["seg"]),
                     Path(tus["pred"]),
                     labels,
-                    [frames_src / n for n in LABELLED],
+                    frame_paths[-12:],
                     args.overlays / f"real_frames_{backend}.png",
                 )
-                unl = unlabeled_chain(backend, args.data, work)
+                unl = unlabeled_chain(spec, args.data, work)
                 overlay_sheet(
                     work / f"unl_seg_{backend}",
                     unl,

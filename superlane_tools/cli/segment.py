@@ -32,8 +32,13 @@ def segment(
         Path, typer.Option("--out", help="Output folder for label PNGs and classes.yaml.")
     ],
     backend: Annotated[
-        str, typer.Option("--backend", help="Segmentation backend: classical or onnx.")
-    ] = "classical",
+        str,
+        typer.Option(
+            "--backend",
+            help="Segmentation backend: auto (the more accurate on real frames, per the model "
+            "card), classical or onnx.",
+        ),
+    ] = "auto",
     model: Annotated[
         str | None, typer.Option("--model", help="ONNX model file or shipped model name.")
     ] = None,

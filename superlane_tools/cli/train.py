@@ -1,8 +1,9 @@
-"""`slt train`: train the segmentation or corridor network on simulated data (extra train)."""
+"""`slt train`: train the segmentation or corridor network on real and simulated data."""
 
 from __future__ import annotations
 
 import inspect
+from dataclasses import replace
 from pathlib import Path
 from typing import Annotated
 
@@ -32,16 +33,26 @@ def _size(text: str | None) -> tuple[int, int] | None:
 
 def train(
     task: Annotated[str, typer.Argument(metavar="TASK", help="segmentation or corridor.")],
+    out: Annotated[Path, typer.Option("--out", help="Output MODEL.onnx (card written beside).")],
     data: Annotated[
-        list[Path],
+        list[str] | None,
         typer.Option(
             "--data",
-            metavar="DIR",
-            help="Dataset folder from `slt simulate dataset`; repeat to concatenate several.",
+            metavar="[READER[:WEIGHT]=]DIR",
+            help=(
+                "Dataset: sim (a `slt simulate dataset` folder, the default), tusimple "
+                "(labels.json), camvid, or an adapter name; WEIGHT = sampling weight. Repeat."
+            ),
         ),
-    ],
-    out: Annotated[Path, typer.Option("--out", help="Output MODEL.onnx (card written beside).")],
+    ] = None,
+    datasets: Annotated[
+        Path | None,
+        typer.Option("--datasets", help="YAML list of datasets (reader, folder, weight, ...)."),
+    ] = None,
     epochs: Annotated[int, typer.Option("--epochs", min=1, help="Passes over the data.")] = 10,
+    steps: Annotated[
+        int | None, typer.Option("--steps", min=1, help="Optimiser steps (overrides --epochs).")
+    ] = None,
     batch: Annotated[int, typer.Option("--batch", min=1, help="Frames per step.")] = 8,
     lr: Annotated[float, typer.Option("--lr", min=1e-7, help="Adam learning rate.")] = 2e-3,
     size: Annotated[
@@ -62,6 +73,19 @@ def train(
         typer.Option("--adapter", help="Label adapter (superlane, cityscapes, ..., or a YAML)."),
     ] = "superlane",
     threads: Annotated[int, typer.Option("--threads", min=1, help="torch CPU threads.")] = 2,
+    arch: Annotated[
+        str, typer.Option("--arch", help="Network: super (seg.); fast or paper (corridor).")
+    ] = "",
+    dice_bands: Annotated[
+        int, typer.Option("--dice-bands", min=1, help="Row bands of the lane-marking Dice.")
+    ] = 1,
+    device: Annotated[str, typer.Option("--device", help="torch device: cpu or cuda.")] = "cpu",
+    init: Annotated[
+        Path | None, typer.Option("--init", help="Start from a checkpoint's weights (fine-tune).")
+    ] = None,
+    resume: Annotated[
+        bool, typer.Option("--resume", help="Continue from MODEL.ckpt.pt if it exists.")
+    ] = False,
 ) -> None:
     """Train a network on CPU, export it to ONNX (opset 17) and write MODEL.card.yaml."""
     with cli_errors():
@@ -70,15 +94,29 @@ def train(
         from superlane_tools.training import require_torch
 
         require_torch()
+        from superlane_tools.training.datasets import load_dataset_list, parse_data_arg
         from superlane_tools.training.train import TrainParams
         from superlane_tools.training.train import train as run_training
 
+        specs = [parse_data_arg(text) for text in data or []]
+        if adapter != "superlane":
+            specs = [replace(s, reader=adapter) if s.reader == "sim" else s for s in specs]
+        if datasets is not None:
+            specs += load_dataset_list(datasets)
+        if not specs:
+            raise UsageError("give training data with --data or --datasets")
         params = TrainParams(
             task=task,
-            data_dir=data[0],
-            extra_data=tuple(data[1:]),
+            data_dir=None,
+            datasets=tuple(specs),
             out=out,
             epochs=epochs,
+            steps=steps,
+            arch=arch,
+            dice_bands=dice_bands,
+            device=device,
+            resume=resume,
+            init=init,
             batch=batch,
             lr=lr,
             size=_size(size),

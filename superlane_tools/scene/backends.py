@@ -32,7 +32,12 @@ def _onnx(model: str | None, camera: CameraModel | None) -> SegmentationBackend:
     return OnnxSegmentationBackend(model)
 
 
-_FACTORIES: dict[str, BackendFactory] = {"classical": _classical, "onnx": _onnx}
+def _auto(model: str | None, camera: CameraModel | None) -> SegmentationBackend:
+    name, _ = auto_backend(model)
+    return _FACTORIES[name](model, camera)
+
+
+_FACTORIES: dict[str, BackendFactory] = {"auto": _auto, "classical": _classical, "onnx": _onnx}
 
 
 def known_backends() -> tuple[str, ...]:
@@ -62,33 +67,23 @@ def backend_from_name(
     return factory(model, camera)
 
 
-AUTO_MIN_LANE_IOU = 0.5
-"""``auto`` uses the shipped segmentation model only when its model card reports at least this
-lane-marking IoU on held-out data; otherwise the classical backend, which is better for lanes."""
+REAL_METRIC = "tusimple_val_end_to_end"
+"""Card metrics section with the end-to-end LaneEval accuracy on real validation frames."""
 
 
-def card_lane_iou(model_name: str) -> float:
-    """Return the held-out lane-marking IoU stated in a shipped model's card (0 if absent)."""
-    from superlane_tools.errors import SltError
-    from superlane_tools.scene.model_card import load_card
-    from superlane_tools.scene.onnx_backend import resolve_model
-
-    try:
-        card = load_card(resolve_model(model_name)[1])
-        value = card.metrics.get("sim_heldout", {}).get("lane_marking_iou", 0.0)
-        return float(value)
-    except (SltError, AttributeError, TypeError, ValueError):
-        return 0.0
-
-
-def auto_backend(model: str) -> tuple[str, str]:
+def auto_backend(model: str | None) -> tuple[str, str]:
     """Resolve ``auto`` to ``onnx`` or ``classical``; return the name and a note ("" if none).
 
-    An explicit ``model`` means ``onnx``; else the shipped model when it is shipped and its card
-    reports a lane-marking IoU of at least :data:`AUTO_MIN_LANE_IOU`, else ``classical``.
+    An explicit ``model`` means ``onnx``. Otherwise ``auto`` uses the shipped default
+    segmentation model when its card says it is at least as accurate end to end on real
+    validation frames (official LaneEval, :data:`REAL_METRIC`) as the classical backend measured
+    in the same run, and the classical backend otherwise (or when no model is shipped).
+    ``slt segment`` and ``slt reprocess`` share this rule.
     """
+    from superlane_tools.errors import SltError
     from superlane_tools.models import list_models
-    from superlane_tools.scene.onnx_backend import DEFAULT_SEGMENTATION_MODEL
+    from superlane_tools.scene.model_card import load_card
+    from superlane_tools.scene.onnx_backend import DEFAULT_SEGMENTATION_MODEL, resolve_model
 
     if model:
         return "onnx", ""
@@ -97,11 +92,17 @@ def auto_backend(model: str) -> tuple[str, str]:
             f"no shipped segmentation model ({DEFAULT_SEGMENTATION_MODEL}): "
             "fell back to the classical backend"
         )
-    iou = card_lane_iou(DEFAULT_SEGMENTATION_MODEL)
-    if iou >= AUTO_MIN_LANE_IOU:
+    try:
+        card = load_card(resolve_model(DEFAULT_SEGMENTATION_MODEL)[1])
+        real = card.metrics.get(REAL_METRIC) or {}
+        acc, classical = real.get("laneeval_accuracy"), real.get("classical_laneeval_accuracy")
+    except (SltError, AttributeError) as err:
+        return "classical", f"{DEFAULT_SEGMENTATION_MODEL}: unreadable model card ({err})"
+    if acc is None or classical is None:
+        return "classical", f"{card.name} has no real-frame accuracy in its card: classical backend"
+    if float(acc) >= float(classical):
         return "onnx", ""
     return "classical", (
-        f"shipped model {DEFAULT_SEGMENTATION_MODEL} measured lane-marking IoU "
-        f"{iou:.2f} < {AUTO_MIN_LANE_IOU} on held-out simulator data (model card): "
-        "the classical backend feeds the lane fit (--backend onnx forces the model)"
+        f"classical backend: LaneEval {float(classical):.3f} > {card.name} {float(acc):.3f} on "
+        "real frames (model card; --backend onnx forces the model)"
     )

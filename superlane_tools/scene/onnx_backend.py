@@ -29,7 +29,12 @@ from superlane_tools.scene.model_card import (
 from superlane_tools.scene.model_errors import ModelError
 
 DEFAULT_SEGMENTATION_MODEL = "super_seg_v2"
+"""Default segmentation model. ``super_seg_v3`` (real + simulated training) ships beside it and
+scores higher on the real TuSimple validation frames, but lower on KITTI ``um_000000`` and on
+simulated drives (its card), so it is opt-in (``--model super_seg_v3``) until it is no worse on
+both (docs/models.md)."""
 DEFAULT_CORRIDOR_MODEL = "ego_corridor_v2"
+"""Default corridor model; ``ego_corridor_v3`` is opt-in for the same reason."""
 
 
 class LoadedModel(NamedTuple):
@@ -135,7 +140,7 @@ class OnnxSegmentationBackend:
     image's resolution (decoded at the network's resolution, then resized nearest-neighbour).
 
     Args:
-        model: Model file path or bundled model name (default ``super_seg_v2``).
+        model: Model file path or bundled model name (default :data:`DEFAULT_SEGMENTATION_MODEL`).
         threads: onnxruntime intra-op threads.
 
     Raises:

@@ -83,3 +83,45 @@ class EgoCorridorNet(nn.Module):
     def forward(self, image: torch.Tensor) -> torch.Tensor:
         """Return the ``(N, 1, H, W)`` ego-corridor probability."""
         return torch.sigmoid(self.logits(image))
+
+
+class PaperCorridorNet(nn.Module):
+    """The corridor paper's own network (section III-B): symmetric, stride one throughout.
+
+    Convolutions and max-pooling keep stride one (pooling windows of 3, 5, 7 and 9 pixels widen
+    the context without shrinking the map); the decoder mirrors the encoder with a transposed
+    convolution per convolution, so the output keeps the 652x360 input size. ReLU activations, a
+    sigmoid output, about 0.59 M parameters with the default widths (the paper: 41 layers,
+    about 0.66 M). It is far slower on a CPU than :class:`EgoCorridorNet` (every layer runs at full
+    resolution); it exists for the ablation the card reports.
+    """
+
+    def __init__(self, widths: tuple[int, int, int, int] = (16, 32, 64, 128)) -> None:
+        super().__init__()
+        self.pool = 1
+        self.coords = False
+        pools = (3, 5, 7, 9)
+        enc: list[nn.Module] = []
+        c_in = 1
+        for width, k in zip(widths, pools, strict=True):
+            enc += [nn.Conv2d(c_in, width, 3, 1, 1), nn.ReLU(inplace=True)]
+            enc += [nn.Conv2d(width, width, 3, 1, 1), nn.ReLU(inplace=True)]
+            enc += [nn.MaxPool2d(k, 1, k // 2)]
+            c_in = width
+        dec: list[nn.Module] = []
+        outs = (*reversed(widths[:-1]), widths[0])
+        for width, c_out in zip(reversed(widths), outs, strict=True):
+            dec += [nn.ConvTranspose2d(width, width, 3, 1, 1), nn.ReLU(inplace=True)]
+            dec += [nn.ConvTranspose2d(width, c_out, 3, 1, 1), nn.ReLU(inplace=True)]
+        self.encoder = nn.Sequential(*enc)
+        self.decoder = nn.Sequential(*dec)
+        self.classifier = nn.Conv2d(widths[0], 1, 1)
+
+    def logits(self, image: torch.Tensor) -> torch.Tensor:
+        """Return the ``(N, 1, H, W)`` pre-sigmoid logits."""
+        out: torch.Tensor = self.classifier(self.decoder(self.encoder(image)))
+        return out
+
+    def forward(self, image: torch.Tensor) -> torch.Tensor:
+        """Return the ``(N, 1, H, W)`` ego-corridor probability."""
+        return torch.sigmoid(self.logits(image))

@@ -21,6 +21,7 @@ from superlane_tools.hierarchy import leaf_ids_under, level_lut
 from superlane_tools.scene.backend import SegmentationBackend
 from superlane_tools.scene.model_card import ModelCard, card_path_for, load_card, write_card
 from superlane_tools.training.errors import TrainingError
+from superlane_tools.training.label_io import read_label_ids
 
 FloatImage = NDArray[np.float32]
 
@@ -100,7 +101,7 @@ def evaluate_segmentation_on_dataset(
     preds, gts = [], []
     for image_rel, label_rel in zip(table["image"], table["labels"], strict=True):
         preds.append(backend.segment(_read_image(root / str(image_rel), cv2.IMREAD_COLOR)))
-        gts.append(_read_image(root / str(label_rel), cv2.IMREAD_UNCHANGED))
+        gts.append(read_label_ids(root / str(label_rel)))
     scores = segmentation_scores(preds, gts)
     scores["frames"] = len(preds)
     return scores
@@ -204,6 +205,123 @@ def kitti_ego_lane_iou(
         probs.append(runtime.probability(_read_image(image_path, cv2.IMREAD_COLOR)))
         masks.append(magenta)
     return {"ego_lane_iou": corridor_iou(probs, masks), "frames": len(probs)}
+
+
+def _level_table(level: int) -> tuple[NDArray[np.int64], NDArray[np.int64], list[str]]:
+    """Return (node code -> class, leaf id -> class, class names) at ``level`` (-1 = void)."""
+    from superlane_tools.hierarchy import BY_NAME, NODES, node_at_level
+    from superlane_tools.scene.adapters.heads import NODE_CODES
+
+    names = sorted({node_at_level(n.name, level) for n in NODES})
+    by_code = np.full(256, -1, np.int64)
+    by_leaf = np.full(256, -1, np.int64)
+    for name, code in NODE_CODES.items():
+        if name != "void":
+            by_code[code] = names.index(node_at_level(name, level))
+            if BY_NAME[name].leaf_id >= 0:
+                by_leaf[BY_NAME[name].leaf_id] = by_code[code]
+    return by_code, by_leaf, names
+
+
+def level_miou(
+    preds: Iterable[NDArray[np.uint8]], codes: Iterable[NDArray[np.uint8]], level: int
+) -> dict[str, Any]:
+    """Return the mIoU at ``level`` of leaf-id predictions against node-code ground truth.
+
+    Ground truth coarser than ``level`` (CamVid's ``drivable`` at level 3) counts as its own
+    node, and so does the prediction's ancestor at that depth; void pixels are ignored. Classes
+    absent from the ground truth are left out of the mean.
+    """
+    by_code, by_leaf, names = _level_table(level)
+    inter = np.zeros(len(names), np.int64)
+    union = np.zeros(len(names), np.int64)
+    present = np.zeros(len(names), bool)
+    for pred, code in zip(preds, codes, strict=True):
+        g, p = by_code[code], by_leaf[pred]
+        valid = g >= 0
+        g, p = g[valid], p[valid]
+        present[np.unique(g)] = True
+        for cls in np.union1d(np.unique(g), np.unique(p)):
+            if cls < 0:
+                continue
+            inter[cls] += int(np.count_nonzero((g == cls) & (p == cls)))
+            union[cls] += int(np.count_nonzero((g == cls) | (p == cls)))
+    per_class = {names[c]: round(float(inter[c] / union[c]), 4) for c in np.nonzero(present)[0]}
+    miou = float(np.mean(list(per_class.values()))) if per_class else float("nan")
+    return {"miou": round(miou, 4), "per_class": per_class}
+
+
+def camvid_scores(
+    backend: SegmentationBackend, camvid_dir: str | os.PathLike[str], split: str = "val"
+) -> dict[str, Any]:
+    """Return level-1 and level-2 mIoU of a segmentation backend on a CamVid split."""
+    import cv2
+
+    from superlane_tools.scene.adapters.loader import load_adapter
+    from superlane_tools.training.datasets import camvid_pairs
+
+    adapter = load_adapter("camvid")
+    preds, codes = [], []
+    for image_path, label_path in camvid_pairs(Path(camvid_dir), split):
+        preds.append(backend.segment(_read_image(image_path, cv2.IMREAD_COLOR)))
+        codes.append(adapter.to_codes(read_label_ids(label_path)))
+    l1, l2 = level_miou(preds, codes, 1), level_miou(preds, codes, 2)
+    return {
+        "miou_level1": l1["miou"],
+        "miou_level2": l2["miou"],
+        "iou_level2": l2["per_class"],
+        "frames": len(preds),
+        "split": split,
+    }
+
+
+def tusimple_corridor_scores(
+    model: str | os.PathLike[str], folders: Iterable[tuple[Path, str]]
+) -> dict[str, Any]:
+    """Return a corridor model's IoU with the labelled TuSimple ego lane.
+
+    The ego lane lies between the lines left and right of the image centre
+    (:func:`superlane_tools.training.tusimple_targets.corridor_target`); only rows from the
+    highest row both ego lines are labelled down to the bottom count (the far field is unknown).
+
+    Args:
+        model: Corridor ONNX model.
+        folders: ``(TuSimple folder, split)`` pairs (e.g. ``train_frames`` ``val``).
+    """
+    import cv2
+
+    from superlane_tools.scene.corridor_runtime import OnnxCorridorModel
+    from superlane_tools.training.datasets import (
+        TUSIMPLE_VAL_FRAMES,
+        _split_rows,
+        tusimple_labels,
+    )
+    from superlane_tools.training.tusimple_targets import (
+        CORRIDOR_IGNORE,
+        corridor_target,
+        label_polylines,
+    )
+
+    runtime = OnnxCorridorModel(model)
+    probs, masks, per_frame = [], [], []
+    for folder, split in folders:
+        labels = tusimple_labels(folder)
+        for label in labels[_split_rows(len(labels), split, TUSIMPLE_VAL_FRAMES)]:
+            image = _read_image(folder / str(label["raw_file"]), cv2.IMREAD_COLOR)
+            height, width = image.shape[:2]
+            target = corridor_target(label_polylines(label, 1.0, 1.0), width, height)
+            valid = target != CORRIDOR_IGNORE
+            if not valid.any():
+                continue
+            prob = runtime.probability(image)
+            probs.append(np.where(valid, prob, 0.0).astype(np.float32))
+            masks.append(target == 1)
+            per_frame.append(corridor_iou([probs[-1]], [masks[-1]]))
+    return {
+        "corridor_iou": corridor_iou(probs, masks),
+        "median_frame_iou": round(float(np.median(per_frame)), 4) if per_frame else float("nan"),
+        "frames": len(probs),
+    }
 
 
 def time_model(

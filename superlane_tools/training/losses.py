@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Sequence
 
 import torch
@@ -94,34 +95,72 @@ def marking_targets(targets: Sequence[torch.Tensor]) -> tuple[torch.Tensor, torc
     return (t_drivable == _index(drivable, "lane_marking")).float(), known
 
 
+def banded_dice_loss(
+    prob: torch.Tensor, target: torch.Tensor, valid: torch.Tensor, bands: int
+) -> torch.Tensor:
+    """Return the mean soft-Dice loss over ``bands`` horizontal bands of ``(N, H, W)`` maps.
+
+    Far lane markings are a few pixels wide and sit in the upper rows; a Dice pooled over the
+    whole image is dominated by the wide near markings. One Dice per band of rows (bands without
+    a marking pixel skipped) gives the far field the same say as the near field.
+    """
+    height = prob.shape[-2]
+    edges = [round(i * height / bands) for i in range(bands + 1)]
+    losses = []
+    for top, bottom in itertools.pairwise(edges):
+        t, v = target[..., top:bottom, :], valid[..., top:bottom, :]
+        if bool(t[v].any()):
+            losses.append(soft_dice_loss(prob[..., top:bottom, :], t, v))
+    if not losses:
+        return prob.new_zeros(())
+    return torch.stack(losses).mean()
+
+
 def segmentation_loss(
     logits: Sequence[torch.Tensor],
     targets: Sequence[torch.Tensor],
     weights: Sequence[float],
     class_weights: Sequence[torch.Tensor | None] = (),
     marking_dice: float = 0.0,
+    dice_bands: int = 1,
 ) -> torch.Tensor:
     """Return :func:`hierarchical_loss` plus ``marking_dice`` x the Dice loss of lane markings.
 
     The Dice term acts on :func:`marking_probability`, so it trains the three heads whose
-    decisions a marking pixel has to survive (support, drivable, lane_marking vs road).
+    decisions a marking pixel has to survive (support, drivable, lane_marking vs road);
+    ``dice_bands > 1`` averages it over horizontal bands (:func:`banded_dice_loss`).
     """
     loss = hierarchical_loss(logits, targets, weights, class_weights)
     if marking_dice > 0:
         target, known = marking_targets(targets)
         if bool(target[known].any()):
-            loss = loss + marking_dice * soft_dice_loss(marking_probability(logits), target, known)
+            prob = marking_probability(logits)
+            loss = loss + marking_dice * banded_dice_loss(prob, target, known, max(1, dice_bands))
     return loss
 
 
-def corridor_loss(logits: torch.Tensor, target: torch.Tensor, dice: float = 0.0) -> torch.Tensor:
+def corridor_loss(
+    logits: torch.Tensor,
+    target: torch.Tensor,
+    dice: float = 0.0,
+    valid: torch.Tensor | None = None,
+    rmse: bool = False,
+) -> torch.Tensor:
     """Return BCE (+ ``dice`` x soft Dice) between corridor logits and a ``{0, 1}`` float mask.
 
-    The corridor paper trains with RMSE on probabilities; BCE on logits converges faster from
-    few synthetic frames and reaches the same fixed point (the per-pixel probability). The Dice
-    term rewards the overlap of the whole region (what corridor IoU measures).
+    The corridor paper trains with RMSE on probabilities (``rmse=True``); BCE on logits
+    converges faster from few frames and reaches the same fixed point (the per-pixel
+    probability). The Dice term rewards the overlap of the whole region (what corridor IoU
+    measures). ``valid`` masks pixels whose target is unknown (rows above a real label's ego
+    lane); they contribute nothing.
     """
-    loss = F.binary_cross_entropy_with_logits(logits, target)
+    mask = torch.ones_like(target, dtype=torch.bool) if valid is None else valid
+    if not bool(mask.any()):
+        return logits.new_zeros(()) + 0.0 * logits.sum()
+    if rmse:
+        loss = torch.sqrt(((torch.sigmoid(logits) - target) ** 2)[mask].mean() + 1e-8)
+    else:
+        loss = F.binary_cross_entropy_with_logits(logits[mask], target[mask])
     if dice > 0:
-        loss = loss + dice * soft_dice_loss(torch.sigmoid(logits), target)
+        loss = loss + dice * soft_dice_loss(torch.sigmoid(logits), target, mask)
     return loss

@@ -83,7 +83,8 @@ def test_backend_factory_and_protocol() -> None:
     assert isinstance(backend, SegmentationBackend)
     assert backend.name == "classical"
     assert "classical" in known_backends()
-    with pytest.raises(BackendUnavailableError, match="known: classical"):
+    assert known_backends() == ("auto", "classical", "onnx")
+    with pytest.raises(BackendUnavailableError, match="known: auto, classical, onnx"):
         backend_from_name("nope")
     with pytest.raises(SltError, match=r"missing\.onnx"):
         backend_from_name("onnx", model="missing.onnx")
@@ -207,11 +208,29 @@ def test_real_tusimple_end_to_end_chain(realdata: Path, tmp_path: Path) -> None:
     """slt segment -> lanes fit -> export-tusimple -> eval tusimple on the 6 labelled frames."""
     pipeline = _load_pipeline()
     src = realdata / "tusimple" / "frames"
-    frames = pipeline.link_frames([src / name for name in pipeline.LABELLED], tmp_path / "frames")
-    result = pipeline.tusimple_chain("classical", frames, src / "labels.json", tmp_path)
+    labels = [f"{i:04d}.png" for i in range(6)]
+    frames = pipeline.link_frames([src / name for name in labels], tmp_path / "frames")
+    groups = [(frames, "160:720:10")]
+    result = pipeline.tusimple_chain("classical", groups, src / "labels.json", tmp_path)
     assert result["official"]["n_frames"] == 6
     # Measured 0.850 with LaneEval's 200 ms run-time gate off (the first fit of a process also
     # loads numba's compiled kernels, > 200 ms, so the official score loses that frame).
     assert result["ungated"]["accuracy"] >= 0.82, result["frames"]
     assert result["ungated"]["fn"] <= 0.45
     assert result["official"]["accuracy"] <= result["ungated"]["accuracy"] + 1e-9
+
+
+def test_auto_backend_follows_the_real_frame_accuracy_in_the_card() -> None:
+    from superlane_tools.scene.backends import REAL_METRIC, auto_backend
+    from superlane_tools.scene.model_card import load_card
+    from superlane_tools.scene.onnx_backend import DEFAULT_SEGMENTATION_MODEL, resolve_model
+
+    real = load_card(resolve_model(DEFAULT_SEGMENTATION_MODEL)[1]).metrics[REAL_METRIC]
+    expected = (
+        "onnx" if real["laneeval_accuracy"] >= real["classical_laneeval_accuracy"] else "classical"
+    )
+    name, note = auto_backend(None)
+    assert name == expected
+    assert (note == "") == (expected == "onnx")
+    assert auto_backend("my.onnx")[0] == "onnx"
+    assert backend_from_name("auto").name.split(":")[0] == expected

@@ -44,8 +44,8 @@ class SegmentationConfig:
     """Which segmentation feeds the SUPER lane fit.
 
     Attributes:
-        backend: ``auto`` (the shipped ONNX model when its card reports a held-out lane-marking
-            IoU of at least 0.5, else ``classical``),
+        backend: ``auto`` (``scene.backends.auto_backend``: the shipped ONNX model when its card's
+            real-frame LaneEval accuracy is at least the classical backend's, else ``classical``),
             ``classical``, ``onnx`` or ``oracle`` (ground-truth leaf-id PNGs from ``oracle_labels``,
             named ``<frame index:06d>.png``, as ``slt simulate --labels`` writes them).
         model: ONNX model file or shipped model name (empty: the shipped default).

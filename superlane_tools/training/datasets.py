@@ -1,0 +1,312 @@
+"""Heterogeneous training data: dataset entries, native readers and the fixed validation splits.
+
+A dataset entry names its reader, its folder and a sampling weight (``--data tusimple=DIR``,
+``--data camvid:0.5=DIR`` or a YAML list). Readers:
+
+* ``sim`` (alias ``superlane``): a ``slt simulate dataset`` folder (leaf ids, corridor masks);
+* ``tusimple``: a folder with ``labels.json`` in TuSimple format (:mod:`.tusimple_targets`);
+* ``camvid``: CamVid 11 classes (``CLASSES.txt``; ``train/`` and ``val/`` with ``images/`` and
+  ``labels/``), ``road`` -> ``drivable``;
+* any other bundled adapter (``cityscapes``, ``mapillary_vistas``, ``apollo``) or adapter YAML: an
+  ``index.parquet`` folder whose label images are in that dataset's ids.
+
+Each dataset trains exactly the hierarchy levels it labels (SUPER II-C): its node codes stop at
+the finest level it knows (CamVid's road is ``drivable``), and ``levels`` can mask more.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+from numpy.typing import NDArray
+
+from superlane_tools.hierarchy import BY_NAME
+from superlane_tools.scene.adapters.heads import HEADS
+from superlane_tools.scene.adapters.loader import load_adapter
+from superlane_tools.training.errors import TrainingError
+from superlane_tools.training.label_io import read_label_ids
+from superlane_tools.training.tusimple_targets import (
+    corridor_target,
+    label_polylines,
+    road_and_marking_codes,
+)
+
+SPLITS = ("train", "val", "all")
+TUSIMPLE_VAL_FRAMES = 30
+"""The last this many frames of a TuSimple folder are its validation split (never trained on)."""
+NATIVE = ("sim", "superlane", "tusimple", "camvid")
+
+
+@dataclass(frozen=True)
+class DatasetSpec:
+    """One dataset of a heterogeneous training run.
+
+    Attributes:
+        reader: ``sim``, ``tusimple``, ``camvid`` or an adapter name / YAML path.
+        folder: The dataset folder.
+        weight: Relative sampling weight of the dataset (per step, not per frame).
+        split: ``train``, ``val`` or ``all`` frames of the folder.
+        levels: Hierarchy levels (1-4) this dataset trains; None = every level it labels.
+    """
+
+    reader: str
+    folder: Path
+    weight: float = 1.0
+    split: str = "train"
+    levels: tuple[int, ...] | None = None
+
+    def text(self) -> str:
+        """Return the entry as ``--data`` text."""
+        weight = "" if self.weight == 1.0 else f":{self.weight:g}"
+        return f"{self.reader}{weight}={self.folder}"
+
+
+def parse_data_arg(text: str) -> DatasetSpec:
+    """Parse ``READER[:WEIGHT]=DIR`` (or a bare ``DIR``, read as a simulator folder).
+
+    Raises:
+        TrainingError: If the weight is not a positive number.
+    """
+    head, sep, folder = text.partition("=")
+    if not sep or os.sep in head or not head:
+        return DatasetSpec("sim", Path(text))
+    reader, _, weight_text = head.partition(":")
+    try:
+        weight = float(weight_text) if weight_text else 1.0
+    except ValueError as err:
+        raise TrainingError(f"--data {text!r}: weight {weight_text!r} is not a number") from err
+    if weight <= 0:
+        raise TrainingError(f"--data {text!r}: the weight must be > 0")
+    return DatasetSpec(reader, Path(folder), weight)
+
+
+def load_dataset_list(path: str | os.PathLike[str]) -> tuple[DatasetSpec, ...]:
+    """Read a YAML dataset list: ``datasets: [{reader, folder, weight?, split?, levels?}, ...]``.
+
+    Relative folders are relative to the YAML file.
+
+    Raises:
+        TrainingError: If the file cannot be read or an entry is malformed.
+    """
+    source = Path(path)
+    try:
+        data = yaml.safe_load(source.read_text(encoding="utf-8"))
+    except (OSError, yaml.YAMLError) as err:
+        raise TrainingError(f"cannot read dataset list {source}: {err}") from err
+    entries = data.get("datasets") if isinstance(data, dict) else data
+    if not isinstance(entries, list) or not entries:
+        raise TrainingError(f"{source}: expected a non-empty `datasets:` list")
+    specs = []
+    for i, entry in enumerate(entries):
+        if not isinstance(entry, dict) or "reader" not in entry or "folder" not in entry:
+            raise TrainingError(f"{source}: entry {i} needs `reader` and `folder`")
+        folder = Path(str(entry["folder"]))
+        levels = entry.get("levels")
+        try:
+            spec = DatasetSpec(
+                str(entry["reader"]),
+                folder if folder.is_absolute() else source.parent / folder,
+                float(entry.get("weight", 1.0)),
+                str(entry.get("split", "train")),
+                None if levels is None else tuple(int(v) for v in levels),
+            )
+        except (TypeError, ValueError) as err:
+            raise TrainingError(f"{source}: entry {i}: {err}") from err
+        specs.append(validate_spec(spec))
+    return tuple(specs)
+
+
+def validate_spec(spec: DatasetSpec) -> DatasetSpec:
+    """Return ``spec`` after checking its split, weight and levels.
+
+    Raises:
+        TrainingError: If any of them is invalid.
+    """
+    if spec.split not in SPLITS:
+        raise TrainingError(f"{spec.text()}: split must be one of {SPLITS}, got {spec.split!r}")
+    if spec.weight <= 0:
+        raise TrainingError(f"{spec.text()}: the weight must be > 0")
+    if spec.levels is not None and not set(spec.levels) <= {1, 2, 3, 4}:
+        raise TrainingError(f"{spec.text()}: levels must lie in 1..4, got {spec.levels}")
+    return spec
+
+
+def head_level(index: int) -> int:
+    """Return the hierarchy level a head classifies (1 for the root head)."""
+    parent = HEADS[index].parent
+    return 1 if not parent else BY_NAME[parent].level + 1
+
+
+@dataclass(frozen=True)
+class LoadedSet:
+    """One dataset in memory at its training size.
+
+    Attributes:
+        spec: The entry it came from.
+        images: ``(N, H, W, 3)`` uint8 BGR images.
+        codes: ``(N, H, W)`` uint8 node codes (0 = void), or None (no segmentation labels).
+        corridor: ``(N, H, W)`` uint8 ego-lane targets (0, 1, 255 = unknown), or None.
+        names: Frame names.
+        heads: Per head of :data:`HEADS`: whether this dataset trains it.
+    """
+
+    spec: DatasetSpec
+    images: NDArray[np.uint8]
+    codes: NDArray[np.uint8] | None
+    corridor: NDArray[np.uint8] | None
+    names: tuple[str, ...]
+    heads: tuple[bool, ...]
+
+
+def _split_rows(n: int, split: str, val: int) -> slice:
+    if split == "all":
+        return slice(0, n)
+    if n <= val:
+        if split == "val":
+            return slice(0, n)
+        raise TrainingError(f"only {n} frames: too few to hold out {val} for validation")
+    return slice(n - val, n) if split == "val" else slice(0, n - val)
+
+
+def _resize(image: NDArray[Any], size: tuple[int, int], nearest: bool) -> NDArray[np.uint8]:
+    import cv2
+
+    if image.shape[1] == size[0] and image.shape[0] == size[1]:
+        return np.asarray(image, np.uint8)
+    mode = cv2.INTER_NEAREST if nearest else cv2.INTER_AREA
+    return np.asarray(cv2.resize(image, size, interpolation=mode), np.uint8)
+
+
+def _imread(path: Path) -> NDArray[np.uint8]:
+    import cv2
+
+    image = cv2.imread(str(path), cv2.IMREAD_COLOR)
+    if image is None:
+        raise TrainingError(f"cannot read image {path}")
+    return np.asarray(image, np.uint8)
+
+
+def tusimple_labels(folder: Path) -> list[dict[str, Any]]:
+    """Return the label lines of ``folder/labels.json`` in file order.
+
+    Raises:
+        TrainingError: If the file is missing or a line is not JSON.
+    """
+    path = folder / "labels.json"
+    try:
+        text = path.read_text(encoding="utf-8")
+        return [json.loads(line) for line in text.splitlines() if line.strip()]
+    except (OSError, json.JSONDecodeError) as err:
+        raise TrainingError(f"cannot read TuSimple labels {path}: {err}") from err
+
+
+def read_tusimple(
+    spec: DatasetSpec, size: tuple[int, int], max_frames: int | None = None
+) -> tuple[NDArray[np.uint8], NDArray[np.uint8], NDArray[np.uint8], tuple[str, ...]]:
+    """Return images, node codes, corridor targets and names of a TuSimple folder's split."""
+    labels = tusimple_labels(spec.folder)
+    labels = labels[_split_rows(len(labels), spec.split, TUSIMPLE_VAL_FRAMES)][:max_frames]
+    images, codes, corridors, names = [], [], [], []
+    width, height = size
+    for label in labels:
+        image = _imread(spec.folder / str(label["raw_file"]))
+        lines = label_polylines(label, width / image.shape[1], height / image.shape[0])
+        images.append(_resize(image, size, nearest=False))
+        codes.append(road_and_marking_codes(lines, width, height))
+        corridors.append(corridor_target(lines, width, height))
+        names.append(str(label["raw_file"]))
+    return np.stack(images), np.stack(codes), np.stack(corridors), tuple(names)
+
+
+def camvid_pairs(folder: Path, split: str) -> list[tuple[Path, Path]]:
+    """Return ``(image, label)`` paths of a CamVid root's split (or of one split folder).
+
+    Raises:
+        TrainingError: If the folder has no CamVid layout.
+    """
+    if (folder / "images").is_dir():
+        roots = [folder]
+    else:
+        roots = [folder / s for s in (("train", "val") if split == "all" else (split,))]
+    pairs = []
+    for root in roots:
+        for image in sorted((root / "images").glob("*.jpg")):
+            label = root / "labels" / f"{image.stem}.png"
+            if label.is_file():
+                pairs.append((image, label))
+    if not pairs:
+        raise TrainingError(f"{folder}: no CamVid images/labels pairs for split {split!r}")
+    return pairs
+
+
+def read_camvid(
+    spec: DatasetSpec, size: tuple[int, int], max_frames: int | None = None
+) -> tuple[NDArray[np.uint8], NDArray[np.uint8], tuple[str, ...]]:
+    """Return images, node codes and names of a CamVid split (``size`` keeps CamVid's 4:3)."""
+    adapter = load_adapter("camvid")
+    width = round(size[1] * 4 / 3 / 16) * 16
+    target = (width, size[1])
+    images, codes, names = [], [], []
+    for image_path, label_path in camvid_pairs(spec.folder, spec.split)[:max_frames]:
+        images.append(_resize(_imread(image_path), target, nearest=False))
+        codes.append(_resize(adapter.to_codes(read_label_ids(label_path)), target, nearest=True))
+        names.append(image_path.name)
+    return np.stack(images), np.stack(codes), tuple(names)
+
+
+def _index_folder(
+    spec: DatasetSpec, task: str, size: tuple[int, int], max_frames: int | None
+) -> tuple[NDArray[np.uint8], NDArray[np.uint8] | None, NDArray[np.uint8] | None, tuple[str, ...]]:
+    from superlane_tools.training.data import read_index
+
+    column = "labels" if task == "segmentation" else "corridor"
+    root, table = read_index(spec.folder, column)
+    table = table.iloc[:max_frames]
+    adapter = load_adapter("superlane" if spec.reader in ("sim", "superlane") else spec.reader)
+    images, targets = [], []
+    for image_rel, target_rel in zip(table["image"], table[column], strict=True):
+        images.append(_resize(_imread(root / str(image_rel)), size, nearest=False))
+        ids = read_label_ids(root / str(target_rel))
+        if task == "segmentation":
+            targets.append(_resize(adapter.to_codes(ids), size, nearest=True))
+        else:
+            targets.append(_resize((ids > 0).astype(np.uint8), size, nearest=True))
+    names = tuple(Path(str(p)).name for p in table["image"])
+    stacked = np.stack(targets)
+    if task == "segmentation":
+        return np.stack(images), stacked, None, names
+    return np.stack(images), None, stacked, names
+
+
+def load_set(
+    spec: DatasetSpec, task: str, size: tuple[int, int], max_frames: int | None = None
+) -> LoadedSet:
+    """Load one dataset entry for ``task`` at ``size = (width, height)``.
+
+    Raises:
+        TrainingError: If the folder cannot be read or has no labels for ``task``.
+    """
+    spec = validate_spec(spec)
+    if not spec.folder.is_dir():
+        raise TrainingError(f"{spec.text()}: no such folder")
+    codes: NDArray[np.uint8] | None
+    corridor: NDArray[np.uint8] | None
+    if spec.reader == "tusimple":
+        images, codes, corridor, names = read_tusimple(spec, size, max_frames)
+    elif spec.reader == "camvid":
+        if task != "segmentation":
+            raise TrainingError(f"{spec.text()}: CamVid has no ego-lane labels (task {task})")
+        images, codes, names = read_camvid(spec, size, max_frames)
+        corridor = None
+    else:
+        images, codes, corridor, names = _index_folder(spec, task, size, max_frames)
+    if task == "corridor":
+        codes = None
+    heads = tuple(spec.levels is None or head_level(i) in spec.levels for i in range(len(HEADS)))
+    return LoadedSet(spec, images, codes, corridor, names, heads)
