@@ -132,6 +132,7 @@ def _run(recording: Path, target: Path, cfg: Any) -> Any:
 
     from superlane_tools.cli._common import err_console
     from superlane_tools.pipeline.reprocess import reprocess
+    from superlane_tools.reporting.run_folder import staged_run
 
     start = time.perf_counter()
     with Progress(
@@ -149,7 +150,8 @@ def _run(recording: Path, target: Path, cfg: Any) -> Any:
             rate = done / max(time.perf_counter() - start, 1e-9)
             bar.update(task, completed=done, total=total, rate=f"{rate:.1f} frames/s")
 
-        return reprocess(recording, target, cfg, progress=tick, command=command_line())
+        with staged_run(target) as stage:  # the whole run appears at once, or not at all
+            return reprocess(recording, stage, cfg, progress=tick, command=command_line())
 
 
 def register(app: typer.Typer) -> None:
