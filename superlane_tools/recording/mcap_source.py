@@ -24,6 +24,7 @@ from superlane_tools.recording.base import (
     in_range,
     raw_header_stamp_ns,
     stamp_ns_of,
+    storable_time,
 )
 from superlane_tools.recording.errors import RecordingError
 from superlane_tools.records import Message, RawMessage, Skipped, TopicInfo
@@ -321,7 +322,9 @@ class McapRecording(ClosingRecording):
             return [
                 msg
                 for msg in self._chunk_result(ref, loader.next())
-                if msg.channel_id in wanted and in_range(msg.log_time, start_ns, stop_ns)
+                if msg.channel_id in wanted
+                and in_range(msg.log_time, start_ns, stop_ns)
+                and self._storable(msg)
             ]
 
         try:
@@ -352,6 +355,17 @@ class McapRecording(ClosingRecording):
                     yield self._channels[msg.channel_id], msg
         finally:
             loader.close()
+
+    def _storable(self, msg: McapMessage) -> bool:
+        """Return True for a log time that fits int64 ns; count the others as skipped."""
+        if storable_time(msg.log_time):
+            return True
+        channel = self._channels.get(msg.channel_id)
+        self._iter_skips.add(
+            "log time beyond int64 ns (after year 2262)",
+            channel.topic if channel else f"channel {msg.channel_id}",
+        )
+        return False
 
     def _chunk_result(
         self, ref: _ChunkRef, loaded: list[McapMessage] | Exception
@@ -413,6 +427,7 @@ class McapRecording(ClosingRecording):
                     isinstance(item, McapMessage)
                     and item.channel_id in wanted
                     and in_range(item.log_time, start_ns, stop_ns)
+                    and self._storable(item)
                 ):
                     yield self._channels[item.channel_id], item
 

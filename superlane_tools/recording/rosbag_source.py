@@ -13,6 +13,7 @@ from superlane_tools.recording.base import (
     SkipLog,
     raw_header_stamp_ns,
     stamp_ns_of,
+    storable_time,
 )
 from superlane_tools.recording.errors import RecordingError
 from superlane_tools.records import Message, RawMessage, Skipped, TopicInfo
@@ -182,10 +183,44 @@ class RosbagRecording(ClosingRecording):
         for reader in self._readers:
             conns = [c for c in reader.connections if names is None or c.topic in names]
             if conns:
-                streams.append(reader.messages(connections=conns, start=start_ns, stop=stop_ns))
+                stream = reader.messages(connections=conns, start=start_ns, stop=stop_ns)
+                streams.append(self._guarded(stream, getattr(reader, "path", self.path)))
         if len(streams) == 1:
             return iter(streams[0])
         return heapq.merge(*streams, key=lambda item: item[1])
+
+    def _guarded(
+        self, stream: Iterator[tuple[Connection, int, Any]], path: Any
+    ) -> Iterator[tuple[Connection, int, bytes]]:
+        """Pass a reader's messages through; end the stream at damage and report it.
+
+        rosbags raises its own errors, ``AssertionError`` and sqlite errors (``DatabaseError``
+        for a damaged page) from inside its iterators; what came before is kept.
+        """
+        name = Path(str(path)).name
+        count = 0
+        while True:
+            try:
+                conn, log_time, data = next(stream)
+            except StopIteration:
+                return
+            except Exception as err:  # damaged bag data: keep what came before
+                self._iter_skips.add(
+                    "unreadable bag data",
+                    f"{name}: after {count} messages: {type(err).__name__}: {err}; "
+                    "later messages of this file are lost",
+                )
+                return
+            if not isinstance(data, bytes | bytearray | memoryview):
+                self._iter_skips.add(
+                    "undecodable message", f"{conn.topic}: payload stored as {type(data).__name__}"
+                )
+                continue
+            if not storable_time(int(log_time)):
+                self._iter_skips.add("log time beyond int64 ns", conn.topic)
+                continue
+            count += 1
+            yield conn, int(log_time), bytes(data)
 
     def raw_messages(
         self,
