@@ -124,7 +124,6 @@ class _CheckedLines:
             elif not line.lstrip().startswith(("#", "//")):
                 self._skips.add("bad CAN log line", f"{self._name}: first at line {number}")
 
-
     def close(self) -> None:
         self._handle.close()
 
