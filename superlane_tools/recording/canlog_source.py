@@ -7,7 +7,7 @@ import os
 import re
 import struct
 import zlib
-from collections.abc import Collection, Iterator
+from collections.abc import Collection, Generator, Iterator
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -143,10 +143,10 @@ def robust_blf_reader(path: Path, skips: SkipLog) -> Any:
     """
     import can
 
-    class _Reader(can.BLFReader):  # type: ignore[misc]
+    class _Reader(can.BLFReader):
         _lost = False
 
-        def __iter__(self) -> Iterator[Any]:
+        def __iter__(self) -> Generator[Any, None, None]:
             name = path.name
             size = path.stat().st_size
             if self.file_size and size < self.file_size:
@@ -175,7 +175,7 @@ def robust_blf_reader(path: Path, skips: SkipLog) -> Any:
                     break
             self.stop()
 
-        def _container(self, obj_data: bytes, where: str) -> Iterator[Any]:
+        def _container(self, obj_data: bytes, where: str) -> Generator[Any, None, None]:
             """Yield a container's frames: all of an intact one, those before the damage else."""
             error: str | None = None
             try:
