@@ -10,10 +10,15 @@ from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import pyarrow as pa
 
-from superlane_tools.pipeline._images import header_size, raw_pixels, safe_topic, sniff_format
+from superlane_tools.pipeline._images import (
+    header_size,
+    imdecode,
+    raw_pixels,
+    safe_topic,
+    sniff_format,
+)
 from superlane_tools.recording.base import SkipLog, field_value
 from superlane_tools.records import Message
 from superlane_tools.reporting import OutputError, ParquetStreamWriter
@@ -308,10 +313,7 @@ def _floats(value: Any) -> list[float]:
 def _decode(payload: bytes) -> Any:
     import cv2
 
-    pixels = cv2.imdecode(np.frombuffer(payload, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
-    if pixels is None:
-        raise ValueError("image payload cannot be decoded")
-    return pixels
+    return imdecode(payload, cv2.IMREAD_UNCHANGED)
 
 
 def _decoded_size(payload: bytes) -> tuple[int, int]:

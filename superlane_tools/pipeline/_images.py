@@ -90,6 +90,38 @@ def header_size(payload: bytes, fmt: str) -> ImageSize | None:
     return None
 
 
+MIN_FRAME_SIDE = 8
+"""Smallest image side (pixels) a frame is processed at; smaller frames are skipped."""
+MAX_IMAGE_PIXELS = 1 << 28
+"""Largest image (width x height) decoded; a bigger header is damage (cv2 refuses 2^30)."""
+
+
+def imdecode(payload: bytes, flags: int) -> Any:
+    """Decode a compressed image with cv2; never raise anything but ValueError.
+
+    A header claiming more than :data:`MAX_IMAGE_PIXELS` is refused before decoding (cv2
+    would try to allocate it, or raise ``cv2.error``).
+
+    Raises:
+        ValueError: If the payload is empty, claims an absurd size, or cannot be decoded.
+    """
+    import cv2
+
+    if not payload:
+        raise ValueError("empty image payload")
+    fmt = sniff_format(payload)
+    size = header_size(payload, fmt) if fmt else None
+    if size is not None and size.width * size.height > MAX_IMAGE_PIXELS:
+        raise ValueError(f"image header claims {size.width}x{size.height} pixels")
+    try:
+        pixels = cv2.imdecode(np.frombuffer(payload, dtype=np.uint8), flags)
+    except cv2.error as err:
+        raise ValueError(f"image payload cannot be decoded: {str(err).strip()[:80]}") from err
+    if pixels is None or pixels.size == 0:
+        raise ValueError("image payload cannot be decoded")
+    return pixels
+
+
 def raw_pixels(data: Any, width: int, height: int, encoding: str, step: int) -> npt.NDArray[Any]:
     """Turn a raw image message's buffer into an array cv2 can encode (BGR order).
 

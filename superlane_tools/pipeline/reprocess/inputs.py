@@ -11,7 +11,13 @@ from numpy.typing import NDArray
 
 from superlane_tools.camera.model import CameraModel, Extrinsics
 from superlane_tools.errors import UsageError
-from superlane_tools.pipeline._images import jpeg_size, raw_pixels, sniff_format
+from superlane_tools.pipeline._images import (
+    MIN_FRAME_SIDE,
+    imdecode,
+    jpeg_size,
+    raw_pixels,
+    sniff_format,
+)
 from superlane_tools.pipeline.extract import ExtractConfig, select_streams
 from superlane_tools.pipeline.reprocess.config import ReprocessConfig
 from superlane_tools.recording.base import Recording, field_value
@@ -198,14 +204,13 @@ def decode_frame(msg: Message) -> NDArray[np.uint8]:
         payload = bytes(data.data)
         if not payload or (sniff_format(payload) is None and not payload):
             raise ValueError("empty image payload")
-        decoded = cv2.imdecode(np.frombuffer(payload, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
-        if decoded is None:
-            raise ValueError("image payload cannot be decoded")
-        pixels = decoded
+        pixels = imdecode(payload, cv2.IMREAD_UNCHANGED)
     if pixels.dtype != np.uint8:
         pixels = (
             (pixels >> 8).astype(np.uint8) if pixels.dtype == np.uint16 else pixels.astype(np.uint8)
         )
+    if min(pixels.shape[:2]) < MIN_FRAME_SIDE:
+        raise ValueError(f"image {pixels.shape[1]}x{pixels.shape[0]} too small to process")
     if pixels.ndim == 2:
         pixels = cv2.cvtColor(pixels, cv2.COLOR_GRAY2BGR)
     elif pixels.shape[2] == 4:
@@ -251,8 +256,13 @@ def decode_reduced(
 
     for factor, flag in _REDUCED_FLAGS:
         if -(-size.width // factor) >= target_width:
-            decoded = cv2.imdecode(np.frombuffer(payload, dtype=np.uint8), getattr(cv2, flag))
-            if decoded is None or decoded.ndim != 3 or decoded.dtype != np.uint8:
+            try:
+                decoded = imdecode(payload, getattr(cv2, flag))
+            except ValueError:
+                return None  # decode_frame reports it
+            if decoded.ndim != 3 or decoded.dtype != np.uint8:
+                return None
+            if min(decoded.shape[:2]) < MIN_FRAME_SIDE:
                 return None
             return np.ascontiguousarray(decoded), (size.width, size.height)
     return None

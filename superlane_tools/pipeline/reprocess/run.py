@@ -343,7 +343,8 @@ def reprocess(
     written = [w.path for w in streamer.writers.values()] + live.paths
     scal = {k: np.asarray(v) for k, v in streamer.scalars.items()}
     t_ns = scal["t_ns"].astype(np.int64)
-    fps = 1e9 / float(np.median(np.diff(t_ns))) if len(t_ns) > 1 else 15.0
+    steps = np.diff(t_ns)[np.diff(t_ns) > 0]  # frames may share log times (batched bridges)
+    fps = 1e9 / float(np.median(steps)) if steps.size else 15.0
     segments = _segments(cfg, t_ns, fps)
     kpi = cfg.kpi
     params = AvailabilityParams(
