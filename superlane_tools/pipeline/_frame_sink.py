@@ -166,7 +166,7 @@ class FrameSink:
         """Return the topic's folder relative to the output folder and its staging folder."""
         known = self._folders.get(topic)
         if known is None:
-            name = safe_topic(topic)
+            name = safe_topic(topic, {f.split("/", 1)[1] for f, _ in self._folders.values()})
             parent = self.out_dir / "frames"
             try:
                 parent.mkdir(parents=True, exist_ok=True)

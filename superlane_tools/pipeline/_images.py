@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import hashlib
 import re
 import struct
+from collections.abc import Collection
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -155,7 +157,19 @@ def raw_pixels(data: Any, width: int, height: int, encoding: str, step: int) -> 
     return pixels
 
 
-def safe_topic(topic: str) -> str:
-    """Return a topic name usable as one folder name (``/cam/front`` -> ``cam_front``)."""
-    name = _SAFE_TOPIC.sub("_", topic.strip("/")).strip("._")
-    return name or "_"
+MAX_FOLDER_NAME = 100
+"""Longest folder name made from a topic (file systems allow 255 bytes)."""
+
+
+def safe_topic(topic: str, taken: Collection[str] = ()) -> str:
+    """Return a topic name usable as one folder name (``/cam/front`` -> ``cam_front``).
+
+    Names longer than :data:`MAX_FOLDER_NAME`, and names already in ``taken`` (topics such as
+    ``/cam/front`` and ``/cam_front``, or ``/cam/ä`` and ``/cam/ö``, sanitise alike), get a
+    short hash of the full topic name appended, so two topics never share a folder.
+    """
+    name = _SAFE_TOPIC.sub("_", topic.strip("/")).strip("._") or "_"
+    if len(name) > MAX_FOLDER_NAME or name in taken:
+        digest = hashlib.sha1(topic.encode("utf-8", "surrogatepass")).hexdigest()[:10]
+        name = f"{name[: MAX_FOLDER_NAME - 11]}-{digest}"
+    return name

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
@@ -32,6 +33,8 @@ FRAME_TYPES = frozenset(
 CAMERA_INFO_TYPES = frozenset({"sensor_msgs/msg/CameraInfo", "foxglove.CameraCalibration"})
 CAN_TYPES = frozenset({"can_msgs/msg/Frame"})
 GNSS_TYPES = frozenset({"sensor_msgs/msg/NavSatFix", "foxglove.LocationFix"})
+MAX_OFFSET_S = 9e9
+"""Largest --start/--end offset, seconds (int64 ns holds 292 years)."""
 STREAM_KINDS = ("frames", "camera_info", "can", "gnss")
 FRAME_FORMATS = ("jpg", "png", "none")
 _KIND_TYPES = {
@@ -75,6 +78,9 @@ class ExtractConfig:
             )
         if self.every < 1:
             raise UsageError(f"--every must be >= 1, got {self.every}")
+        for name, value in (("--start", self.start_s), ("--end", self.end_s)):
+            if value is not None and not (math.isfinite(value) and abs(value) <= MAX_OFFSET_S):
+                raise UsageError(f"{name} must be a finite number of seconds, got {value}")
         if self.start_s is not None and self.start_s < 0:
             raise UsageError(f"--start must be >= 0 s, got {self.start_s}")
         if self.start_s is not None and self.end_s is not None and self.end_s <= self.start_s:
