@@ -73,6 +73,8 @@ def open_recording(path: str | Path) -> Recording:
 
             return RosbagRecording(p, kind="ros2")
         raise RecordingError(f"{p} is not a recording: a folder without metadata.yaml; {SUPPORTED}")
+    if not p.is_file():  # a FIFO, socket or device: reading it could block forever
+        raise RecordingError(f"{p} is not a recording: not a regular file")
     try:
         with p.open("rb") as handle:
             head = handle.read(16)
