@@ -22,6 +22,7 @@ from superlane_tools.pipeline._images import (
 from superlane_tools.recording.base import SkipLog, field_value
 from superlane_tools.records import Message
 from superlane_tools.reporting import OutputError, ParquetStreamWriter
+from superlane_tools.reporting.atomic import temp_prefix
 from superlane_tools.reporting.provenance import ProvenanceSource, resolve_provenance
 
 FRAMES_SCHEMA = pa.schema(
@@ -170,7 +171,8 @@ class FrameSink:
             parent = self.out_dir / "frames"
             try:
                 parent.mkdir(parents=True, exist_ok=True)
-                staging = tempfile.mkdtemp(prefix=f".{name}.", suffix=".tmp", dir=parent)
+                staging = tempfile.mkdtemp(prefix=temp_prefix(name), suffix=".tmp", dir=parent)
+                Path(staging).chmod(0o777 & ~_UMASK)  # mkdtemp makes 0700, like the files: umask
             except OSError as err:
                 raise OutputError(f"cannot write frames under {parent}: {err.strerror}") from err
             known = (f"frames/{name}", staging)
@@ -259,10 +261,14 @@ class FrameSink:
 
     def _finish_folders(self, ok: bool) -> None:
         """Rename each staging folder to its topic folder (``ok``) or remove it."""
-        for rel, staging in self._folders.values():
-            if ok:
-                _publish(Path(staging), self.out_dir / rel)
-            else:
+        try:
+            for rel, staging in self._folders.values():
+                if ok:
+                    _publish(Path(staging), self.out_dir / rel)
+                else:
+                    shutil.rmtree(staging, ignore_errors=True)
+        finally:  # a failed publish must not leak the other staging folders
+            for _, staging in self._folders.values():
                 shutil.rmtree(staging, ignore_errors=True)
 
 
@@ -275,7 +281,9 @@ def _publish(staging: Path, final: Path) -> None:
     old: Path | None = None
     try:
         if final.exists():
-            old = Path(tempfile.mkdtemp(prefix=f".{final.name}.", suffix=".old", dir=final.parent))
+            old = Path(
+                tempfile.mkdtemp(prefix=temp_prefix(final.name), suffix=".old", dir=final.parent)
+            )
             final.replace(old / final.name)
         staging.replace(final)
     except OSError as err:
@@ -286,6 +294,15 @@ def _publish(staging: Path, final: Path) -> None:
     finally:
         if old is not None:
             shutil.rmtree(old, ignore_errors=True)
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+_UMASK = _umask()  # read once at import: changing it later races with the writer threads
 
 
 def _write_file(path: str, payload: bytes) -> None:

@@ -20,6 +20,7 @@ from superlane_tools.recording.base import Recording, SkipLog
 from superlane_tools.recording.open import open_recording
 from superlane_tools.records import Skipped, TopicInfo
 from superlane_tools.reporting import Provenance
+from superlane_tools.reporting.atomic import remove_stale_temps
 from superlane_tools.reporting.provenance import PendingIdentities
 
 FRAME_TYPES = frozenset(
@@ -212,6 +213,8 @@ def extract(
     """
     src = Path(recording_path)
     out = Path(out_dir)
+    for folder in (out, out / "frames"):  # what killed extracts into this folder left
+        remove_stale_temps(folder)
     dbcs: dict[str, LoadedDbc] = {}
     for dbc_path in config.dbc_paths:
         loaded = load_dbc(dbc_path)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import errno
 import json
 import os
 import shutil
@@ -28,6 +29,7 @@ _STAGING = "slt-staging"
 _OLD = "slt-old"
 _RENAME_EXCHANGE = 2  # renameat2 flag (Linux >= 3.15)
 _AT_FDCWD = -100
+_WRITE_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EFBIG, errno.EACCES, errno.EPERM}
 
 
 def _pid_alive(pid: int) -> bool:
@@ -200,6 +202,7 @@ def staged_run(final: str | os.PathLike[str]) -> Iterator[Path]:
             )
         )
         staging.chmod(0o777 & ~_umask())
+        _publish_probe(target)
     except OSError as err:
         raise OutputError(f"cannot write {target}: {err.strerror}") from err
     try:
@@ -207,10 +210,18 @@ def staged_run(final: str | os.PathLike[str]) -> Iterator[Path]:
         write_run_manifest(staging)
         _publish(staging, target)
     except OSError as err:
+        if err.errno not in _WRITE_ERRNOS:
+            raise
         raise OutputError(f"cannot write {target}: {err.strerror}") from err
     finally:
         if staging.exists():
             shutil.rmtree(staging, ignore_errors=True)
+
+
+def _publish_probe(target: Path) -> None:
+    """Fail early when the folder that will hold ``target`` is not writable."""
+    if not os.access(target.parent if str(target.parent) else ".", os.W_OK):
+        raise PermissionError(errno.EACCES, "permission denied", str(target.parent))
 
 
 def _umask() -> int:
