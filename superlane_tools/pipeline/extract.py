@@ -84,7 +84,7 @@ class ExtractConfig:
                 raise UsageError(f"{name} must be a finite number of seconds, got {value}")
         if self.start_s is not None and self.start_s < 0:
             raise UsageError(f"--start must be >= 0 s, got {self.start_s}")
-        if self.start_s is not None and self.end_s is not None and self.end_s <= self.start_s:
+        if self.end_s is not None and self.end_s <= (self.start_s or 0.0):
             raise UsageError(f"--end ({self.end_s} s) must be after --start ({self.start_s} s)")
         unknown = set(self.streams) - set(STREAM_KINDS)
         if unknown:
