@@ -85,7 +85,8 @@ class ExtractConfig:
         if self.start_s is not None and self.start_s < 0:
             raise UsageError(f"--start must be >= 0 s, got {self.start_s}")
         if self.end_s is not None and self.end_s <= (self.start_s or 0.0):
-            raise UsageError(f"--end ({self.end_s} s) must be after --start ({self.start_s} s)")
+            start = self.start_s or 0.0
+            raise UsageError(f"--end ({self.end_s} s) must be after --start ({start} s)")
         unknown = set(self.streams) - set(STREAM_KINDS)
         if unknown:
             raise ConfigError(f"unknown stream kinds {sorted(unknown)}: use {STREAM_KINDS}")

@@ -915,14 +915,14 @@ class KillOutcome:
     problems: list[str]
 
 
-def _slt(args: list[str], cwd: Path, timeout_s: float) -> subprocess.Popen[bytes]:
+def _slt(args: list[str], cwd: Path, capture: bool = False) -> subprocess.Popen[bytes]:
     env = dict(os.environ, PYTHONPATH=str(REPO), COLUMNS="400")
     return subprocess.Popen(
         [sys.executable, "-c", "from superlane_tools.cli.app import main; main()", *args],
         cwd=cwd,
         env=env,
         stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
+        stderr=subprocess.PIPE if capture else subprocess.DEVNULL,
         start_new_session=True,
     )
 
@@ -1005,15 +1005,15 @@ def kill_campaign(
     else:
         args = ["extract", "d.mcap", "--out", OUT]
     t0 = time.perf_counter()
-    proc = _slt(args, work, timeout_s)
-    proc.communicate(timeout=timeout_s)
+    proc = _slt(args, work)
+    proc.wait(timeout=timeout_s)
     full_s = time.perf_counter() - t0
     outcomes = []
     for trial in range(trials):
         if trial % 2 and (work / OUT).exists():
             shutil.rmtree(work / OUT)  # half the trials into a fresh folder
         delay = rng.uniform(0.05, full_s)
-        proc = _slt(args, work, timeout_s)
+        proc = _slt(args, work)
         try:
             proc.wait(timeout=delay)
             killed = False
@@ -1027,7 +1027,7 @@ def kill_campaign(
 
             if not (work / OUT / RUN_MANIFEST).is_file():
                 problems.append("after the kill --out holds an incomplete run")
-        rerun = _slt(args, work, timeout_s)
+        rerun = _slt(args, work, capture=True)
         _, err = rerun.communicate(timeout=timeout_s)
         if rerun.returncode != 0:
             problems.append(f"rerun exit {rerun.returncode}: {err.decode()[-200:]}")
