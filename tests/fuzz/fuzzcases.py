@@ -747,7 +747,118 @@ def path_config_cases(rng: random.Random, n: int) -> Iterator[Case]:
         yield Case("paths_configs", f"{name}-{i}", build, expect, None)
 
 
+def _rewrite_mcap(src: Path, dst: Path, edit: Callable[[str, int, int, Any], Any]) -> None:
+    """Copy an MCAP file message by message; ``edit(topic, index, log_time, msg)`` may return
+    a replacement ``(log_time, msg)`` for a decoded ROS 2 message (None keeps it)."""
+    from mcap.reader import make_reader
+    from mcap.writer import Writer
+
+    from superlane_tools.recording.typestore import default_typestore
+
+    store = default_typestore()
+    with src.open("rb") as fin, dst.open("wb") as fout:
+        reader = make_reader(fin)
+        writer = Writer(fout)
+        writer.start()
+        summary = reader.get_summary()
+        assert summary is not None
+        for meta in reader.iter_metadata():
+            writer.add_metadata(meta.name, meta.metadata)
+        schema_ids: dict[int, int] = {}
+        channel_ids: dict[int, int] = {}
+        seen: dict[str, int] = {}
+        for schema, channel, message in reader.iter_messages(log_time_order=True):
+            if schema is not None and schema.id not in schema_ids:
+                schema_ids[schema.id] = writer.register_schema(
+                    schema.name, schema.encoding, schema.data
+                )
+            if channel.id not in channel_ids:
+                channel_ids[channel.id] = writer.register_channel(
+                    channel.topic,
+                    channel.message_encoding,
+                    schema_ids.get(channel.schema_id, 0),
+                    channel.metadata,
+                )
+            index = seen.get(channel.topic, 0)
+            seen[channel.topic] = index + 1
+            t, data = message.log_time, message.data
+            msgtype = (
+                f"{schema.name.split('/')[0]}/msg/{schema.name.split('/')[-1]}" if schema else ""
+            )
+            if msgtype in store.fielddefs:
+                changed = edit(
+                    channel.topic,
+                    index,
+                    t,
+                    lambda d=data, m=msgtype: store.deserialize_cdr(d, m),
+                )
+                if changed is not None:
+                    t, msg = changed
+                    data = bytes(store.serialize_cdr(msg, msgtype))
+            writer.add_message(channel_ids[channel.id], t, data, t, message.sequence)
+        writer.finish()
+
+
+def reprocess_cases(rng: random.Random, n: int) -> Iterator[Case]:
+    """``slt reprocess`` on drives with one bad frame or frames sharing log times."""
+    from dataclasses import replace
+
+    import numpy as np
+
+    good = real_jpegs()
+    sof = good[0].find(b"\xff\xc0")
+    tall = good[0][: sof + 5] + struct.pack(">HH", 60000, 1) + good[0][sof + 9 :]
+    png = __import__("cv2").imencode(".png", np.zeros((4, 4, 3), np.uint8))[1].tobytes()
+    huge = png[:16] + struct.pack(">II", 40000, 40000) + png[24:]
+    kinds = ["tall-jpeg", "shared-times", "huge-png", "duplicate-times", "random"]
+    for i in range(n):
+        kind = kinds[i % len(kinds)]
+        where = rng.randrange(2, 28)
+
+        def build(work: Path, kind: str = kind, where: int = where) -> list[str]:
+            from superlane_tools.simulation.drive import simulate_drive
+
+            plain = work / "plain.mcap"
+            simulate_drive("highway_curves", 2.0, 3, "mcap", 160, 90, False, plain)
+
+            def edit(topic: str, index: int, t: int, decode: Callable[[], Any]) -> Any:
+                if topic != "/camera/image/compressed":
+                    return None
+                if kind == "shared-times":  # a bridge batching 3 frames per log time
+                    return (t - (index % 3) * 66_666_667, decode())
+                if kind == "duplicate-times":
+                    return (t - 66_666_667, decode()) if index == where else None
+                if index != where:
+                    return None
+                payload = {"tall-jpeg": tall, "huge-png": huge}.get(kind)
+                if payload is None:
+                    payload = bytes(rng.randrange(256) for _ in range(3000))
+                msg = decode()
+                return (t, replace(msg, data=np.frombuffer(payload, np.uint8)))
+
+            _rewrite_mcap(plain, work / "d.mcap", edit)
+            plain.unlink()
+            return ["reprocess", "d.mcap", "--out", OUT, "--no-plots"]
+
+        bad_frame = kind not in {"shared-times", "duplicate-times"}
+
+        def need(out: Path, bad_frame: bool = bad_frame) -> str | None:
+            from superlane_tools.reporting.run_folder import require_complete_run
+
+            try:
+                require_complete_run(out)
+            except Exception as err:
+                return str(err)
+            frames = _rows(out / "frames.parquet")
+            want = 29 if bad_frame else 30
+            return None if frames >= want else f"frames {frames} < {want}"
+
+        expect = frozenset({3}) if bad_frame else frozenset({0, 3})
+        yield Case("reprocess", f"reprocess-{kind}-{i}", build, expect, need)
+
+
 FAMILIES: dict[str, Callable[[random.Random, int], Iterator[Case]]] = {
+    "reprocess": reprocess_cases,
     "mcap": mcap_cases,
     "images": image_cases,
     "timestamps": time_cases,

@@ -8,30 +8,40 @@ The full campaign (>= 1000 cases and the SIGKILL campaign) is ``benchmarks/fuzz.
 from __future__ import annotations
 
 import os
+from collections.abc import Iterator
 from pathlib import Path
 
 import fuzzcases as fc  # tests/fuzz/conftest.py puts the harness on sys.path
 import pytest
 
 FAST = {
-    "mcap": 24,
-    "images": 21,
+    "mcap": 18,
+    "images": 14,
     "timestamps": 16,
     "topics": 12,
     "canlog": 16,
-    "blf_asc": 18,
+    "blf_asc": 12,
     "nmea": 15,
-    "dbc": 15,
-    "bags": 16,
+    "dbc": 10,
+    "bags": 12,
     "paths_configs": 12,
+    "reprocess": 3,
 }
 
 pytestmark = pytest.mark.skipif(not hasattr(os, "fork"), reason="the harness forks")
 
 
 @pytest.fixture(scope="module")
-def warm() -> None:
+def warm(tmp_path_factory: pytest.TempPathFactory) -> Iterator[None]:
+    """Import the toolkit once (children fork warm); keep generated base files in tmp."""
     fc.preload()
+    old = os.environ.get("SLT_FUZZ_CACHE")
+    os.environ["SLT_FUZZ_CACHE"] = str(tmp_path_factory.mktemp("fuzz-base"))
+    yield
+    if old is None:
+        del os.environ["SLT_FUZZ_CACHE"]
+    else:
+        os.environ["SLT_FUZZ_CACHE"] = old
 
 
 @pytest.mark.parametrize("family", sorted(FAST))
