@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import heapq
 from collections.abc import Collection, Iterator
 from contextlib import ExitStack
@@ -60,7 +61,6 @@ class RosbagRecording(ClosingRecording):
         Raises:
             RecordingError: If the bag cannot be opened.
         """
-        from rosbags.rosbag1 import Reader as Reader1
         from rosbags.rosbag2 import Reader as Reader2
 
         self.path = Path(path)
@@ -72,7 +72,7 @@ class RosbagRecording(ClosingRecording):
         readers: list[Any]
         try:
             if self.kind == "ros1":
-                readers = [Reader1(self.path)]
+                readers = [self._ros1_reader()]
             elif self.path.is_dir():
                 readers = self._ros2_folder_readers()
             else:
@@ -91,6 +91,36 @@ class RosbagRecording(ClosingRecording):
         self._encoding = "ros1" if self.kind == "ros1" else "cdr"
         self._store = self._build_typestore()
         self._header_first: dict[str, bool] = {}
+
+    def _ros1_reader(self) -> Any:
+        """Return the rosbags reader, or a scan of the records when the index is unusable."""
+        from rosbags.rosbag1 import Reader as Reader1
+
+        from superlane_tools.recording._ros1_scan import scan_reader
+
+        reader = Reader1(self.path)
+        try:
+            reader.open()
+        except Exception as err:  # no index (a crashed recorder's .bag.active) or a cut file
+            with contextlib.suppress(Exception):
+                reader.close()
+            try:
+                scanned = scan_reader(self.path, self._skips)
+            except (OSError, ValueError) as scan_err:
+                msg = f"{self.path} is not a readable ROS 1 bag: {err}"
+                raise RecordingError(msg) from scan_err
+            if not scanned.connections:
+                raise RecordingError(
+                    f"{self.path} is not a readable ROS 1 bag: {err}; no intact data found"
+                ) from err
+            self._skips.add(
+                "unindexed bag",
+                f"{self.path.name}: {err}; messages recovered by scanning (like rosbag reindex)",
+                0,
+            )
+            return scanned
+        reader.close()
+        return Reader1(self.path)
 
     def _ros2_folder_readers(self) -> list[Any]:
         from rosbags.rosbag2 import Reader as Reader2

@@ -675,7 +675,8 @@ def bag_cases(rng: random.Random, n: int) -> Iterator[Case]:
                 (work / fname).write_bytes(content)
             return _extract(next(iter(files)))
 
-        yield Case("bags", name, build, frozenset({0, 1, 3}), None)
+        expect = frozenset({1, 3}) if kind in {0, 3} else frozenset({0, 1, 3})
+        yield Case("bags", name, build, expect, None)
 
 
 def path_config_cases(rng: random.Random, n: int) -> Iterator[Case]:

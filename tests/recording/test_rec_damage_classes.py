@@ -185,3 +185,31 @@ def test_truncated_or_flipped_ros1_bag_keeps_what_came_before(
         except RecordingError:
             continue  # an index damaged so that the bag cannot be opened: one clear error
         assert set(got) <= set(expected) or skipped, pos
+
+
+@pytest.mark.parametrize("frac", [0.3, 0.5, 0.7, 0.95])
+def test_truncated_ros1_bag_is_recovered_like_reindex(
+    drive: SimpleNamespace, tmp_path: Path, frac: float
+) -> None:
+    path = drive.write("drive.bag", "ros1")
+    expected, _ = _read(path)
+    data = path.read_bytes()
+    active = tmp_path / "crashed.bag.active"  # what a recorder that crashed leaves
+    active.write_bytes(data[: int(len(data) * frac)])
+    got, skipped = _read(active)
+    assert got == expected[: len(got)]
+    assert len(got) >= len(expected) * (frac - 0.15)  # the chunk holds 8-88 % of the file
+    assert "unindexed bag" in skipped
+
+
+@pytest.mark.realdata
+def test_real_ros1_bag_cut_in_half(realdata: Path, tmp_path: Path) -> None:
+    src = realdata / "bags" / "ros1_robot_localization" / "test1.bag"
+    with open_recording(src) as rec:
+        full = [(m.topic, m.log_time_ns) for m in rec.raw_messages(["/fix"])]
+    cut = tmp_path / "test1.bag"
+    cut.write_bytes(src.read_bytes()[: src.stat().st_size // 2])
+    with open_recording(cut) as rec:
+        got = [(m.topic, m.log_time_ns) for m in rec.raw_messages(["/fix"])]
+    assert 0 < len(got) < len(full)
+    assert got == full[: len(got)]
