@@ -24,6 +24,7 @@ if TYPE_CHECKING:
     from rosbags.typesys.store import Typestore
 
 BagKind = Literal["ros1", "ros2"]
+_ORPHANS = "SELECT COUNT(*) FROM messages WHERE topic_id NOT IN (SELECT id FROM topics)"
 
 
 def _read_ros2_metadata(folder: Path) -> dict[str, Any]:
@@ -88,9 +89,32 @@ class RosbagRecording(ClosingRecording):
                 f"{self.path} is not a readable {self.kind.upper()} bag: {err}"
             ) from err
         self._readers = readers
+        if self.kind == "ros2":
+            self._count_orphans()
         self._encoding = "ros1" if self.kind == "ros1" else "cdr"
         self._store = self._build_typestore()
         self._header_first: dict[str, bool] = {}
+
+    def _count_orphans(self) -> None:
+        """Report messages of sqlite3 storage files whose topic id names no topic.
+
+        rosbags joins messages with topics, so such messages would vanish without a trace.
+        """
+        import sqlite3
+
+        files = [self.path] if self.path.is_file() else sorted(self.path.glob("*.db3"))
+        for db3 in files:
+            try:
+                with contextlib.closing(
+                    sqlite3.connect(f"{db3.resolve().as_uri()}?mode=ro", uri=True)
+                ) as db:
+                    (orphans,) = db.execute(_ORPHANS).fetchone()
+            except sqlite3.Error:
+                continue  # damage here is reported while reading
+            if orphans:
+                self._skips.add(
+                    "message with an unknown topic id", f"{db3.name}: not readable", int(orphans)
+                )
 
     def _ros1_reader(self) -> Any:
         """Return the rosbags reader, or a scan of the records when the index is unusable."""

@@ -213,3 +213,20 @@ def test_real_ros1_bag_cut_in_half(realdata: Path, tmp_path: Path) -> None:
         got = [(m.topic, m.log_time_ns) for m in rec.raw_messages(["/fix"])]
     assert 0 < len(got) < len(full)
     assert got == full[: len(got)]
+
+
+def test_ros2_messages_with_an_unknown_topic_id_are_reported(
+    drive: SimpleNamespace, tmp_path: Path
+) -> None:
+    import sqlite3
+
+    folder = drive.write("bag2", "ros2")
+    db3 = next(folder.glob("*.db3"))
+    with sqlite3.connect(db3) as db:
+        db.execute(
+            "UPDATE messages SET topic_id = 999 WHERE id IN (SELECT id FROM messages LIMIT 4)"
+        )
+    with open_recording(folder) as rec:
+        list(rec.messages())
+        skipped = rec.skipped
+    assert [(s.what, s.n_items) for s in skipped] == [("message with an unknown topic id", 4)]
