@@ -35,7 +35,8 @@ import fuzzcases as fc  # noqa: E402
 RESULTS = HERE / "results" / "fuzz.json"
 SHARE = {  # share of the cases per family
     "reprocess": 0.02,
-    "mcap": 0.14,
+    "disk_full": 0.02,
+    "mcap": 0.13,
     "images": 0.10,
     "timestamps": 0.08,
     "topics": 0.06,

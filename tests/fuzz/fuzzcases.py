@@ -106,6 +106,7 @@ class Case:
         build: Writes the inputs into the case folder and returns the ``slt`` arguments.
         expect: Correct exit codes.
         need: Returns what the outputs must hold (None: no data check).
+        file_size_limit: See below.
     """
 
     family: str
@@ -113,6 +114,9 @@ class Case:
     build: Callable[[Path], list[str]]
     expect: frozenset[int]
     need: Callable[[Path], str | None] | None = None
+    file_size_limit: int | None = None
+    """Largest file the run may write, bytes (``RLIMIT_FSIZE``: writes beyond it fail like a
+    full disk, with ``EFBIG``)."""
 
 
 @dataclass
@@ -858,7 +862,39 @@ def reprocess_cases(rng: random.Random, n: int) -> Iterator[Case]:
         yield Case("reprocess", f"reprocess-{kind}-{i}", build, expect, need)
 
 
+def disk_full_cases(rng: random.Random, n: int) -> Iterator[Case]:
+    """extract, reprocess and batch when every file write past a size fails (a full disk)."""
+    for i in range(n):
+        command = ("extract", "reprocess", "batch")[i % 3]
+        limit = rng.choice([0, 2_000, 20_000, 200_000])
+
+        def build(work: Path, command: str = command) -> list[str]:
+            if command == "reprocess":
+                from superlane_tools.simulation.drive import simulate_drive
+
+                simulate_drive("highway_curves", 1.0, 3, "mcap", 160, 90, False, work / "d.mcap")
+                return ["reprocess", "d.mcap", "--out", OUT, "--no-plots"]
+            write_drive(work / "d.mcap", "mcap", frames=8)
+            if command == "batch":
+                return ["batch", "d.mcap", "--out", OUT, "--job", "extract", "--workers", "1"]
+            return _extract("d.mcap")
+
+        def clean(out: Path) -> str | None:
+            stray = leftovers(out.parent)
+            return f"left behind: {stray[:3]}" if stray else None
+
+        yield Case(
+            "disk_full",
+            f"disk-full-{command}-{limit}-{i}",
+            build,
+            frozenset({0, 1, 3}),
+            clean,
+            file_size_limit=limit + 1,
+        )
+
+
 FAMILIES: dict[str, Callable[[random.Random, int], Iterator[Case]]] = {
+    "disk_full": disk_full_cases,
     "reprocess": reprocess_cases,
     "mcap": mcap_cases,
     "images": image_cases,
@@ -925,6 +961,9 @@ def run_case(case: Case, root: Path, timeout_s: float = 60.0) -> Outcome:
     before = _listing(work, {OUT})
     err_path = work.parent / f".{work.name}.stderr"
     t0 = time.perf_counter()
+    if args[0] == "batch":  # its process pool re-imports __main__: run it as a real program
+        code, hung = _run_program(args, work, err_path, timeout_s, case.file_size_limit)
+        return _classify(case, work, before, err_path, code, hung, time.perf_counter() - t0)
     pid = os.fork()
     if pid == 0:  # child: run the CLI exactly as the console script does
         code = 1
@@ -937,6 +976,12 @@ def run_case(case: Case, root: Path, timeout_s: float = 60.0) -> Outcome:
             sys.stdout = io.TextIOWrapper(os.fdopen(1, "wb", closefd=False), write_through=True)
             sys.stderr = io.TextIOWrapper(os.fdopen(2, "wb", closefd=False), write_through=True)
             os.environ["COLUMNS"] = "400"
+            if case.file_size_limit is not None:
+                import resource
+
+                signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+                limit = case.file_size_limit
+                resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
             sys.argv = ["slt", *args]
             from superlane_tools.cli.app import main
 
@@ -955,7 +1000,47 @@ def run_case(case: Case, root: Path, timeout_s: float = 60.0) -> Outcome:
                 sys.stderr.flush()
             os._exit(code)
     code, hung = _wait(pid, timeout_s)
-    seconds = time.perf_counter() - t0
+    return _classify(case, work, before, err_path, code, hung, time.perf_counter() - t0)
+
+
+def _run_program(
+    args: list[str], work: Path, err_path: Path, timeout_s: float, limit: int | None
+) -> tuple[int | None, bool]:
+    def limit_files() -> None:
+        if limit is not None:
+            import resource
+
+            signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+            resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+
+    env = dict(os.environ, PYTHONPATH=str(REPO), COLUMNS="400")
+    with err_path.open("wb") as err:
+        proc = subprocess.Popen(
+            [sys.executable, "-c", "from superlane_tools.cli.app import main; main()", *args],
+            cwd=work,
+            env=env,
+            stdout=subprocess.DEVNULL,
+            stderr=err,
+            preexec_fn=limit_files,  # noqa: PLW1509 - only setrlimit, no threads yet
+            start_new_session=True,
+        )
+        try:
+            return proc.wait(timeout=timeout_s), False
+        except subprocess.TimeoutExpired:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+            return None, True
+
+
+def _classify(
+    case: Case,
+    work: Path,
+    before: set[str],
+    err_path: Path,
+    code: int | None,
+    hung: bool,
+    seconds: float,
+) -> Outcome:
     stderr = err_path.read_text(encoding="utf-8", errors="replace") if err_path.exists() else ""
     err_path.unlink(missing_ok=True)
     findings = []
@@ -967,7 +1052,7 @@ def run_case(case: Case, root: Path, timeout_s: float = 60.0) -> Outcome:
         findings.append("internal_error")
     if not hung and code not in case.expect:
         findings.append("wrong_exit")
-    if not hung and code in {0, 3} and case.need is not None:
+    if not hung and case.need is not None and (code in {0, 3} or case.family == "disk_full"):
         lost = case.need(work / OUT)
         if lost:
             findings.append("data_lost")

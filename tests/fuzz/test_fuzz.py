@@ -26,6 +26,7 @@ FAST = {
     "bags": 8,
     "paths_configs": 12,
     "reprocess": 2,
+    "disk_full": 6,
 }
 
 pytestmark = pytest.mark.skipif(not hasattr(os, "fork"), reason="the harness forks")
