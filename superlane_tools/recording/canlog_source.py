@@ -117,7 +117,7 @@ class _CheckedLines:
             if self._candump:
                 ok = bool(_CANDUMP_LINE.match(line))
             else:
-                ok = line.isprintable() or line.rstrip("\r\n").isprintable()
+                ok = line.rstrip("\r\n").replace("\t", " ").isprintable()
                 ok = ok and "\ufffd" not in line and len(line) < 4096
             if ok:
                 yield line
