@@ -45,6 +45,8 @@ def _decode_text(raw: bytes, repairs: list[str]) -> str:
 
 def _drop_unused_val(text: str, message: str) -> tuple[str, list[str]] | None:
     """Drop ``VAL_`` lines that cantools lists as unused (unknown message id or signal)."""
+    if "unused VAL_ entries" not in message:
+        return None  # e.g. a syntax error that merely quotes a VAL_ line
     entries = re.findall(r"VAL_\s+(\d+)\s+(\w+)", message.split(":", 1)[-1])
     if not entries:
         return None
@@ -184,7 +186,11 @@ def load_dbc_text(text: str, repairs: list[str] | None = None) -> LoadedDbc:
     from cantools.database.errors import UnsupportedDatabaseFormatError
 
     notes = [] if repairs is None else repairs
+    seen: set[int] = set()
     for _ in range(MAX_REPAIRS):
+        if hash(text) in seen:  # a repair that undoes another: stop instead of looping
+            raise CanError("DBC cannot be loaded: the repairs make no progress")
+        seen.add(hash(text))
         try:
             database = cantools.database.load_string(text, database_format="dbc", strict=False)
         except (UnsupportedDatabaseFormatError, ValueError, KeyError) as err:

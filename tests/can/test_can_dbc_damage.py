@@ -74,3 +74,18 @@ def test_unparsable_dbc_and_fifo_are_one_clear_error(tmp_path: Path) -> None:
     os.mkfifo(fifo)
     with pytest.raises(CanError, match="not a regular file"):
         load_dbc(fifo)
+
+
+@pytest.mark.realdata
+def test_a_syntax_error_quoting_a_val_line_fails_at_once(realdata: Path, tmp_path: Path) -> None:
+    """A garbled line makes cantools quote a later VAL_ line: that is no 'unused VAL_' error."""
+    src = realdata / "dbc" / "opendbc" / "ford_lincoln_base_pt.dbc"
+    lines = src.read_bytes().splitlines(keepends=True)
+    k = max(i for i, line in enumerate(lines) if line.startswith(b"VAL_ "))
+    lines[k] = lines[k].replace(b'" ;', b" ;").replace(b'";', b";")  # an unclosed quote
+    path = tmp_path / "garbled.dbc"
+    path.write_bytes(b"".join(lines))
+    t0 = time.perf_counter()
+    with pytest.raises(CanError, match="Invalid syntax"):
+        load_dbc(path)
+    assert time.perf_counter() - t0 < 20  # was 500 re-parses, one VAL_ line dropped each
