@@ -1209,7 +1209,7 @@ def kill_campaign(
     for trial in range(trials):
         if trial % 2 and (work / OUT).exists():
             shutil.rmtree(work / OUT)  # half the trials into a fresh folder
-        delay = rng.uniform(0.05, full_s)
+        delay = rng.uniform(0.05, 0.8 * full_s)  # runs vary: stay inside most of them
         proc = _slt(args, work)
         try:
             proc.wait(timeout=delay)
