@@ -45,6 +45,8 @@ def _decode_text(raw: bytes, repairs: list[str]) -> str:
 
 def _drop_unused_val(text: str, message: str) -> tuple[str, list[str]] | None:
     """Drop ``VAL_`` lines that cantools lists as unused (unknown message id or signal)."""
+    if "unused VAL_ entries" not in message:
+        return None  # e.g. a syntax error that merely quotes a VAL_ line
     entries = re.findall(r"VAL_\s+(\d+)\s+(\w+)", message.split(":", 1)[-1])
     if not entries:
         return None
@@ -84,8 +86,11 @@ def _rename_duplicate_signals(text: str, database: Any) -> tuple[str, list[str]]
         if not dups:
             continue
         dbc_id = msg.frame_id | (_EXTENDED_FLAG if msg.is_extended_frame else 0)
+        # SG_ lines are usually indented, but DBC does not require it.
         block = re.search(
-            rf"(?m)^BO_[ \t]+{dbc_id}[ \t]+{msg.name}\b[^\n]*\n((?:[ \t]+SG_[^\n]*\n?)*)", text
+            rf"(?m)^BO_[ \t]+{dbc_id}[ \t]+{re.escape(msg.name)}\b[^\n]*\n"
+            r"((?:[ \t]*SG_[^\n]*\n?)*)",
+            text,
         )
         if block is None:
             continue
@@ -98,10 +103,39 @@ def _rename_duplicate_signals(text: str, database: Any) -> tuple[str, list[str]]
                 seen += 1
                 return m.group(0) if seen == 1 else f"{m.group(1)}{dup}_{seen}{m.group(2)}"
 
-            body = re.sub(rf"(SG_[ \t]+){dup}(\b[ \t]*[ :])", _sub, body)
-            notes.append(f"renamed duplicate signal {dup} in message {msg.name} to {dup}_2..")
+            body, count = re.subn(rf"(SG_[ \t]+){re.escape(dup)}(\b[ \t]*[ :])", _sub, body)
+            if count > 1:
+                notes.append(f"renamed duplicate signal {dup} in message {msg.name} to {dup}_2..")
         text = text[: block.start(1)] + body + text[block.end(1) :]
     return text, notes
+
+
+MAX_SIGNAL_BITS = 64
+"""Longest signal cantools decodes (bits)."""
+MAX_FRAME_BITS = 512
+"""Bits in the largest CAN frame (CAN FD, 64 bytes)."""
+
+
+def _drop_impossible_signals(database: Any) -> list[str]:
+    """Remove signals no frame can hold (negative start bit, too long, beyond 64 bytes)."""
+    notes = []
+    for msg in database.messages:
+        bad = [
+            sig
+            for sig in msg.signals
+            if not 0 < sig.length <= MAX_SIGNAL_BITS
+            or not 0 <= sig.start < MAX_FRAME_BITS
+            or not all(0 <= bit < MAX_FRAME_BITS for bit in _signal_bits(sig))
+        ]
+        for sig in bad:
+            msg.signals.remove(sig)
+            notes.append(
+                f"dropped signal {sig.name} of message {msg.name}: start bit {sig.start}, "
+                f"length {sig.length} do not fit a CAN frame"
+            )
+        if bad:
+            msg.refresh(strict=False)
+    return notes
 
 
 def _overlap_notes(database: Any) -> list[str]:
@@ -124,6 +158,8 @@ def _overlap_notes(database: Any) -> list[str]:
 
 def _signal_bits(sig: Any) -> list[int]:
     """Return the little-endian bit positions a signal occupies (byte * 8 + bit in byte)."""
+    if not 0 < sig.length <= MAX_FRAME_BITS:
+        return [-1]
     if sig.byte_order == "little_endian":
         return list(range(sig.start, sig.start + sig.length))
     bits, pos = [], sig.start
@@ -150,7 +186,11 @@ def load_dbc_text(text: str, repairs: list[str] | None = None) -> LoadedDbc:
     from cantools.database.errors import UnsupportedDatabaseFormatError
 
     notes = [] if repairs is None else repairs
+    seen: set[int] = set()
     for _ in range(MAX_REPAIRS):
+        if hash(text) in seen:  # a repair that undoes another: stop instead of looping
+            raise CanError("DBC cannot be loaded: the repairs make no progress")
+        seen.add(hash(text))
         try:
             database = cantools.database.load_string(text, database_format="dbc", strict=False)
         except (UnsupportedDatabaseFormatError, ValueError, KeyError) as err:
@@ -161,10 +201,16 @@ def load_dbc_text(text: str, repairs: list[str] | None = None) -> LoadedDbc:
             text, new_notes = fixed
             notes.extend(new_notes)
             continue
+        except Exception as err:  # cantools' parser fails in other ways on malformed text
+            raise CanError(f"DBC cannot be loaded: {type(err).__name__}: {err}") from err
         text, renamed = _rename_duplicate_signals(text, database)
         if renamed:
             notes.extend(renamed)
             continue
+        try:
+            notes.extend(_drop_impossible_signals(database))
+        except Exception as err:  # cantools cannot rebuild a message's codec
+            raise CanError(f"DBC cannot be loaded: {type(err).__name__}: {err}") from err
         notes.extend(_overlap_notes(database))
         return LoadedDbc(database, notes)
     raise CanError(f"DBC cannot be loaded: still failing after {MAX_REPAIRS} repairs")
@@ -187,6 +233,8 @@ def load_dbc(path: str | os.PathLike[str]) -> LoadedDbc:
         CanError: If the file cannot be read or repaired into a loadable database.
     """
     src = Path(path)
+    if src.exists() and not src.is_file():  # a FIFO or device would block or never end
+        raise CanError(f"{src}: cannot read DBC: not a regular file")
     try:
         raw = src.read_bytes()
     except OSError as err:

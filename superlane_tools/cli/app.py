@@ -95,5 +95,6 @@ def main() -> None:
         err_console.print(
             f"slt: internal error: {type(err).__name__}: {err} (set SLT_DEBUG=1 for a traceback)",
             markup=False,
+            soft_wrap=True,  # one line, whatever the terminal width
         )
         sys.exit(int(ExitCode.ERROR))

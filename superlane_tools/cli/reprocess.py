@@ -127,14 +127,8 @@ def reprocess_cmd(
             overrides["workers"] = workers
         cfg = cfg.with_overrides(overrides)
         target = out if out is not None else Path("runs") / _recording_name(recording)
-        result = _run(recording, target, cfg)
-        annotations = target / "annotations.mcap"
-        if with_signals and annotations.is_file():
-            from superlane_tools.reporting.annotations import add_signals
-
-            added = add_signals(
-                annotations, target / "can_signals.parquet", target / "curvature.parquet"
-            )
+        result, added = _run(recording, target, cfg, with_signals)
+        if added is not None:
             console.print(
                 f"annotations.mcap: added {len(added)} signal channels "
                 f"({sum(added.values())} messages)",
@@ -172,15 +166,29 @@ def _warm_up_in_background(backend: str) -> None:
     threading.Thread(target=warm, name="slt-kernel-warm-up", daemon=True).start()
 
 
-def _run(recording: Path, target: Path, cfg: Any) -> Any:
+def _run(
+    recording: Path, target: Path, cfg: Any, with_signals: bool
+) -> tuple[Any, dict[str, int] | None]:
+    """Reprocess into a staging folder, add the signal channels, publish the run in one step."""
     from superlane_tools.commands.reprocess import reprocess
     from superlane_tools.lanes import FitParams
+    from superlane_tools.reporting.run_folder import staged_run
 
     backend = FitParams.from_dict(dict(getattr(cfg, "fit", {}))).backend
     if backend == "numba":
         _warm_up_in_background(backend)
-    with progress("reprocess", unit="frames") as bar:
-        return reprocess(recording, target, cfg, progress=bar.update, command=command_line())
+    added: dict[str, int] | None = None
+    with staged_run(target) as stage:  # the whole run appears at once, or not at all
+        with progress("reprocess", unit="frames") as bar:
+            result = reprocess(recording, stage, cfg, progress=bar.update, command=command_line())
+        annotations = stage / "annotations.mcap"
+        if with_signals and annotations.is_file():
+            from superlane_tools.reporting.annotations import add_signals
+
+            added = add_signals(
+                annotations, stage / "can_signals.parquet", stage / "curvature.parquet"
+            )
+    return result, added
 
 
 def register(app: typer.Typer) -> None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
@@ -17,11 +18,14 @@ from superlane_tools.recording.open import open_recording
 from superlane_tools.recording.streams import STREAM_KINDS, load_stream_config, select_streams
 from superlane_tools.recording.video import read_with_video
 from superlane_tools.records import Skipped, TopicInfo
+from superlane_tools.reporting.atomic import remove_stale_temps
 from superlane_tools.reporting.can_sink import CanSink
 from superlane_tools.reporting.frame_sink import FrameSink
 from superlane_tools.reporting.gnss_sink import GnssSink
 from superlane_tools.reporting.provenance import HashedProvenance, PendingIdentities
 
+MAX_OFFSET_S = 9e9
+"""Largest --start/--end offset, seconds (int64 ns holds 292 years)."""
 FRAME_FORMATS = ("jpg", "png", "none")
 _NS = 1_000_000_000
 __all__ = [
@@ -72,10 +76,14 @@ class ExtractConfig:
             )
         if self.every < 1:
             raise UsageError(f"--every must be >= 1, got {self.every}")
+        for name, value in (("--start", self.start_s), ("--end", self.end_s)):
+            if value is not None and not (math.isfinite(value) and abs(value) <= MAX_OFFSET_S):
+                raise UsageError(f"{name} must be a finite number of seconds, got {value}")
         if self.start_s is not None and self.start_s < 0:
             raise UsageError(f"--start must be >= 0 s, got {self.start_s}")
-        if self.start_s is not None and self.end_s is not None and self.end_s <= self.start_s:
-            raise UsageError(f"--end ({self.end_s} s) must be after --start ({self.start_s} s)")
+        if self.end_s is not None and self.end_s <= (self.start_s or 0.0):
+            start = self.start_s or 0.0
+            raise UsageError(f"--end ({self.end_s} s) must be after --start ({start} s)")
         unknown = set(self.streams) - set(STREAM_KINDS)
         if unknown:
             raise ConfigError(f"unknown stream kinds {sorted(unknown)}: use {STREAM_KINDS}")
@@ -146,6 +154,8 @@ def extract(
     """
     src = Path(recording_path)
     out = Path(out_dir)
+    for folder in (out, out / "frames"):  # what killed extracts into this folder left
+        remove_stale_temps(folder)
     dbcs: dict[str, LoadedDbc] = {}
     specs = [parse_dbc_spec(str(p)) for p in config.dbc_paths]
     for spec in specs:

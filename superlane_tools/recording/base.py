@@ -133,6 +133,15 @@ def ros2_msgtype(name: str) -> str:
     return name
 
 
+LOG_TIME_MAX_NS = 2**63 - 1
+"""Largest log time the toolkit stores: int64 ns (year 2262). MCAP allows uint64."""
+
+
+def storable_time(log_time_ns: int) -> bool:
+    """Return True when a log time fits the int64 ns columns of every output table."""
+    return 0 <= log_time_ns <= LOG_TIME_MAX_NS
+
+
 def in_range(log_time_ns: int, start_ns: int | None, stop_ns: int | None) -> bool:
     """Return True when ``log_time_ns`` lies in ``[start_ns, stop_ns)`` (None: unbounded)."""
     return (start_ns is None or log_time_ns >= start_ns) and (
@@ -146,7 +155,8 @@ def _time_ns(stamp: Any) -> int | None:
         sec = getattr(stamp, sec_name, None)
         nsec = getattr(stamp, nsec_name, None)
         if isinstance(sec, int) and isinstance(nsec, int):
-            return sec * 1_000_000_000 + nsec
+            value = sec * 1_000_000_000 + nsec
+            return value if -LOG_TIME_MAX_NS <= value <= LOG_TIME_MAX_NS else None
     return None
 
 

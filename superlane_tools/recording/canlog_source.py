@@ -2,14 +2,16 @@
 
 from __future__ import annotations
 
+import math
 import os
 import re
 import struct
-from collections.abc import Collection, Iterator
+import zlib
+from collections.abc import Collection, Generator, Iterator
 from pathlib import Path
 from typing import Any, NamedTuple
 
-from superlane_tools.recording.base import ClosingRecording, SkipLog, in_range
+from superlane_tools.recording.base import ClosingRecording, SkipLog, in_range, storable_time
 from superlane_tools.recording.errors import RecordingError
 from superlane_tools.records import Message, RawMessage, Skipped, TopicInfo
 
@@ -19,10 +21,14 @@ DEFAULT_TOPIC = "can"
 
 _RAW_HEADER = struct.Struct(">IB")
 _EXTENDED_FLAG = 0x80000000
+# Up to 64 data bytes (CAN FD): a longer payload is a damaged line, not a frame.
 _CANDUMP_LINE = re.compile(
-    r"^\s*\(\d+(?:\.\d+)?\)\s+\S+\s+[0-9A-Fa-f]{1,8}#"
-    r"(?:#[0-9A-Fa-f])?(?:(?:[0-9A-Fa-f]{2})*|[Rr]\d?)(?:\s+[RrTt])?\s*$"
+    r"^\s*\(\d{1,12}(?:\.\d{1,9})?\)\s+\S{1,64}\s+[0-9A-Fa-f]{1,8}#"
+    r"(?:#[0-9A-Fa-f])?(?:(?:[0-9A-Fa-f]{2}){0,64}|[Rr]\d?)(?:\s+[RrTt])?\s*$"
 )
+SNIFF_BYTES = 65536
+"""How much of a text log is looked at to recognise its format."""
+SNIFF_LINES = 200
 _ASC_START = re.compile(rb"^\s*(date|base|internal events|begin triggerblock)", re.IGNORECASE)
 
 
@@ -65,39 +71,198 @@ def looks_like_canlog(path: str | os.PathLike[str]) -> bool:
         return False
     try:
         with src.open("rb") as handle:
-            head = handle.read(4096)
+            head = handle.read(SNIFF_BYTES)
     except OSError:
         return False
     if suffix == ".blf":
         return head.startswith(b"LOGG")
     if suffix == ".asc":
         return any(_ASC_START.match(line) for line in head.splitlines()[:20])
-    for line in head.splitlines()[:20]:
-        text = line.decode("ascii", errors="replace").strip()
-        if text:
-            return bool(_CANDUMP_LINE.match(text))
-    return False
+    return candump_lines(path) > 0
+
+
+def candump_lines(path: str | os.PathLike[str]) -> int:
+    """Count well-formed candump lines among the first lines of ``path`` (0: not candump).
+
+    Looks at up to :data:`SNIFF_LINES` lines of the first :data:`SNIFF_BYTES`, so a comment
+    header, a garbled or binary first line or stray NUL bytes do not hide the frames after them.
+    """
+    try:
+        with Path(path).open("rb") as handle:
+            head = handle.read(SNIFF_BYTES)
+    except OSError:
+        return 0
+    lines = head.splitlines()[:SNIFF_LINES]
+    return sum(1 for line in lines if _CANDUMP_LINE.match(line.decode("ascii", "replace")))
 
 
 class _CheckedLines:
-    """A text file that hands python-can only well-formed candump lines; counts the rest."""
+    """A text file that hands python-can only well-formed lines; counts the rest.
 
-    def __init__(self, path: Path, skips: SkipLog) -> None:
-        self._handle = path.open("r", encoding="ascii", errors="replace")
+    candump logs pass only lines that match the candump format. ASC logs pass every line
+    without damage (bytes that are not ASCII, control characters); python-can ignores the
+    header and event lines it does not know.
+    """
+
+    def __init__(self, path: Path, skips: SkipLog, candump: bool = True) -> None:
+        self._handle = path.open("r", encoding="ascii", errors="replace", newline=None)
         self._skips = skips
         self._name = path.name
+        self._candump = candump
 
     def __iter__(self) -> Iterator[str]:
         for number, line in enumerate(self._handle, start=1):
             if not line.strip():
                 continue
-            if _CANDUMP_LINE.match(line):
-                yield line
+            if self._candump:
+                ok = bool(_CANDUMP_LINE.match(line))
             else:
+                ok = line.rstrip("\r\n").replace("\t", " ").isprintable()
+                ok = ok and "\ufffd" not in line and len(line) < 4096
+            if ok:
+                yield line
+            elif not line.lstrip().startswith(("#", "//")):
                 self._skips.add("bad CAN log line", f"{self._name}: first at line {number}")
 
     def close(self) -> None:
         self._handle.close()
+
+
+_BLF_OBJ = struct.Struct("<4sHHII")  # LOBJ signature, header size, version, object size, type
+_BLF_CONTAINER = 10
+_BLF_MAX_OBJECT = 1 << 26
+
+
+def robust_blf_reader(path: Path, skips: SkipLog) -> Any:
+    """Return python-can's BLF reader made to survive damage, reporting it in ``skips``.
+
+    python-can stops the whole log at the first garbled object or container (zlib errors
+    escape) and says nothing about a file cut short. This reader resynchronises on the next
+    ``LOBJ`` signature after garbled bytes, skips a container that does not decompress (only
+    the frames in it are lost), and reports a file shorter than its header says.
+    """
+    import can
+
+    class _Reader(can.BLFReader):
+        _lost = False
+
+        def __iter__(self) -> Generator[Any, None, None]:
+            name = path.name
+            size = path.stat().st_size
+            if self.file_size and size < self.file_size:
+                skips.add("truncated file", f"{name}: {size} of {self.file_size} bytes", 0)
+            while True:
+                start = self.file.tell()
+                data = self.file.read(_BLF_OBJ.size)
+                if len(data) < _BLF_OBJ.size:
+                    if data.strip(b"\0"):
+                        skips.add("truncated file", f"{name}: cut inside an object", 0)
+                    break
+                signature, _, _, obj_size, obj_type = _BLF_OBJ.unpack(data)
+                if signature != b"LOBJ" or not _BLF_OBJ.size <= obj_size <= _BLF_MAX_OBJECT:
+                    skips.add("garbled BLF bytes", f"{name}: first at byte {start}", 0)
+                    if not self._resync(start + 1):
+                        break
+                    continue
+                obj_data = self.file.read(obj_size - _BLF_OBJ.size)
+                cut = len(obj_data) < obj_size - _BLF_OBJ.size
+                if cut:
+                    skips.add("truncated file", f"{name}: cut inside the object at byte {start}", 0)
+                self.file.read(obj_size % 4)
+                if obj_type == _BLF_CONTAINER:
+                    yield from self._container(obj_data, f"{name}: container at byte {start}")
+                if cut:
+                    break
+            self.stop()
+
+        def _container(self, obj_data: bytes, where: str) -> Generator[Any, None, None]:
+            """Yield a container's frames: all of an intact one, those before the damage else."""
+            error: str | None = None
+            try:
+                method, _ = struct.unpack_from("<H6xI", obj_data)
+            except struct.error:
+                method, error = 0, "container header cut short"
+            payload = obj_data[16:]
+            if method == 2:
+                payload, error = _inflate_prefix(payload)
+            elif method != 0:
+                payload, error = b"", f"unknown compression method {method}"
+            data = self._tail + payload
+            self._tail = b""
+            if self._lost:  # an object spanning from a damaged container is gone: resync
+                found = data.find(b"LOBJ")
+                data = data[found:] if found >= 0 else b""
+            self._lost = False
+            while data:
+                bad = _first_bad_object(data)
+                try:
+                    yield from self._parse_container(data if bad is None else data[:bad])
+                    if bad is None:
+                        break
+                    skips.add("garbled BLF object", f"{where}: object of a bad size")
+                    resume = bad
+                except (ValueError, struct.error, IndexError, can.io.blf.BLFParseError) as err:
+                    skips.add("garbled BLF object", f"{where}: {type(err).__name__}: {err}")
+                    resume = self._pos
+                found = data.find(b"LOBJ", resume + 1)
+                data = data[found:] if found >= 0 else b""
+                self._tail = b""
+            if error is not None:
+                skips.add("corrupt BLF container", f"{where}: {error}; later frames in it lost")
+                self._tail = b""
+                self._lost = True
+
+        def _resync(self, offset: int) -> bool:
+            """Seek to the next ``LOBJ`` at or after ``offset``; False at the end of the file."""
+            self.file.seek(offset)
+            carry = b""
+            base = offset
+            while True:
+                block = self.file.read(1 << 16)
+                if not block:
+                    return False
+                hay = carry + block
+                found = hay.find(b"LOBJ")
+                if found >= 0:
+                    self.file.seek(base - len(carry) + found)
+                    return True
+                carry = hay[-3:]
+                base += len(block)
+
+    return _Reader(path)
+
+
+def _first_bad_object(data: bytes) -> int | None:
+    """Return the offset of the first object with an impossible size, or None.
+
+    python-can loops forever on an object of size zero; such an object is damage.
+    """
+    pos, end = 0, len(data)
+    while pos + _BLF_OBJ.size <= end:
+        found = data.find(b"LOBJ", pos, pos + 8)
+        if found < 0:
+            return None  # python-can reports the garbled bytes itself
+        obj_size = _BLF_OBJ.unpack_from(data, found)[3]
+        if obj_size < _BLF_OBJ.size:
+            return found
+        pos = found + obj_size
+    return None
+
+
+def _inflate_prefix(data: bytes, step: int = 1024) -> tuple[bytes, str | None]:
+    """Decompress zlib ``data`` as far as it is intact: (output, None) or (prefix, error)."""
+    inflater = zlib.decompressobj()
+    parts: list[bytes] = []
+    for pos in range(0, len(data), step):
+        try:
+            parts.append(inflater.decompress(data[pos : pos + step]))
+        except zlib.error as err:
+            return b"".join(parts), f"zlib: {err}"
+        if inflater.eof:
+            break
+    if not inflater.eof:
+        return b"".join(parts), "compressed data cut short"
+    return b"".join(parts), None
 
 
 def _frame_of(msg: Any) -> CanFrame:
@@ -146,13 +311,15 @@ class CanLogRecording(ClosingRecording):
 
         self._skips.clear()
         lines: _CheckedLines | None = None
+        suffix = self.path.suffix.lower()
         try:
-            if self.path.suffix.lower() == ".log":
-                lines = _CheckedLines(self.path, self._skips)
-                reader: Any = can.CanutilsLogReader(file=lines)  # type: ignore[arg-type]
+            if suffix in {".log", ".asc"}:
+                lines = _CheckedLines(self.path, self._skips, candump=suffix == ".log")
+                cls = can.CanutilsLogReader if suffix == ".log" else can.ASCReader
+                reader: Any = cls(file=lines)  # type: ignore[arg-type]
             else:
-                reader = can.LogReader(self.path)
-        except (OSError, ValueError) as err:
+                reader = robust_blf_reader(self.path, self._skips)
+        except (OSError, ValueError, struct.error) as err:
             raise RecordingError(f"{self.path}: cannot read CAN log: {err}") from err
         try:
             iterator = iter(reader)
@@ -161,12 +328,19 @@ class CanLogRecording(ClosingRecording):
                     msg = next(iterator)
                 except StopIteration:
                     break
-                except (ValueError, OSError, struct.error, IndexError, KeyError) as err:
-                    self._skips.add("unreadable CAN log tail", f"{self.path.name}: {err}")
+                except Exception as err:  # python-can parse errors: keep what came before
+                    self._skips.add(
+                        "unreadable CAN log tail", f"{self.path.name}: {type(err).__name__}: {err}"
+                    )
                     break
                 channel = msg.channel
                 topic = DEFAULT_TOPIC if channel in (None, "") else str(channel)
-                yield topic, round(float(msg.timestamp) * 1e6) * 1000, _frame_of(msg)
+                seconds = float(msg.timestamp)
+                t_ns = round(seconds * 1e6) * 1000 if math.isfinite(seconds) else -1
+                if not storable_time(t_ns):
+                    self._skips.add("log time beyond int64 ns", f"{topic}: {seconds!r} s")
+                    continue
+                yield topic, t_ns, _frame_of(msg)
         finally:
             if lines is not None:
                 lines.close()

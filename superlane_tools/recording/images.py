@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import hashlib
 import re
 import struct
+from collections.abc import Collection
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -95,6 +97,38 @@ def header_size(payload: bytes, fmt: str) -> ImageSize | None:
     return None
 
 
+MIN_FRAME_SIDE = 8
+"""Smallest image side (pixels) a frame is processed at; smaller frames are skipped."""
+MAX_IMAGE_PIXELS = 1 << 28
+"""Largest image (width x height) decoded; a bigger header is damage (cv2 refuses 2^30)."""
+
+
+def imdecode(payload: bytes, flags: int) -> Any:
+    """Decode a compressed image with cv2; never raise anything but ValueError.
+
+    A header claiming more than :data:`MAX_IMAGE_PIXELS` is refused before decoding (cv2
+    would try to allocate it, or raise ``cv2.error``).
+
+    Raises:
+        ValueError: If the payload is empty, claims an absurd size, or cannot be decoded.
+    """
+    import cv2
+
+    if not payload:
+        raise ValueError("empty image payload")
+    fmt = sniff_format(payload)
+    size = header_size(payload, fmt) if fmt else None
+    if size is not None and size.width * size.height > MAX_IMAGE_PIXELS:
+        raise ValueError(f"image header claims {size.width}x{size.height} pixels")
+    try:
+        pixels = cv2.imdecode(np.frombuffer(payload, dtype=np.uint8), flags)
+    except cv2.error as err:
+        raise ValueError(f"image payload cannot be decoded: {str(err).strip()[:80]}") from err
+    if pixels is None or pixels.size == 0:
+        raise ValueError("image payload cannot be decoded")
+    return pixels
+
+
 def raw_pixels(data: Any, width: int, height: int, encoding: str, step: int) -> npt.NDArray[Any]:
     """Turn a raw image message's buffer into an array cv2 can encode (BGR order).
 
@@ -128,10 +162,22 @@ def raw_pixels(data: Any, width: int, height: int, encoding: str, step: int) -> 
     return pixels
 
 
-def safe_topic(topic: str) -> str:
-    """Return a topic name usable as one folder name (``/cam/front`` -> ``cam_front``)."""
-    name = _SAFE_TOPIC.sub("_", topic.strip("/")).strip("._")
-    return name or "_"
+MAX_FOLDER_NAME = 100
+"""Longest folder name made from a topic (file systems allow 255 bytes)."""
+
+
+def safe_topic(topic: str, taken: Collection[str] = ()) -> str:
+    """Return a topic name usable as one folder name (``/cam/front`` -> ``cam_front``).
+
+    Names longer than :data:`MAX_FOLDER_NAME`, and names already in ``taken`` (topics such as
+    ``/cam/front`` and ``/cam_front``, or ``/cam/ä`` and ``/cam/ö``, sanitise alike), get a
+    short hash of the full topic name appended, so two topics never share a folder.
+    """
+    name = _SAFE_TOPIC.sub("_", topic.strip("/")).strip("._") or "_"
+    if len(name) > MAX_FOLDER_NAME or name in taken:
+        digest = hashlib.sha1(topic.encode("utf-8", "surrogatepass")).hexdigest()[:10]
+        name = f"{name[: MAX_FOLDER_NAME - 11]}-{digest}"
+    return name
 
 
 def decode_frame(msg: Message) -> NDArray[np.uint8]:
@@ -154,17 +200,13 @@ def decode_frame(msg: Message) -> NDArray[np.uint8]:
             int(getattr(data, "step", 0) or 0),
         )
     else:
-        payload = bytes(data.data)
-        if not payload or (sniff_format(payload) is None and not payload):
-            raise ValueError("empty image payload")
-        decoded = cv2.imdecode(np.frombuffer(payload, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
-        if decoded is None:
-            raise ValueError("image payload cannot be decoded")
-        pixels = decoded
+        pixels = imdecode(bytes(data.data), cv2.IMREAD_UNCHANGED)
     if pixels.dtype != np.uint8:
         pixels = (
             (pixels >> 8).astype(np.uint8) if pixels.dtype == np.uint16 else pixels.astype(np.uint8)
         )
+    if min(pixels.shape[:2]) < MIN_FRAME_SIDE:
+        raise ValueError(f"image {pixels.shape[1]}x{pixels.shape[0]} too small to process")
     if pixels.ndim == 2:
         pixels = cv2.cvtColor(pixels, cv2.COLOR_GRAY2BGR)
     elif pixels.shape[2] == 4:
@@ -210,8 +252,13 @@ def decode_reduced(
 
     for factor, flag in _REDUCED_FLAGS:
         if -(-size.width // factor) >= target_width:
-            decoded = cv2.imdecode(np.frombuffer(payload, dtype=np.uint8), getattr(cv2, flag))
-            if decoded is None or decoded.ndim != 3 or decoded.dtype != np.uint8:
+            try:
+                decoded = imdecode(payload, getattr(cv2, flag))
+            except ValueError:
+                return None  # decode_frame reports it
+            if decoded.ndim != 3 or decoded.dtype != np.uint8:
+                return None
+            if min(decoded.shape[:2]) < MIN_FRAME_SIDE:
                 return None
             return np.ascontiguousarray(decoded), (size.width, size.height)
     return None

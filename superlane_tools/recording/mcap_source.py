@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import heapq
 import io
+import struct
+import zlib
 from collections import deque
 from collections.abc import Collection, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
@@ -24,6 +26,7 @@ from superlane_tools.recording.base import (
     in_range,
     raw_header_stamp_ns,
     stamp_ns_of,
+    storable_time,
 )
 from superlane_tools.recording.errors import RecordingError
 from superlane_tools.records import Message, RawMessage, Skipped, TopicInfo
@@ -37,6 +40,9 @@ MCAP_MAGIC = b"\x89MCAP0\r\n"
 """The 8 bytes every MCAP file starts (and, when complete, ends) with."""
 
 _RECORD_PREFIX = 9  # opcode (1 byte) + record length (8 bytes)
+_FOOTER_SIZE = _RECORD_PREFIX + 8 + 8 + 4  # summary start, summary offset start, summary CRC
+_FOOTER_OPCODE = 0x02
+_CHUNK_OPCODE = 0x06
 PREFETCH_CHUNKS = 2
 """Chunks loaded ahead of the consumer by the background reader thread."""
 
@@ -111,11 +117,22 @@ class McapRecording(ClosingRecording):
         complete = self._file.read(len(MCAP_MAGIC)) == MCAP_MAGIC
         summary = None
         if complete:
-            try:
-                self._file.seek(0)
-                summary = SeekingReader(self._file).get_summary()
-            except Exception:  # a damaged summary section: scan the data section instead
+            problem = self._summary_problem()
+            if problem is None:
+                try:
+                    self._file.seek(0)
+                    summary = SeekingReader(self._file).get_summary()
+                    if summary is not None:
+                        problem = self._index_problem(summary)
+                except Exception as err:  # a damaged summary section: scan the data instead
+                    problem = f"{type(err).__name__}: {err}"
+            if problem is not None:
                 summary = None
+                self._open_skips.add(
+                    "damaged summary",
+                    f"{self.path.name}: {problem}; the data section was scanned instead",
+                    0,
+                )
         self._summary = summary
         self.indexed = summary is not None and bool(summary.chunk_indexes)
         """True when messages are read through the file's chunk index (a complete file)."""
@@ -136,9 +153,43 @@ class McapRecording(ClosingRecording):
             return
         self._scan(complete)
 
+    def _summary_problem(self) -> str | None:
+        """Check the footer's summary CRC; return what is wrong, or None (also when unset)."""
+        size = self._file.seek(0, io.SEEK_END)
+        footer_at = size - len(MCAP_MAGIC) - _FOOTER_SIZE
+        if footer_at < len(MCAP_MAGIC):
+            return "file too short for a footer"
+        self._file.seek(footer_at)
+        footer = self._file.read(_FOOTER_SIZE)
+        if footer[0] != _FOOTER_OPCODE:
+            return "no footer record before the closing magic"
+        summary_start, _, crc = struct.unpack_from("<QQI", footer, _RECORD_PREFIX)
+        if summary_start == 0 or crc == 0:
+            return None
+        if not len(MCAP_MAGIC) <= summary_start <= footer_at:
+            return f"summary offset {summary_start} outside the file"
+        self._file.seek(summary_start)
+        covered = self._file.read(footer_at + _FOOTER_SIZE - 4 - summary_start)
+        if zlib.crc32(covered) != crc:
+            return "summary CRC mismatch"
+        return None
+
+    def _index_problem(self, summary: Summary) -> str | None:
+        """Check that every chunk index points at a chunk record (a summary without a CRC)."""
+        for ci in summary.chunk_indexes:
+            self._file.seek(ci.chunk_start_offset)
+            if self._file.read(1) != bytes([_CHUNK_OPCODE]):
+                return f"chunk index points at byte {ci.chunk_start_offset}, not at a chunk"
+            if ci.message_start_time > ci.message_end_time:
+                return f"chunk index at byte {ci.chunk_start_offset} has reversed times"
+        for cid, channel in summary.channels.items():
+            if channel.schema_id and channel.schema_id not in summary.schemas:
+                return f"channel {cid} ({channel.topic}) names a missing schema"
+        return None
+
     def _scan(self, complete: bool) -> None:
         """Read every record once, keeping chunk positions; stop at the first unreadable one."""
-        from mcap.records import Channel, Chunk, Footer, Schema
+        from mcap.records import Channel, Chunk, DataEnd, Footer, Schema
         from mcap.records import Message as McapMessage
         from mcap.stream_reader import StreamReader, breakup_chunk
 
@@ -194,8 +245,12 @@ class McapRecording(ClosingRecording):
             elif isinstance(record, McapMessage):
                 self._loose_messages = True
                 counts[record.channel_id] = counts.get(record.channel_id, 0) + 1
-            elif isinstance(record, Footer):
+            elif isinstance(record, Footer | DataEnd):
+                # The summary after the data end repeats schemas and channels; those of the
+                # data section are the ones messages were written with (and a damaged summary
+                # must not override them).
                 seen_footer = True
+                break
             offset = self._file.tell()
         self._counts = counts
         if not (complete and seen_footer):
@@ -334,7 +389,9 @@ class McapRecording(ClosingRecording):
             return [
                 msg
                 for msg in self._chunk_result(ref, loader.next())
-                if msg.channel_id in wanted and in_range(msg.log_time, start_ns, stop_ns)
+                if msg.channel_id in wanted
+                and in_range(msg.log_time, start_ns, stop_ns)
+                and self._storable(msg)
             ]
 
         try:
@@ -365,6 +422,17 @@ class McapRecording(ClosingRecording):
                     yield self._channels[msg.channel_id], msg
         finally:
             loader.close()
+
+    def _storable(self, msg: McapMessage) -> bool:
+        """Return True for a log time that fits int64 ns; count the others as skipped."""
+        if storable_time(msg.log_time):
+            return True
+        channel = self._channels.get(msg.channel_id)
+        self._iter_skips.add(
+            "log time beyond int64 ns (after year 2262)",
+            channel.topic if channel else f"channel {msg.channel_id}",
+        )
+        return False
 
     def _chunk_result(
         self, ref: _ChunkRef, loaded: list[McapMessage] | Exception
@@ -426,6 +494,7 @@ class McapRecording(ClosingRecording):
                     isinstance(item, McapMessage)
                     and item.channel_id in wanted
                     and in_range(item.log_time, start_ns, stop_ns)
+                    and self._storable(item)
                 ):
                     yield self._channels[item.channel_id], item
 

@@ -96,21 +96,36 @@ def nmea_checksum_ok(body: str, checksum: str) -> bool:
     return value == int(checksum, 16)
 
 
-def looks_like_nmea(path: str | os.PathLike[str]) -> bool:
-    """Return True when one of the first lines of ``path`` is a checksummed NMEA sentence."""
+SNIFF_BYTES = 65536
+"""How much of a log is looked at to recognise NMEA."""
+SNIFF_LINES = 200
+
+
+def nmea_lines(path: str | os.PathLike[str]) -> int:
+    """Count checksummed NMEA sentences among the first lines of ``path`` (0: not NMEA).
+
+    Looks at up to :data:`SNIFF_LINES` lines of the first :data:`SNIFF_BYTES`, so a comment
+    header, a garbled or binary first line or stray NUL bytes do not hide the sentences.
+    """
     src = Path(path)
     if not src.is_file():
-        return False
+        return 0
     try:
         with src.open("rb") as handle:
-            head = handle.read(4096).decode("ascii", errors="replace")
+            head = handle.read(SNIFF_BYTES).decode("ascii", errors="replace")
     except OSError:
-        return False
-    for line in head.splitlines()[:20]:
+        return 0
+    count = 0
+    for line in head.splitlines()[:SNIFF_LINES]:
         match = _SENTENCE.search(line)
         if match and nmea_checksum_ok(f"{match[1]}{match[2]},{match[3]}", match[4]):
-            return True
-    return False
+            count += 1
+    return count
+
+
+def looks_like_nmea(path: str | os.PathLike[str]) -> bool:
+    """Return True when some of the first lines of ``path`` are checksummed NMEA sentences."""
+    return nmea_lines(path) > 0
 
 
 def _degrees(value: str, hemisphere: str) -> float:
@@ -253,6 +268,8 @@ class NmeaRecording(ClosingRecording):
                 if last_rmc_tod is not None and tod < last_rmc_tod - _DAY_NS // 2:
                     start += _DAY_NS  # GGA after midnight, before the next RMC
                 quality = int(fields[5]) if fields[5] else 0
+                if not 0 <= quality <= 255:
+                    raise ValueError(f"fix quality {quality} out of range")
                 sats = int(fields[6]) if fields[6] else -1
                 fix = self._fix(
                     start + tod, fields[1:5], quality, _float(fields[7]), sats,

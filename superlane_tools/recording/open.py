@@ -38,16 +38,13 @@ def _looks_like(module: str, probe: str, path: Path) -> bool:
     return bool(func(path))
 
 
-def _first_text_line(path: Path) -> str:
-    """Return the first non-empty line of a text file (up to 4 KiB), or '' for binary data."""
-    with path.open("rb") as handle:
-        block = handle.read(4096)
-    if b"\x00" in block:
-        return ""
-    for line in block.decode("ascii", errors="replace").splitlines():
-        if line.strip():
-            return line.strip()
-    return ""
+def _count(module: str, probe: str, path: Path) -> int:
+    """Ask a sibling source how many of the first lines of ``path`` are in its format."""
+    try:
+        (func,) = _sibling(module, probe)
+    except RecordingError:
+        return 0
+    return int(func(path))
 
 
 def open_recording(path: str | Path) -> Recording:
@@ -76,6 +73,8 @@ def open_recording(path: str | Path) -> Recording:
 
             return RosbagRecording(p, kind="ros2")
         raise RecordingError(f"{p} is not a recording: a folder without metadata.yaml; {SUPPORTED}")
+    if not p.is_file():  # a FIFO, socket or device: reading it could block forever
+        raise RecordingError(f"{p} is not a recording: not a regular file")
     try:
         with p.open("rb") as handle:
             head = handle.read(16)
@@ -100,10 +99,13 @@ def open_recording(path: str | Path) -> Recording:
         (cls,) = _sibling("canlog_source", "CanLogRecording")
         return cls(p)  # type: ignore[no-any-return]
     if suffix in TEXT_LOG_SUFFIXES or not suffix:
-        if _first_text_line(p).startswith("$") and _looks_like("nmea_source", "looks_like_nmea", p):
+        # Vote over the first lines: a header, one garbled or binary line does not decide.
+        nmea = _count("nmea_source", "nmea_lines", p)
+        candump = _count("canlog_source", "candump_lines", p) if suffix == ".log" else 0
+        if nmea > candump:
             (cls,) = _sibling("nmea_source", "NmeaRecording")
             return cls(p)  # type: ignore[no-any-return]
-        if _looks_like("canlog_source", "looks_like_canlog", p):
+        if candump:
             (cls,) = _sibling("canlog_source", "CanLogRecording")
             return cls(p)  # type: ignore[no-any-return]
     raise RecordingError(f"{p} is not a recording: unrecognised content; {SUPPORTED}")

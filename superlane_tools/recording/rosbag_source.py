@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import heapq
 from collections.abc import Collection, Iterator
 from contextlib import ExitStack
@@ -13,6 +14,7 @@ from superlane_tools.recording.base import (
     SkipLog,
     raw_header_stamp_ns,
     stamp_ns_of,
+    storable_time,
 )
 from superlane_tools.recording.errors import RecordingError
 from superlane_tools.records import Message, RawMessage, Skipped, TopicInfo
@@ -22,6 +24,7 @@ if TYPE_CHECKING:
     from rosbags.typesys.store import Typestore
 
 BagKind = Literal["ros1", "ros2"]
+_ORPHANS = "SELECT COUNT(*) FROM messages WHERE topic_id NOT IN (SELECT id FROM topics)"
 
 
 def _read_ros2_metadata(folder: Path) -> dict[str, Any]:
@@ -59,7 +62,6 @@ class RosbagRecording(ClosingRecording):
         Raises:
             RecordingError: If the bag cannot be opened.
         """
-        from rosbags.rosbag1 import Reader as Reader1
         from rosbags.rosbag2 import Reader as Reader2
 
         self.path = Path(path)
@@ -71,7 +73,7 @@ class RosbagRecording(ClosingRecording):
         readers: list[Any]
         try:
             if self.kind == "ros1":
-                readers = [Reader1(self.path)]
+                readers = [self._ros1_reader()]
             elif self.path.is_dir():
                 readers = self._ros2_folder_readers()
             else:
@@ -87,9 +89,62 @@ class RosbagRecording(ClosingRecording):
                 f"{self.path} is not a readable {self.kind.upper()} bag: {err}"
             ) from err
         self._readers = readers
+        if self.kind == "ros2":
+            self._count_orphans()
         self._encoding = "ros1" if self.kind == "ros1" else "cdr"
         self._store = self._build_typestore()
         self._header_first: dict[str, bool] = {}
+
+    def _count_orphans(self) -> None:
+        """Report messages of sqlite3 storage files whose topic id names no topic.
+
+        rosbags joins messages with topics, so such messages would vanish without a trace.
+        """
+        import sqlite3
+
+        files = [self.path] if self.path.is_file() else sorted(self.path.glob("*.db3"))
+        for db3 in files:
+            try:
+                with contextlib.closing(
+                    sqlite3.connect(f"{db3.resolve().as_uri()}?mode=ro", uri=True)
+                ) as db:
+                    (orphans,) = db.execute(_ORPHANS).fetchone()
+            except sqlite3.Error:
+                continue  # damage here is reported while reading
+            if orphans:
+                self._skips.add(
+                    "message with an unknown topic id", f"{db3.name}: not readable", int(orphans)
+                )
+
+    def _ros1_reader(self) -> Any:
+        """Return the rosbags reader, or a scan of the records when the index is unusable."""
+        from rosbags.rosbag1 import Reader as Reader1
+
+        from superlane_tools.recording._ros1_scan import scan_reader
+
+        reader = Reader1(self.path)
+        try:
+            reader.open()
+        except Exception as err:  # no index (a crashed recorder's .bag.active) or a cut file
+            with contextlib.suppress(Exception):
+                reader.close()
+            try:
+                scanned = scan_reader(self.path, self._skips)
+            except (OSError, ValueError) as scan_err:
+                msg = f"{self.path} is not a readable ROS 1 bag: {err}"
+                raise RecordingError(msg) from scan_err
+            if not scanned.connections:
+                raise RecordingError(
+                    f"{self.path} is not a readable ROS 1 bag: {err}; no intact data found"
+                ) from err
+            self._skips.add(
+                "unindexed bag",
+                f"{self.path.name}: {err}; messages recovered by scanning (like rosbag reindex)",
+                0,
+            )
+            return scanned
+        reader.close()
+        return Reader1(self.path)
 
     def _ros2_folder_readers(self) -> list[Any]:
         from rosbags.rosbag2 import Reader as Reader2
@@ -182,10 +237,44 @@ class RosbagRecording(ClosingRecording):
         for reader in self._readers:
             conns = [c for c in reader.connections if names is None or c.topic in names]
             if conns:
-                streams.append(reader.messages(connections=conns, start=start_ns, stop=stop_ns))
+                stream = reader.messages(connections=conns, start=start_ns, stop=stop_ns)
+                streams.append(self._guarded(stream, getattr(reader, "path", self.path)))
         if len(streams) == 1:
             return iter(streams[0])
         return heapq.merge(*streams, key=lambda item: item[1])
+
+    def _guarded(
+        self, stream: Iterator[tuple[Connection, int, Any]], path: Any
+    ) -> Iterator[tuple[Connection, int, bytes]]:
+        """Pass a reader's messages through; end the stream at damage and report it.
+
+        rosbags raises its own errors, ``AssertionError`` and sqlite errors (``DatabaseError``
+        for a damaged page) from inside its iterators; what came before is kept.
+        """
+        name = Path(str(path)).name
+        count = 0
+        while True:
+            try:
+                conn, log_time, data = next(stream)
+            except StopIteration:
+                return
+            except Exception as err:  # damaged bag data: keep what came before
+                self._iter_skips.add(
+                    "unreadable bag data",
+                    f"{name}: after {count} messages: {type(err).__name__}: {err}; "
+                    "later messages of this file are lost",
+                )
+                return
+            if not isinstance(data, bytes | bytearray | memoryview):
+                self._iter_skips.add(
+                    "undecodable message", f"{conn.topic}: payload stored as {type(data).__name__}"
+                )
+                continue
+            if not storable_time(int(log_time)):
+                self._iter_skips.add("log time beyond int64 ns", conn.topic)
+                continue
+            count += 1
+            yield conn, int(log_time), bytes(data)
 
     def raw_messages(
         self,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import re
 from datetime import UTC, datetime
 from typing import NamedTuple
@@ -31,6 +32,10 @@ class TimeSpec(NamedTuple):
         return self.ns if self.absolute else first_ns + self.ns
 
 
+_MAX_OFFSET_S = 9e9
+"""Largest offset in seconds (int64 nanoseconds hold about 292 years)."""
+
+
 def parse_time(text: str, option: str = "time") -> TimeSpec:
     """Parse a time as a user types it.
 
@@ -48,9 +53,16 @@ def parse_time(text: str, option: str = "time") -> TimeSpec:
     """
     value = text.strip()
     if _EPOCH_NS.match(value):
-        return TimeSpec(int(value.removesuffix("ns")), True)
+        ns = int(value.removesuffix("ns"))
+        if not 0 <= ns < 2**64:
+            raise UsageError(f"{option}: {text!r} is outside the range of uint64 nanoseconds")
+        return TimeSpec(ns, True)
     if _SECONDS.match(value):
         seconds = float(value.rstrip("sS"))
+        if not (math.isfinite(seconds) and abs(seconds) <= _MAX_OFFSET_S):
+            raise UsageError(
+                f"{option}: {text!r} is not a finite offset of at most {_MAX_OFFSET_S:g} s"
+            )
         return TimeSpec(round(seconds * _NS), False)
     if _ISO_HINT.match(value):
         try:

@@ -4,11 +4,56 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
+import shutil
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
 from superlane_tools.reporting.errors import OutputError
+
+_TEMP_NAME = re.compile(r"^\..+\.(\d+)\.[a-z0-9_]{8}(?:\.[^.]+)?\.(?:tmp|old)$")
+
+
+def temp_prefix(name: str) -> str:
+    """Prefix of a temporary file or folder for ``name``: it carries this process's id."""
+    return f".{name}.{os.getpid()}."
+
+
+def _pid_alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # another user's process
+        return True
+    return True
+
+
+def remove_stale_temps(folder: str | os.PathLike[str]) -> list[Path]:
+    """Remove temporary files and folders in ``folder`` left by processes that were killed.
+
+    Only names made with :func:`temp_prefix` are touched, and only when the process that
+    made them no longer runs; returns what was removed.
+    """
+    removed: list[Path] = []
+    try:
+        entries = list(Path(folder).iterdir())
+    except OSError:
+        return removed
+    for entry in entries:
+        match = _TEMP_NAME.match(entry.name)
+        if match is None or _pid_alive(int(match.group(1))):
+            continue
+        if entry.is_dir() and not entry.is_symlink():
+            shutil.rmtree(entry, ignore_errors=True)
+        else:
+            with contextlib.suppress(OSError):
+                entry.unlink()
+        removed.append(entry)
+    return removed
 
 
 @contextlib.contextmanager
@@ -28,7 +73,7 @@ def atomic_path(target: str | os.PathLike[str], suffix: str = "") -> Iterator[Pa
     try:
         final.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp_name = tempfile.mkstemp(
-            prefix=f".{final.name}.", suffix=f"{suffix}.tmp", dir=final.parent
+            prefix=temp_prefix(final.name), suffix=f"{suffix}.tmp", dir=final.parent
         )
     except OSError as err:
         raise OutputError(f"cannot write {final}: {err.strerror}") from err

@@ -10,14 +10,20 @@ from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import pyarrow as pa
 
 from superlane_tools.recording.base import SkipLog, field_value
-from superlane_tools.recording.images import header_size, raw_pixels, safe_topic, sniff_format
+from superlane_tools.recording.images import (
+    header_size,
+    imdecode,
+    raw_pixels,
+    safe_topic,
+    sniff_format,
+)
 from superlane_tools.recording.video import DECODED_MSGTYPE, decoded_image
 from superlane_tools.records import Message
 from superlane_tools.reporting import OutputError, ParquetStreamWriter
+from superlane_tools.reporting.atomic import temp_prefix
 from superlane_tools.reporting.provenance import ProvenanceSource, resolve_provenance
 
 FRAMES_SCHEMA = pa.schema(
@@ -178,11 +184,12 @@ class FrameSink:
         """Return the topic's folder relative to the output folder and its staging folder."""
         known = self._folders.get(topic)
         if known is None:
-            name = safe_topic(topic)
+            name = safe_topic(topic, {f.split("/", 1)[1] for f, _ in self._folders.values()})
             parent = self.images_dir
             try:
                 parent.mkdir(parents=True, exist_ok=True)
-                staging = tempfile.mkdtemp(prefix=f".{name}.", suffix=".tmp", dir=parent)
+                staging = tempfile.mkdtemp(prefix=temp_prefix(name), suffix=".tmp", dir=parent)
+                Path(staging).chmod(0o777 & ~_UMASK)  # mkdtemp makes 0700, like the files: umask
             except OSError as err:
                 raise OutputError(f"cannot write frames under {parent}: {err.strerror}") from err
             known = (f"frames/{name}", staging)
@@ -271,10 +278,14 @@ class FrameSink:
 
     def _finish_folders(self, ok: bool) -> None:
         """Rename each staging folder to its topic folder (``ok``) or remove it."""
-        for rel, staging in self._folders.values():
-            if ok:
-                _publish(Path(staging), self.out_dir / rel)
-            else:
+        try:
+            for rel, staging in self._folders.values():
+                if ok:
+                    _publish(Path(staging), self.out_dir / rel)
+                else:
+                    shutil.rmtree(staging, ignore_errors=True)
+        finally:  # a failed publish must not leak the other staging folders
+            for _, staging in self._folders.values():
                 shutil.rmtree(staging, ignore_errors=True)
 
 
@@ -287,7 +298,9 @@ def _publish(staging: Path, final: Path) -> None:
     old: Path | None = None
     try:
         if final.exists():
-            old = Path(tempfile.mkdtemp(prefix=f".{final.name}.", suffix=".old", dir=final.parent))
+            old = Path(
+                tempfile.mkdtemp(prefix=temp_prefix(final.name), suffix=".old", dir=final.parent)
+            )
             final.replace(old / final.name)
         staging.replace(final)
     except OSError as err:
@@ -298,6 +311,15 @@ def _publish(staging: Path, final: Path) -> None:
     finally:
         if old is not None:
             shutil.rmtree(old, ignore_errors=True)
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+_UMASK = _umask()  # read once at import: changing it later races with the writer threads
 
 
 def _write_file(path: str, payload: bytes) -> None:
@@ -325,10 +347,7 @@ def _floats(value: Any) -> list[float]:
 def _decode(payload: bytes) -> Any:
     import cv2
 
-    pixels = cv2.imdecode(np.frombuffer(payload, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
-    if pixels is None:
-        raise ValueError("image payload cannot be decoded")
-    return pixels
+    return imdecode(payload, cv2.IMREAD_UNCHANGED)
 
 
 def _decoded_size(payload: bytes) -> tuple[int, int]:

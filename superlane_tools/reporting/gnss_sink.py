@@ -24,9 +24,9 @@ RTK_SCHEMA = pa.schema(
         ("longitude_deg", pa.float64()),
         ("altitude_m", pa.float64()),
         ("fix_status", pa.int8()),
-        ("rtk_quality", pa.int8()),
+        ("rtk_quality", pa.int16()),  # GGA quality: any 0-255 digit string is legal
         ("covariance_m2", pa.list_(pa.float64(), 9)),
-        ("covariance_type", pa.int8()),
+        ("covariance_type", pa.int16()),  # NavSatFix uint8: 255 is legal
         ("east_m", pa.float64()),
         ("north_m", pa.float64()),
         ("up_m", pa.float64()),

@@ -204,7 +204,8 @@ def reprocess(
     # 3. The drive's tables from its record, CAN and GNSS; then plots and the report.
     frames = recorder.record()
     t_ns = frames.t_ns
-    fps = 1e9 / float(np.median(np.diff(t_ns))) if len(t_ns) > 1 else 15.0
+    steps = np.diff(t_ns)[np.diff(t_ns) > 0]  # frames may share log times (batched bridges)
+    fps = 1e9 / float(np.median(steps)) if steps.size else 15.0
     derived = drive_tables(
         frames,
         can,

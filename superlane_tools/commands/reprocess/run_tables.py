@@ -19,6 +19,7 @@ from superlane_tools.reporting.names import AVAILABILITY_NAMES, curvature_name
 from superlane_tools.reporting.parquet import read_provenance, write_table
 from superlane_tools.reporting.provenance import Provenance, input_identity
 from superlane_tools.reporting.report import latex_table, markdown_table
+from superlane_tools.reporting.run_folder import require_complete_run
 
 METHOD_NAMES = AVAILABILITY_NAMES
 TABLE_FORMATS = (".md", ".tex", ".parquet")
@@ -26,6 +27,8 @@ TABLE_FORMATS = (".md", ".tex", ".parquet")
 
 def _read(run_dir: Path, name: str) -> pd.DataFrame:
     path = run_dir / name
+    if run_dir.is_dir() and path.is_file():
+        require_complete_run(run_dir)
     if not path.is_file():
         raise OutputError(f"{run_dir}: not a reprocess run folder (missing {name})")
     read_provenance(path)

@@ -277,7 +277,11 @@ def _noise_floor(
         return math.nan  # plain GNSS without covariance: its noise is not known
     else:
         sigma = RTK_ASSUMED_SIGMA_M
-    rate = 1e9 / float(np.median(np.diff(t[used])))
+    steps = np.diff(t[used])
+    steps = steps[steps > 0]  # fixes may share a time stamp
+    if not steps.size:
+        return math.nan
+    rate = 1e9 / float(np.median(steps))
     v = float(np.nanmedian(speed[used]))
     return curvature_noise_floor(
         sigma, v, rate, config.window_m, config.polyorder, config.min_step_m

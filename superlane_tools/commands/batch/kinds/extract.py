@@ -23,16 +23,28 @@ def _extract_config(config: Mapping[str, Any]) -> Any:
         raise ConfigError(
             f"unknown extract config keys {sorted(unknown)}; expected {sorted(_EXTRACT_KEYS)}"
         )
-    streams = {k: tuple(v) for k, v in dict(config.get("streams") or {}).items()}
-    return ExtractConfig(
-        topics=tuple(config.get("topics") or ()),
-        streams=streams,
-        start_s=config.get("start_s"),
-        end_s=config.get("end_s"),
-        dbc_paths=tuple(Path(p) for p in config.get("dbc_paths") or ()),
-        frame_format=str(config.get("frame_format", "jpg")),
-        every=int(config.get("every", 1)),
-    )
+    try:
+        streams = {k: _names(v) for k, v in dict(config.get("streams") or {}).items()}
+        start, end = config.get("start_s"), config.get("end_s")
+        return ExtractConfig(
+            topics=_names(config.get("topics") or ()),
+            streams=streams,
+            start_s=None if start is None else float(start),
+            end_s=None if end is None else float(end),
+            dbc_paths=tuple(Path(str(p)) for p in _names(config.get("dbc_paths") or ())),
+            frame_format=str(config.get("frame_format", "jpg")),
+            every=int(config.get("every", 1)),
+        )
+    except (TypeError, ValueError) as err:  # wrong value types in the YAML
+        raise ConfigError(f"bad extract config value: {err}") from err
+
+
+def _names(value: Any) -> tuple[str, ...]:
+    """A list of names from a config value (one string is a list of one)."""
+    items = [value] if isinstance(value, str) else value
+    if not isinstance(items, list | tuple) or not all(isinstance(v, str) for v in items):
+        raise TypeError(f"expected a list of names, got {value!r}")
+    return tuple(items)
 
 
 def _extract_check(config: Mapping[str, Any]) -> None:

@@ -109,6 +109,9 @@ def _run(recording: Path, out_dir: Path, config: Mapping[str, Any], loaded: Any)
     result = reprocess(
         recording, out_dir, cfg, command="slt batch --job reprocess", segments=segments
     )
+    from superlane_tools.reporting.run_folder import write_run_manifest
+
+    write_run_manifest(out_dir)  # last: marks the run folder complete for `slt tables`
     timings = {f"{k}_s": float(v) for k, v in result.timings.items() if k != "total"}
     timings["reprocess_s"] = time.perf_counter() - t0
     note = "; ".join(f"{s.what}: {s.detail}" for s in result.skipped)

@@ -1,0 +1,113 @@
+"""Full fuzz campaign and SIGKILL campaign of ``slt``; writes ``benchmarks/results/fuzz.json``.
+
+Run: ``nice python benchmarks/fuzz.py [--cases 1100] [--kills 20] [--seed 0]``.
+
+Cases come from ``tests/fuzz/fuzzcases.py`` (damaged MCAP, ROS 1 and ROS 2 bags, candump,
+ASC, BLF and NMEA logs, mutated real DBCs, bad image frames, extreme timestamps, colliding and
+long topic names, odd paths and configs; real data from ``SLT_REALDATA`` where present). Each
+runs ``slt`` in a forked child with a timeout (a hang is a finding), and is classified: clean,
+traceback, internal error, hang, wrong exit code, data lost beyond the damage, files outside
+``--out``. Then ``extract``, ``reprocess`` and ``batch`` are each SIGKILLed at ``--kills``
+random moments and rerun; a trial passes when the rerun exits 0 with complete, consistent
+outputs and nothing temporary left anywhere.
+
+The JSON holds the summary table (overall and per family), every non-clean case with its
+exit code and the tail of its stderr, the kill trials, the machine and the wall time.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import sys
+import tempfile
+import time
+from dataclasses import asdict
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent / "tests" / "fuzz"))
+
+import fuzzcases as fc  # noqa: E402
+
+RESULTS = HERE / "results" / "fuzz.json"
+SHARE = {  # share of the cases per family
+    "reprocess": 0.02,
+    "disk_full": 0.02,
+    "mcap": 0.13,
+    "images": 0.10,
+    "timestamps": 0.08,
+    "topics": 0.06,
+    "canlog": 0.12,
+    "blf_asc": 0.12,
+    "nmea": 0.09,
+    "dbc": 0.10,
+    "bags": 0.10,
+    "paths_configs": 0.07,
+}
+
+
+def main() -> None:
+    """Run both campaigns and write the results."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--cases", type=int, default=1100)
+    parser.add_argument("--kills", type=int, default=20)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--timeout", type=float, default=90.0, help="seconds per case")
+    parser.add_argument("--out", type=Path, default=RESULTS)
+    args = parser.parse_args()
+    per_family = {f: max(1, round(args.cases * share)) for f, share in SHARE.items()}
+    started = time.time()
+    with tempfile.TemporaryDirectory(prefix="slt-fuzz-") as tmp:
+        os.environ["SLT_FUZZ_CACHE"] = tmp
+        root = Path(tmp)
+        fc.preload()
+        cases = fc.all_cases(per_family, seed=args.seed)
+        outcomes = []
+        for n, case in enumerate(cases, start=1):
+            outcomes.append(fc.run_case(case, root / "cases", timeout_s=args.timeout))
+            if n % 100 == 0:
+                print(f"{n}/{len(cases)} cases, {time.time() - started:.0f} s", flush=True)
+        fuzz_s = time.time() - started
+        kills = []
+        for command in ("extract", "reprocess", "batch"):
+            t0 = time.time()
+            trials = fc.kill_campaign(command, args.kills, root, seed=args.seed)
+            kills.append(
+                {
+                    "command": command,
+                    "trials": len(trials),
+                    "killed_mid_run": sum(t.killed for t in trials),
+                    "complete_and_clean_after_rerun": sum(not t.problems for t in trials),
+                    "failed": [asdict(t) for t in trials if t.problems],
+                    "kill_times_s": [t.kill_after_s for t in trials],
+                    "seconds": round(time.time() - t0, 1),
+                }
+            )
+            print(f"kills {command}: {kills[-1]['complete_and_clean_after_rerun']}/{len(trials)}")
+    summary = fc.summarise(outcomes)
+    result = {
+        "command": " ".join(["python", "benchmarks/fuzz.py", *sys.argv[1:]]),
+        "data": "real public data from SLT_REALDATA (TuSimple frames, Ford Fusion candump, "
+        "Mobileye and opendbc DBCs, u-blox NMEA) written into recordings with the project's "
+        "writers, then damaged by the generators",
+        "machine": f"{platform.node()} {platform.machine()} {os.cpu_count()} CPUs (shared)",
+        "seed": args.seed,
+        "timeout_s_per_case": args.timeout,
+        "summary": summary["total"],
+        "by_family": summary["by_family"],
+        "findings": [asdict(o) for o in outcomes if o.findings != ["clean"]],
+        "sigkill": kills,
+        "fuzz_wall_s": round(fuzz_s, 1),
+        "total_wall_s": round(time.time() - started, 1),
+    }
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(json.dumps(result, indent=1) + "\n", encoding="utf-8")
+    print(json.dumps(result["summary"]))
+    print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()
