@@ -78,10 +78,13 @@ def _imports(tree: ast.AST) -> Iterator[tuple[str, bool, int]]:
 def _third_party(folder: Path) -> dict[str, list[tuple[str, bool]]]:
     """Return third-party module -> [(file:line, imported at load)] for the sources under folder."""
     found: dict[str, list[tuple[str, bool]]] = {}
+    local = {p.stem for p in folder.rglob("*.py")}  # helper modules a conftest puts on sys.path
     for path in sorted(folder.rglob("*.py")):
         tree = ast.parse(path.read_text(), filename=str(path))
         for module, at_load, line in _imports(tree):
             if module in sys.stdlib_module_names or module in OWN or module == "__future__":
+                continue
+            if folder != PACKAGE and module in local:
                 continue
             where = f"{path.relative_to(REPO)}:{line}"
             found.setdefault(module, []).append((where, at_load))

@@ -284,11 +284,14 @@ def latency_by_xcorr(
     sig = np.asarray(signal, dtype=np.float64)
     if t.size < 10:
         return Latency(float("nan"), float("nan"))
-    dt = float(np.median(np.diff(t)))
+    steps = np.diff(t)
+    steps = steps[steps > 0]  # samples may share a time stamp (batched camera bridges)
+    dt = float(np.median(steps)) if steps.size else 0.0
     if not dt > 0:
         return Latency(float("nan"), float("nan"))
+    max_lag = min(int(max_lag_s / dt), t.size // 2)  # never more lags than half the samples
     best = (float("nan"), -np.inf)
-    for lag in range(-int(max_lag_s / dt), int(max_lag_s / dt) + 1):
+    for lag in range(-max_lag, max_lag + 1):
         a = ref[: ref.size - lag] if lag >= 0 else ref[-lag:]
         b = sig[lag:] if lag >= 0 else sig[: sig.size + lag]
         ok = np.isfinite(a) & np.isfinite(b)

@@ -165,7 +165,7 @@ def check_dbc_specs(values: list[Path] | None) -> list[Path] | None:
             spec = parse_dbc_spec(str(value))
         except SltError as err:
             raise typer.BadParameter(str(err)) from err
-        if not spec.path.is_file():
+        if not spec.path.exists():  # what exists but is no DBC, the loader refuses (exit 1)
             raise typer.BadParameter(f"DBC file {str(spec.path)!r} does not exist.")
     return values
 
