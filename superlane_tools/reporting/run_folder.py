@@ -20,7 +20,7 @@ import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
-from superlane_tools.reporting.atomic import write_text_atomic
+from superlane_tools.reporting.atomic import pid_alive, write_text_atomic
 from superlane_tools.reporting.errors import OutputError
 
 RUN_MANIFEST = "run_manifest.json"
@@ -30,16 +30,6 @@ _OLD = "slt-old"
 _RENAME_EXCHANGE = 2  # renameat2 flag (Linux >= 3.15)
 _AT_FDCWD = -100
 _WRITE_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EFBIG, errno.EACCES, errno.EPERM}
-
-
-def _pid_alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True
 
 
 def clean_stale(final: str | os.PathLike[str]) -> list[Path]:
@@ -57,7 +47,7 @@ def clean_stale(final: str | os.PathLike[str]) -> list[Path]:
             parts = entry.name[len(target.name) + 2 :].split(".")
             if len(parts) < 2 or parts[0] not in {_STAGING, _OLD} or not parts[1].isdigit():
                 continue
-            if _pid_alive(int(parts[1])) and int(parts[1]) != os.getpid():
+            if pid_alive(int(parts[1])) and int(parts[1]) != os.getpid():
                 continue
             shutil.rmtree(entry, ignore_errors=True)
             removed.append(entry)

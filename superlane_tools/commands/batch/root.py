@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import contextlib
-import os
 import shutil
 import socket
 from collections.abc import Iterator
@@ -11,6 +10,7 @@ from pathlib import Path
 
 from superlane_tools.commands.batch.engine import TMP_DIR
 from superlane_tools.commands.batch.errors import BatchError
+from superlane_tools.reporting.atomic import pid_alive
 
 LOCK_FILE = ".batch.lock"
 
@@ -39,16 +39,6 @@ def root_lock(root: Path) -> Iterator[None]:
         handle.close()
 
 
-def _pid_alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True
-
-
 def clean_stale_tmp(root: Path) -> list[Path]:
     """Remove what killed runs left: ``root/.tmp`` folders and half-written ``.*.tmp`` files.
 
@@ -71,7 +61,7 @@ def clean_stale_tmp(root: Path) -> list[Path]:
     for entry in sorted(tmp_root.iterdir()):
         _, _, owner = entry.name.removesuffix(".old").partition(".")
         owner_host, _, pid_text = owner.rpartition(".")
-        if pid_text.isdigit() and owner_host == host and _pid_alive(int(pid_text)):
+        if pid_text.isdigit() and owner_host == host and pid_alive(int(pid_text)):
             continue
         if entry.is_dir():
             shutil.rmtree(entry, ignore_errors=True)
