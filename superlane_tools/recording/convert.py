@@ -27,6 +27,8 @@ from typing import Any, Literal
 
 import numpy as np
 
+from superlane_tools.camera.metadata import METADATA_NAME as METADATA_CAMERA
+from superlane_tools.camera.metadata import camera_metadata
 from superlane_tools.recording import messages as msgs
 from superlane_tools.recording.errors import RecordingError
 from superlane_tools.recording.times import format_utc, parse_time
@@ -39,6 +41,7 @@ METADATA_NAME = "slt_convert"
 VIDEO_TOPIC = "/camera/video"
 CAMERA_INFO_TOPIC = "/camera/camera_info"
 CAMERA_FRAME = "camera"
+VEHICLE_FRAME = "base_link"
 FIX_TOPIC = "/gnss/fix"
 _NS = 1_000_000_000
 _TIME_COLUMNS = ("time_ns", "t_ns", "timestamp_ns", "time", "t", "timestamp", "time_s", "t_s")
@@ -194,21 +197,6 @@ def _camera_info(camera: Any, t_ns: int, size: tuple[int, int]) -> Any:
     if (k.width, k.height) != size:
         k = k.scaled(*size)
     return msgs.camera_info(t_ns, CAMERA_FRAME, k.width, k.height, k.matrix, list(k.dist))
-
-
-def _camera_metadata(camera: Any) -> dict[str, str]:
-    """The ``slt_camera`` record ``--camera auto`` reads the extrinsics from."""
-    e = camera.extrinsics
-    return {
-        "name": str(camera.name),
-        "child_frame": CAMERA_FRAME,
-        "height_m": repr(e.height_m),
-        "pitch_rad": repr(e.pitch_rad),
-        "roll_rad": repr(e.roll_rad),
-        "yaw_rad": repr(e.yaw_rad),
-        "x_m": repr(e.x_m),
-        "y_m": repr(e.y_m),
-    }
 
 
 def _has_reordering(path: Path) -> bool:
@@ -415,7 +403,9 @@ def convert(
                     if CAMERA_INFO_TOPIC not in topics:
                         writer.add_topic(CAMERA_INFO_TOPIC, "sensor_msgs/msg/CameraInfo")
                         topics[CAMERA_INFO_TOPIC] = "sensor_msgs/msg/CameraInfo"
-                        writer.add_metadata("slt_camera", _camera_metadata(camera))
+                        writer.add_metadata(
+                            METADATA_CAMERA, camera_metadata(camera, VEHICLE_FRAME, CAMERA_FRAME)
+                        )
                     writer.write(CAMERA_INFO_TOPIC, t, info)
                     result.counts[CAMERA_INFO_TOPIC] = result.counts.get(CAMERA_INFO_TOPIC, 0) + 1
             writer.write(topic, t, message)
