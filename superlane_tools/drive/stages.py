@@ -17,7 +17,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from superlane_tools.camera.model import CameraModel
-from superlane_tools.commands.reprocess.config import ReprocessConfig
 from superlane_tools.corridor import (
     CorridorGeometry,
     CorridorParams,
@@ -26,6 +25,7 @@ from superlane_tools.corridor import (
     corridor_from_mask,
     detect_ego_lane,
 )
+from superlane_tools.drive.config import ReprocessConfig
 from superlane_tools.lanes import FitParams, LaneFit
 from superlane_tools.lanes.points import lane_points, road_points
 from superlane_tools.lanes.sequence import SequentialFit, max_plausible_slope

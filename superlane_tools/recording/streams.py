@@ -113,6 +113,12 @@ def select_streams(
     return selected
 
 
+def topics_of_type(topics: Sequence[TopicInfo], msgtype: str) -> set[str]:
+    """Return the topics of one message type (ROS 1 / ROS 2 spellings alike)."""
+    short = msgtype.replace("/msg/", "/")
+    return {t.topic for t in topics if t.msgtype in (msgtype, short)}
+
+
 def select_one_each(topics: Sequence[TopicInfo], wanted: Mapping[str, str]) -> Streams:
     """Pick one topic per stream kind: the configured one, else the first of its message type.
 
