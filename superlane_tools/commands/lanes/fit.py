@@ -1,4 +1,4 @@
-"""Lane fitting over a folder of class-id masks (exports: :mod:`.lanes_export`).
+"""Lane fitting over a folder of class-id masks (exports: :mod:`.export`).
 
 I/O edge of the lane stage: reads class-id PNGs (any folder depth, natural order) and a
 ``classes.yaml`` that maps hierarchy nodes to the integer ids in the PNGs, fits every frame with
