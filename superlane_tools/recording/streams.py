@@ -113,6 +113,14 @@ def select_streams(
     return selected
 
 
+def message_total(topics: Sequence[TopicInfo], selected: Collection[str]) -> int | None:
+    """Return the messages on the selected topics (None when a count is unknown)."""
+    counts = [t.message_count for t in topics if t.topic in selected]
+    if any(c is None for c in counts):
+        return None
+    return sum(c for c in counts if c is not None)
+
+
 def topics_of_type(topics: Sequence[TopicInfo], msgtype: str) -> set[str]:
     """Return the topics of one message type (ROS 1 / ROS 2 spellings alike)."""
     short = msgtype.replace("/msg/", "/")
