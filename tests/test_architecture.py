@@ -201,6 +201,22 @@ def test_architecture_page_lists_every_layer() -> None:
         assert (ROOT / module).is_file(), f"docs/architecture.md names a missing {module}"
 
 
+MAX_ORCHESTRATION_LINES = 210
+"""A command's orchestration reads top to bottom in one file of at most about 200 lines."""
+
+
+def test_each_command_reads_top_to_bottom_in_one_short_file() -> None:
+    page = (ROOT / "docs" / "architecture.md").read_text(encoding="utf-8")
+    rows = re.findall(
+        r"^\| `commands/(\w+)` \| \d \| `(superlane_tools/[\w/]+\.py)`", page, re.MULTILINE
+    )
+    expected = {u for u in COMMAND_RANKS if u not in {"__init__", "errors"}}
+    assert {unit for unit, _ in rows} == expected, rows
+    sizes = {path: len((ROOT / path).read_text(encoding="utf-8").splitlines()) for _, path in rows}
+    long = {path: n for path, n in sizes.items() if n > MAX_ORCHESTRATION_LINES}
+    assert not long, f"orchestration files over {MAX_ORCHESTRATION_LINES} lines: {long}"
+
+
 HEAVY = ("onnxruntime", "cv2", "torch", "matplotlib", "ray")
 
 
