@@ -1,4 +1,4 @@
-"""``slt cat`` and ``slt filter``: decoded messages as JSON lines, and trimmed MCAP copies."""
+"""``slt cat`` and ``slt filter``: decoded messages as JSON lines, and trimmed copies."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ from superlane_tools.errors import UsageError
 from superlane_tools.recording.base import Recording
 from superlane_tools.recording.errors import RecordingError
 from superlane_tools.recording.times import parse_time
-from superlane_tools.records import Message
+from superlane_tools.records import Message, Skipped
 
 MAX_INLINE_BYTES = 64
 """Byte arrays longer than this are shown as their length (``--full-bytes`` shows them)."""
@@ -182,12 +182,58 @@ class McapCopier:
 
 @dataclass(frozen=True)
 class FilterResult:
-    """What ``filter_mcap`` wrote: messages per topic, metadata and attachments kept."""
+    """What ``filter_recording`` wrote: messages per topic, metadata and attachments kept.
+
+    Attributes:
+        path: The output written.
+        counts: Messages written per topic.
+        metadata: MCAP metadata records copied (0 for bags).
+        attachments: MCAP attachments copied (0 for bags).
+        output_format: ``mcap``, ``ros1`` (a ``.bag``) or ``ros2`` (a bag folder).
+        skipped: What could not be read from the source (damaged bag data).
+    """
 
     path: Path
     counts: dict[str, int]
     metadata: int
     attachments: int
+    output_format: str = "mcap"
+    skipped: tuple[Skipped, ...] = ()
+
+
+def filter_recording(
+    src: Path,
+    out: Path,
+    topics: str | None = None,
+    exclude: str | None = None,
+    start: str | None = None,
+    end: str | None = None,
+) -> FilterResult:
+    """Write the matching messages of an MCAP or a ROS bag in ``[start, end)`` to ``out``.
+
+    An MCAP gives an MCAP. A ROS 1 bag gives ``OUT.bag``; a ROS 2 bag (folder or ``.db3``)
+    gives a ROS 2 bag folder ``OUT`` with the source's storage (sqlite3 or mcap); either gives
+    an MCAP when ``out`` ends in ``.mcap``. Payloads are copied byte for byte, with their
+    message definitions; the output is written atomically.
+
+    Raises:
+        RecordingError: If ``src`` is unreadable or ``out`` exists.
+        UsageError: For bad regular expressions, times or output formats, or when nothing matches.
+    """
+    from superlane_tools.recording.bag_filter import filter_bag, is_bag, output_format
+
+    if not is_bag(src):
+        if out.suffix != ".mcap":
+            raise UsageError("an MCAP filters to OUT.mcap")
+        return filter_mcap(src, out, topics, exclude, start, end)
+    if out.exists():
+        raise RecordingError(f"{out} exists already; not overwriting a recording")
+    if out.resolve() == src.resolve():
+        raise UsageError("-o must differ from the input")
+    match = topic_matcher(topics, exclude)
+    counts, skipped = filter_bag(src, out, match, lambda first: time_range(first, start, end))
+    kind = "ros1" if src.suffix == ".bag" else "ros2"
+    return FilterResult(out, counts, 0, 0, output_format(kind, out), tuple(skipped))
 
 
 def filter_mcap(
