@@ -61,8 +61,9 @@ def estimate_camera(
     max_frames: int = 60,
     topic: str | None = None,
     name: str = "estimated",
+    roll_rad: float | None = None,
 ) -> CameraEstimate:
-    """Estimate pitch, yaw and height from lane lines over up to ``max_frames`` frames.
+    """Estimate pitch, yaw, roll and height from lane lines over up to ``max_frames`` frames.
 
     Args:
         recording: Recording with a camera topic (images or video).
@@ -74,6 +75,8 @@ def estimate_camera(
         max_frames: Frames segmented, evenly spread over the recording.
         topic: Camera topic (default: the first image topic).
         name: Profile name.
+        roll_rad: Known roll, radians; None estimates it, assuming the camera rides at the lane
+            centre on average.
 
     Raises:
         UsageError: For contradictory intrinsics options.
@@ -102,7 +105,7 @@ def estimate_camera(
         lines.append(frame_lines(uv, used_k, seed=index))
     if used_k is None:
         raise UsageError(f"{recording.name}: no decodable camera frame")
-    est = estimate_extrinsics(lines, used_k, lane_width_m)
+    est = estimate_extrinsics(lines, used_k, lane_width_m, roll_rad)
     return CameraEstimate(CameraModel(used_k, est.extrinsics, name=name), est, source)
 
 
@@ -122,7 +125,7 @@ def _intrinsics(
         if focal_px <= 0:
             raise UsageError(f"--focal-px must be positive, got {focal_px}")
         return (
-            Intrinsics(width, height, focal_px, focal_px, width / 2.0, height / 2.0),
+            Intrinsics(width, height, focal_px, focal_px, (width - 1) / 2.0, (height - 1) / 2.0),
             f"focal length {focal_px:g} px, principal point at the image centre",
         )
     hfov = hfov_deg if hfov_deg is not None else DASHCAM_HFOV_DEG
