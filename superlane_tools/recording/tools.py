@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import base64
 import re
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, fields, is_dataclass
 from pathlib import Path
 from typing import Any
@@ -222,16 +222,20 @@ def filter_recording(
     """
     from superlane_tools.recording.bag_filter import filter_bag, is_bag, output_format
 
-    if not is_bag(src):
-        if out.suffix != ".mcap":
-            raise UsageError("an MCAP filters to OUT.mcap")
-        return filter_mcap(src, out, topics, exclude, start, end)
     if out.exists():
         raise RecordingError(f"{out} exists already; not overwriting a recording")
     if out.resolve() == src.resolve():
         raise UsageError("-o must differ from the input")
     match = topic_matcher(topics, exclude)
-    counts, skipped = filter_bag(src, out, match, lambda first: time_range(first, start, end))
+
+    def resolve(first: int | None) -> tuple[int | None, int | None]:
+        return time_range(first, start, end)
+
+    if not is_bag(src):
+        if out.suffix != ".mcap":
+            raise UsageError("an MCAP filters to OUT.mcap")
+        return filter_mcap(src, out, match, resolve)
+    counts, skipped = filter_bag(src, out, match, resolve)
     kind = "ros1" if src.suffix == ".bag" else "ros2"
     return FilterResult(out, counts, 0, 0, output_format(kind, out), tuple(skipped))
 
@@ -239,35 +243,36 @@ def filter_recording(
 def filter_mcap(
     src: Path,
     out: Path,
-    topics: str | None = None,
-    exclude: str | None = None,
-    start: str | None = None,
-    end: str | None = None,
+    match: Callable[[str], bool],
+    resolve: Callable[[int | None], tuple[int | None, int | None]],
 ) -> FilterResult:
     """Copy an MCAP's matching messages in ``[start, end)`` into a new MCAP, atomically.
 
     Schemas, channels (with their metadata), metadata records and attachments are kept; payloads
     are copied byte for byte; chunks use the source's compression.
 
+    Args:
+        src: MCAP file.
+        out: Output MCAP (not existing).
+        match: ``f(topic) -> bool`` of the topics to keep.
+        resolve: Turns the first log time into the ``[start, end)`` range (ns).
+
     Raises:
-        RecordingError: If ``src`` is not a readable MCAP or ``out`` exists.
-        UsageError: For bad regular expressions or times, or when nothing matches.
+        RecordingError: If ``src`` is not a readable MCAP.
+        UsageError: When nothing matches.
     """
     from mcap.exceptions import McapError
     from mcap.reader import make_reader
     from mcap.writer import CompressionType, Writer
 
-    if out.exists():
-        raise RecordingError(f"{out} exists already; not overwriting a recording")
-    if out.resolve() == src.resolve():
-        raise UsageError("-o must differ from the input")
-    match = topic_matcher(topics, exclude)
     work = out.with_name(f".{out.name}.partial")
     counts: dict[str, int] = {}
     try:
         with src.open("rb") as fin:
             if fin.read(8) != b"\x89MCAP0\r\n":
-                raise RecordingError(f"{src.name}: slt filter reads MCAP files (convert first)")
+                raise RecordingError(
+                    f"{src.name}: slt filter reads MCAP files and ROS bags (convert first)"
+                )
             fin.seek(0)
             reader = make_reader(fin)
             header = reader.get_header()
@@ -277,9 +282,9 @@ def filter_mcap(
                 if summary is not None and summary.statistics is not None
                 else None
             )
-            if first is None and (start or end):
-                first = next((m.log_time for _, _, m in reader.iter_messages()), 0)
-            start_ns, end_ns = time_range(first, start, end)
+            if first is None:
+                first = next((m.log_time for _, _, m in reader.iter_messages()), None)
+            start_ns, end_ns = resolve(first)
             compression = "zstd"
             if summary is not None and summary.chunk_indexes:
                 compression = summary.chunk_indexes[0].compression or "none"

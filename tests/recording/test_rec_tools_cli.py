@@ -115,6 +115,23 @@ def test_filter_trims_topics_and_time_and_keeps_metadata(tmp_path: Path) -> None
     assert "exists already" in again.stderr
 
 
+def test_filter_refuses_outputs_it_cannot_copy_into(realdata: Path, tmp_path: Path) -> None:
+    path = _drive(tmp_path / "d.mcap")
+    as_bag = runner.invoke(app, ["filter", str(path), "-o", str(tmp_path / "x.bag")])
+    assert as_bag.exit_code == 2
+    assert "an MCAP filters to OUT.mcap" in as_bag.stderr
+    bag = realdata / "bags" / "ros1_robot_localization" / "test1.bag"
+    to_ros2 = runner.invoke(app, ["filter", str(bag), "-o", str(tmp_path / "folder")])
+    assert to_ros2.exit_code == 2
+    assert "ROS 1 bag filters to OUT.bag or OUT.mcap" in to_ros2.stderr
+    log = realdata / "can_logs" / "ford_fusion" / "nothing.log"
+    not_mcap = runner.invoke(app, ["filter", str(log), "-o", str(tmp_path / "x.mcap")])
+    assert not_mcap.exit_code == 1
+    assert "reads MCAP files and ROS bags" in not_mcap.stderr
+    assert not list(tmp_path.glob("x*"))
+    assert not (tmp_path / "folder").exists()
+
+
 def test_filter_real_rosbag2_mcap(realdata: Path, tmp_path: Path) -> None:
     src = next((realdata / "bags" / "ros2_format_fixtures" / "mcap" / "talker").glob("*.mcap"))
     out = tmp_path / "topic.mcap"
