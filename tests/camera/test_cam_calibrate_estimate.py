@@ -142,7 +142,17 @@ def test_estimate_cli_without_intrinsics_says_what_it_assumed(tmp_path: Path) ->
     out = tmp_path / "est.yaml"
     result = runner.invoke(app, ["camera", "estimate", str(rec), "-o", str(out), "--frames", "9"])
     assert result.exit_code == 0, result.output
+    assert "MEASURED from the dashed markings' motion at GNSS speed" in result.stderr
+    assert "MEASURED" in yaml.safe_load(out.read_text(encoding="utf-8"))["estimate"]["intrinsics"]
+    # without GNSS the focal length cannot be measured: the assumed lens stays, and says so
+    bare = tmp_path / "no_gnss.mcap"
+    cut = runner.invoke(app, ["filter", str(rec), "-o", str(bare), "--exclude", "gnss"])
+    assert cut.exit_code == 0, cut.output
+    out = tmp_path / "assumed.yaml"
+    result = runner.invoke(app, ["camera", "estimate", str(bare), "-o", str(out), "--frames", "9"])
+    assert result.exit_code == 0, result.output
     assert "ASSUMED" in result.stderr
+    assert "no GNSS track" in result.stderr
     data = yaml.safe_load(out.read_text(encoding="utf-8"))
     assert data["estimate"]["frames_used"] >= 3
     assert "ASSUMED" in data["estimate"]["intrinsics"]
