@@ -185,7 +185,16 @@ def estimate_cmd(
     focal_px: Annotated[
         float | None, typer.Option(help="Focal length, pixels at the recorded size.")
     ] = None,
-    hfov: Annotated[float | None, typer.Option(help="Horizontal field of view, degrees.")] = None,
+    hfov: Annotated[
+        float | None,
+        typer.Option(
+            help=(
+                "Horizontal field of view, degrees. With no intrinsics at all, the focal length "
+                "is measured from the dashed markings' motion at GNSS speed where possible, "
+                "else 60 degrees is assumed."
+            )
+        ),
+    ] = None,
     frames: Annotated[int, typer.Option(help="Frames to use, spread evenly.", min=3)] = 60,
     roll_deg: Annotated[
         float | None,

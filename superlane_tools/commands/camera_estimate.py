@@ -78,8 +78,10 @@ def estimate_camera(
         recording: Recording with a camera topic (images or video).
         intrinsics: Known intrinsics (e.g. from ``slt camera calibrate``); scaled to the frames.
         focal_px: Focal length in pixels at the recorded size (principal point: centre).
-        hfov_deg: Horizontal field of view (principal point: centre); with none of the three,
-            :data:`DASHCAM_HFOV_DEG` is assumed.
+        hfov_deg: Horizontal field of view (principal point: centre). With none of the three,
+            :data:`DASHCAM_HFOV_DEG` is assumed to start with, and the focal length is then
+            measured from the dashed markings' motion when the recording has a GNSS track and
+            consecutive frames 0.3-5 m apart (:mod:`superlane_tools.camera.focal_motion`).
         lane_width_m: Lane width of the road driven, metres.
         max_frames: Frames segmented, evenly spread over the recording.
         topic: Camera topic (default: the first image topic).
