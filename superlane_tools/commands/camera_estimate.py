@@ -109,11 +109,18 @@ def estimate_camera(
     successors: dict[int, _Sampled] = {}
     used_k: Intrinsics | None = None
     source = ""
+    previous_time: int | None = None
+    want_pairs = track is not None
     for index, frame in enumerate(frames):
         offset = index % step
         if frame.image is None or len(sampled) >= max_frames:
             continue
-        if offset and not (track is not None and offset == 1 and step > 1):
+        if offset == 0:
+            previous_time = frame.log_time_ns
+        if offset and not (want_pairs and offset == 1 and step > 1):
+            continue
+        if offset and _too_far(track, previous_time, frame.log_time_ns):
+            want_pairs = bool(successors)  # at a low frame rate, stop segmenting twice
             continue
         height, width = frame.image.shape[:2]
         if used_k is None:
@@ -133,7 +140,12 @@ def estimate_camera(
     if track is not None:
         if step == 1:  # every frame is sampled: each one's successor is the next sampled one
             successors = {a.frame: b for a, b in pairwise(sampled) if b.frame == a.frame + 1}
-        focal = _measure_focal(sampled, lines, successors, track, used_k, est.extrinsics)
+        focal = (
+            _measure_focal(sampled, lines, successors, track, used_k, est.extrinsics)
+            if want_pairs
+            else f"consecutive frames more than {MAX_DISTANCE_M:g} m apart; a higher frame rate "
+            "or a slower drive is needed"
+        )
         if isinstance(focal, str):
             source += f"; focal length not measurable from motion ({focal})"
         else:
@@ -182,6 +194,17 @@ def _gnss_track(recording: Path) -> _Track | None:
         return None
     enu = geodetic_to_enu(arr[ok, 1], arr[ok, 2], arr[ok, 3])
     return arr[ok, 0], enu.east_m, enu.north_m
+
+
+def _too_far(track: _Track | None, t0: int | None, t1: int | None) -> bool:
+    """Return True when the GNSS track puts two frame times too far apart to follow a dash."""
+    if track is None or t0 is None or t1 is None:
+        return True
+    times, east, north = track
+    t = np.asarray([t0, t1], dtype=np.float64)
+    de = np.diff(np.interp(t, times, east))[0]
+    dn = np.diff(np.interp(t, times, north))[0]
+    return bool(np.hypot(de, dn) > MAX_DISTANCE_M)
 
 
 def _measure_focal(
