@@ -75,3 +75,14 @@ def test_estimate_without_intrinsics_measures_the_focal_length(
     e = result.estimate.extrinsics
     assert abs(math.degrees(e.pitch_rad - truth.extrinsics.pitch_rad)) < 0.3
     assert abs(e.height_m / truth.extrinsics.height_m - 1.0) < 0.10
+
+
+def test_estimate_at_a_low_frame_rate_keeps_the_assumed_lens_and_says_why(
+    tmp_path: Path,
+) -> None:
+    rec = tmp_path / "drive.mcap"
+    simulate_drive("highway_straight", 4.0, 109, "mcap", 320, 180, False, rec, fps=2.0)
+    result = estimate_camera(rec, max_frames=4)  # every second frame, 1 s (~30 m) apart
+    assert "ASSUMED" in result.intrinsics_source
+    assert "consecutive frames more than 5 m apart" in result.intrinsics_source
+    assert result.camera.intrinsics.fx == pytest.approx(intrinsics_from_hfov(320, 180, 60.0).fx)
