@@ -1,12 +1,22 @@
-"""Camera pitch, yaw and height from the lane lines' vanishing point, over many frames.
+"""Camera pitch, yaw, roll and height from the ego lane lines, over many frames.
 
 Per frame, the two ego lane markings are fitted as straight lines ``x = a y + b`` in undistorted
 normalised image coordinates near the vehicle (the lower image part, where a curve is still
-nearly straight). Their intersection is the vanishing point ``(xv, yv)`` of the road direction,
-which gives the downward pitch ``atan(-yv)`` and the yaw ``atan(xv cos(pitch))`` (roll = 0).
+nearly straight). Roll is a rotation about the optical axis, so the lines are first rotated
+back by the roll. Their intersection is then the vanishing point ``(xv, yv)`` of the road
+direction, which gives the downward pitch ``atan(-yv)`` and the yaw ``atan(xv cos(pitch))``.
 Back-projected onto the road plane with a camera at 1 m, the two lines lie ``w1`` metres apart;
-the true lane width ``W`` gives the height ``W / w1``. The medians over frames are the estimate,
-their spread (1.4826 MAD) the per-frame uncertainty, spread / sqrt(n) that of the median.
+the true lane width ``W`` gives the height ``W / w1``.
+
+Roll moves the back-projected lane sideways: a roll ``r`` puts the lane centre about
+``r (h + W^2 / 4h)`` metres off the camera. Assuming the camera rides at the lane centre on
+average (mounted on the vehicle's centre line, the driver keeping to the lane centre), each
+frame's roll is the one that centres its lane; the median over frames is the estimate. A camera
+mounted ``d`` metres off the centre line biases it by ``d / (h + W^2 / 4h)`` (about 1.5 degrees
+per 10 cm); pass a known roll instead in that case.
+
+The medians over frames are the estimate, their spread (1.4826 MAD) the per-frame uncertainty,
+spread / sqrt(n) that of the median.
 """
 
 from __future__ import annotations
@@ -26,6 +36,11 @@ DASHCAM_HFOV_DEG = 60.0
 """Horizontal field of view assumed when nothing is known about the camera (a typical dashcam)."""
 MIN_LINE_POINTS = 25
 MIN_FRAMES = 3
+ROLL_STEP_RAD = 0.01
+"""Roll step for the per-frame secant that centres the lane."""
+MAX_ROLL_RAD = 0.3
+"""Per-frame rolls beyond this (a lane change, a wrong line) are left out of the roll median."""
+ROLL_METHOD = "lane centred on average (camera on the vehicle centre line)"
 
 
 @dataclass(frozen=True)
@@ -46,13 +61,15 @@ class ExtrinsicsEstimate:
     """Estimated camera mounting with its uncertainty.
 
     Attributes:
-        extrinsics: Median pitch and yaw (radians) and the height (metres); roll 0, x = y = 0.
+        extrinsics: Median pitch, yaw and roll (radians) and the height (metres); x = y = 0.
         pitch_sigma_rad: Spread (1.4826 MAD) of the per-frame pitch, radians.
         yaw_sigma_rad: Spread of the per-frame yaw, radians.
         height_sigma_m: Spread of the per-frame height, metres.
         frames_used: Frames whose two ego lines were found.
         frames_seen: Frames looked at.
         lane_width_m: Lane width the height was scaled with, metres.
+        roll_sigma_rad: Spread of the per-frame roll, radians; None when it was not estimated.
+        roll_method: How the roll was obtained.
     """
 
     extrinsics: Extrinsics
@@ -62,6 +79,8 @@ class ExtrinsicsEstimate:
     frames_used: int
     frames_seen: int
     lane_width_m: float
+    roll_sigma_rad: float | None = None
+    roll_method: str = "given"
 
     def summary(self) -> dict[str, float | int | str]:
         """Return a YAML-ready mapping with degrees for the angles."""
@@ -80,16 +99,31 @@ class ExtrinsicsEstimate:
             "height_m": round(e.height_m, 4),
             "height_sigma_m": round(self.height_sigma_m, 4),
             "height_median_sigma_m": round(self.height_sigma_m / math.sqrt(n), 4),
-            "roll": "not estimated (assumed 0)",
+            "roll_deg": round(math.degrees(e.roll_rad), 4),
+            "roll_method": self.roll_method,
+            **(
+                {}
+                if self.roll_sigma_rad is None
+                else {
+                    "roll_sigma_deg": round(math.degrees(self.roll_sigma_rad), 4),
+                    "roll_median_sigma_deg": round(
+                        math.degrees(self.roll_sigma_rad) / math.sqrt(n), 4
+                    ),
+                }
+            ),
         }
 
 
 def intrinsics_from_hfov(width: int, height: int, hfov_deg: float) -> Intrinsics:
-    """Return a distortion-free pinhole with the principal point at the image centre."""
+    """Return a distortion-free pinhole with the principal point at the image centre.
+
+    Pixel ``(0, 0)`` is the centre of the first pixel (the convention of every camera model
+    here), so the centre is ``((width - 1) / 2, (height - 1) / 2)``.
+    """
     if not 10.0 <= hfov_deg <= 170.0:
         raise CameraError(f"horizontal field of view must be 10-170 degrees, got {hfov_deg}")
     f = width / (2.0 * math.tan(math.radians(hfov_deg) / 2.0))
-    return Intrinsics(width, height, f, f, width / 2.0, height / 2.0)
+    return Intrinsics(width, height, f, f, (width - 1) / 2.0, (height - 1) / 2.0)
 
 
 def _ransac_line(
@@ -165,9 +199,31 @@ def frame_lines(
     return FrameLines((al, bl), (ar, br))
 
 
-def _frame_pose(lines: FrameLines, intrinsics: Intrinsics) -> tuple[float, float, float] | None:
-    """Return ``(pitch, yaw, width at 1 m height)`` of one frame's lines."""
-    (al, bl), (ar, br) = lines.left, lines.right
+def _derotate(lines: FrameLines, roll_rad: float) -> FrameLines:
+    """Return the lines as a camera without roll would see them (rotate about the axis)."""
+    if roll_rad == 0.0:
+        return lines
+    c, s = math.cos(roll_rad), math.sin(roll_rad)
+    out = []
+    for a, b in (lines.left, lines.right):
+        # two points of the line, rotated by -roll: (x0, y0) = (c x - s y, s x + c y)
+        y = np.array([0.0, 1.0])
+        x = a * y + b
+        x0, y0 = c * x - s * y, s * x + c * y
+        a0 = (x0[1] - x0[0]) / (y0[1] - y0[0])
+        out.append((float(a0), float(x0[0] - a0 * y0[0])))
+    return FrameLines(out[0], out[1])
+
+
+def _frame_pose(
+    lines: FrameLines, intrinsics: Intrinsics, roll_rad: float = 0.0
+) -> tuple[float, float, float, float] | None:
+    """Return ``(pitch, yaw, width, centre)`` of one frame, lengths at 1 m camera height.
+
+    ``centre`` is the lane centre's lateral offset from the camera (left positive).
+    """
+    upright = _derotate(lines, roll_rad)
+    (al, bl), (ar, br) = upright.left, upright.right
     yv = (br - bl) / (al - ar)
     xv = al * yv + bl
     pitch = math.atan(-yv)
@@ -177,7 +233,7 @@ def _frame_pose(lines: FrameLines, intrinsics: Intrinsics) -> tuple[float, float
     y_bottom = (intrinsics.height - intrinsics.cy) / intrinsics.fy
     ys = np.linspace(yv + 0.3 * (y_bottom - yv), y_bottom, 8)
     offsets = []
-    for a, b in (lines.left, lines.right):
+    for a, b in ((al, bl), (ar, br)):
         xs = a * ys + b
         uv = np.stack([xs * intrinsics.fx + intrinsics.cx, ys * intrinsics.fy + intrinsics.cy], 1)
         # normalised coordinates are already undistorted: use a distortion-free twin
@@ -195,20 +251,72 @@ def _frame_pose(lines: FrameLines, intrinsics: Intrinsics) -> tuple[float, float
     width = offsets[0] - offsets[1]
     if not width > 0.0:
         return None
-    return pitch, yaw, width
+    return pitch, yaw, width, 0.5 * (offsets[0] + offsets[1])
+
+
+def _frame_roll(lines: FrameLines, intrinsics: Intrinsics, roll_rad: float) -> float | None:
+    """Return the roll that centres one frame's lane (a secant step from ``roll_rad``)."""
+    here = _frame_pose(lines, intrinsics, roll_rad)
+    there = _frame_pose(lines, intrinsics, roll_rad + ROLL_STEP_RAD)
+    if here is None or there is None or there[3] == here[3]:
+        return None
+    return roll_rad - here[3] * ROLL_STEP_RAD / (there[3] - here[3])
+
+
+def _spread(v: FloatArray) -> float:
+    return float(1.4826 * np.median(np.abs(v - np.median(v))))
+
+
+def estimate_roll(
+    lines: Sequence[FrameLines], intrinsics: Intrinsics
+) -> tuple[float, float] | None:
+    """Return ``(roll, per-frame spread)`` in radians that centres the lane on average.
+
+    Two rounds of per-frame secant steps (the lane centre is nearly linear in the roll); frames
+    whose roll exceeds :data:`MAX_ROLL_RAD` are left out. None with fewer than
+    :data:`MIN_FRAMES` usable frames.
+    """
+    roll = 0.0
+    rolls = np.zeros(0)
+    for _ in range(2):
+        found = [_frame_roll(f, intrinsics, roll) for f in lines]
+        rolls = np.asarray([r for r in found if r is not None and abs(r) <= MAX_ROLL_RAD])
+        if rolls.size < MIN_FRAMES:
+            return None
+        roll = float(np.median(rolls))
+    return roll, _spread(rolls)
 
 
 def estimate_extrinsics(
-    lines: Sequence[FrameLines | None], intrinsics: Intrinsics, lane_width_m: float = 3.7
+    lines: Sequence[FrameLines | None],
+    intrinsics: Intrinsics,
+    lane_width_m: float = 3.7,
+    roll_rad: float | None = None,
 ) -> ExtrinsicsEstimate:
-    """Combine per-frame lane lines into pitch, yaw and height with their spreads.
+    """Combine per-frame lane lines into pitch, yaw, roll and height with their spreads.
+
+    Args:
+        lines: Per-frame ego lines (None where not found).
+        intrinsics: Camera intrinsics the lines were fitted with.
+        lane_width_m: Lane width of the road, metres.
+        roll_rad: Known roll, radians; None estimates it (the lane centred on average).
 
     Raises:
         CameraError: If fewer than :data:`MIN_FRAMES` frames have both ego lines.
     """
     if lane_width_m <= 0:
         raise CameraError(f"lane width must be positive, got {lane_width_m} m")
-    poses = [p for p in (_frame_pose(f, intrinsics) for f in lines if f is not None) if p]
+    found = [f for f in lines if f is not None]
+    roll_sigma: float | None = None
+    roll_method = "given"
+    if roll_rad is None:
+        rolled = estimate_roll(found, intrinsics)
+        if rolled is None:
+            roll_rad, roll_method = 0.0, "not estimated (too few frames; assumed 0)"
+        else:
+            roll_rad, roll_sigma = rolled
+            roll_method = ROLL_METHOD
+    poses = [p for p in (_frame_pose(f, intrinsics, roll_rad) for f in found) if p]
     if len(poses) < MIN_FRAMES:
         raise CameraError(
             f"only {len(poses)} of {len(lines)} frames show both ego lane lines; "
@@ -218,18 +326,20 @@ def estimate_extrinsics(
     heights = lane_width_m / arr[:, 2]
     med = np.median(arr, axis=0)
 
-    def spread(v: FloatArray) -> float:
-        return float(1.4826 * np.median(np.abs(v - np.median(v))))
-
     extr = Extrinsics(
-        height_m=float(np.median(heights)), pitch_rad=float(med[0]), yaw_rad=float(med[1])
+        height_m=float(np.median(heights)),
+        pitch_rad=float(med[0]),
+        roll_rad=roll_rad,
+        yaw_rad=float(med[1]),
     )
     return ExtrinsicsEstimate(
         extr,
-        spread(arr[:, 0]),
-        spread(arr[:, 1]),
-        spread(heights),
+        _spread(arr[:, 0]),
+        _spread(arr[:, 1]),
+        _spread(heights),
         len(poses),
         len(lines),
         lane_width_m,
+        roll_sigma,
+        roll_method,
     )

@@ -185,8 +185,26 @@ def estimate_cmd(
     focal_px: Annotated[
         float | None, typer.Option(help="Focal length, pixels at the recorded size.")
     ] = None,
-    hfov: Annotated[float | None, typer.Option(help="Horizontal field of view, degrees.")] = None,
+    hfov: Annotated[
+        float | None,
+        typer.Option(
+            help=(
+                "Horizontal field of view, degrees. With no intrinsics at all, the focal length "
+                "is measured from the dashed markings' motion at GNSS speed where possible, "
+                "else 60 degrees is assumed."
+            )
+        ),
+    ] = None,
     frames: Annotated[int, typer.Option(help="Frames to use, spread evenly.", min=3)] = 60,
+    roll_deg: Annotated[
+        float | None,
+        typer.Option(
+            help=(
+                "Known roll, degrees (left side up positive). By default the roll is estimated, "
+                "assuming the camera rides at the lane centre on average."
+            ),
+        ),
+    ] = None,
     topic: Annotated[str | None, typer.Option(help="Camera topic (default: the first).")] = None,
     name: Annotated[str, typer.Option(help="Profile name written into the YAML.")] = "estimated",
     out: Annotated[
@@ -194,7 +212,7 @@ def estimate_cmd(
         typer.Option("--out", "-o", help="Write the profile YAML here instead of printing it."),
     ] = None,
 ) -> None:
-    """Estimate pitch, yaw and height from the lane lines' vanishing point and the lane width."""
+    """Estimate pitch, yaw, roll and height from the lane lines and the lane width."""
     import yaml
 
     from superlane_tools.camera import camera_to_yaml, load_camera
@@ -212,6 +230,7 @@ def estimate_cmd(
             max_frames=frames,
             topic=topic,
             name=name,
+            roll_rad=None if roll_deg is None else math.radians(roll_deg),
         )
         est = result.estimate
         comment = (
@@ -230,9 +249,13 @@ def estimate_cmd(
         )
         _write_profile(out, text)
     e = est.extrinsics
+    roll = f"roll {math.degrees(e.roll_rad):.2f} deg ({est.roll_method})"
+    if est.roll_sigma_rad is not None:
+        roll = f"roll {math.degrees(e.roll_rad):.2f} +- {math.degrees(est.roll_sigma_rad):.2f} deg"
     err_console.print(
         f"pitch {math.degrees(e.pitch_rad):.2f} +- {math.degrees(est.pitch_sigma_rad):.2f} deg, "
         f"yaw {math.degrees(e.yaw_rad):.2f} +- {math.degrees(est.yaw_sigma_rad):.2f} deg, "
+        f"{roll}, "
         f"height {e.height_m:.3f} +- {est.height_sigma_m:.3f} m (per-frame spread; "
         f"{est.frames_used} frames); intrinsics: {result.intrinsics_source}",
         markup=False,

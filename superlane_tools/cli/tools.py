@@ -1,4 +1,4 @@
-"""`slt cat` and `slt filter`: look at decoded messages, write a trimmed MCAP."""
+"""`slt cat` and `slt filter`: look at decoded messages, write a trimmed recording."""
 
 from __future__ import annotations
 
@@ -63,8 +63,23 @@ def cat_cmd(
 
 
 def filter_cmd(
-    recording: Annotated[Path, typer.Argument(help="MCAP file.", show_default=False)],
-    out: Annotated[Path, typer.Option("--out", "-o", help="Output MCAP (must not exist).")],
+    recording: Annotated[
+        Path,
+        typer.Argument(
+            help="MCAP file, ROS 1 .bag, ROS 2 bag folder or .db3 file.", show_default=False
+        ),
+    ],
+    out: Annotated[
+        Path,
+        typer.Option(
+            "--out",
+            "-o",
+            help=(
+                "Output (must not exist): OUT.mcap, OUT.bag for a ROS 1 bag, or a folder OUT "
+                "for a ROS 2 bag (same storage)."
+            ),
+        ),
+    ],
     topics: Annotated[
         str | None,
         typer.Option("--topics", "-t", metavar="REGEX", help="Keep topics matching REGEX."),
@@ -77,18 +92,20 @@ def filter_cmd(
         str | None, typer.Option(metavar="TIME", help=f"End (exclusive): {TIME_HELP}.")
     ] = None,
 ) -> None:
-    """Write a trimmed copy of an MCAP: schemas, channel metadata, metadata, attachments kept."""
-    from superlane_tools.recording.tools import filter_mcap
+    """Write a trimmed copy of a recording: message definitions, metadata, attachments kept."""
+    from superlane_tools.recording.tools import filter_recording
 
     with cli_errors():
-        result = filter_mcap(recording, out, topics, exclude, start, end)
+        result = filter_recording(recording, out, topics, exclude, start, end)
     for topic, count in sorted(result.counts.items()):
         err_console.print(f"{topic}: {count} messages", markup=False)
+    kind = {"ros1": "ROS 1 bag", "ros2": "ROS 2 bag"}.get(result.output_format, "MCAP")
     err_console.print(
-        f"wrote {result.path} ({result.metadata} metadata records, "
-        f"{result.attachments} attachments)",
+        f"wrote {result.path} ({kind}, {sum(result.counts.values())} messages, "
+        f"{result.metadata} metadata records, {result.attachments} attachments)",
         markup=False,
     )
+    exit_with(report_skipped(result.skipped))
 
 
 def register(app: typer.Typer) -> None:
@@ -103,7 +120,7 @@ def register(app: typer.Typer) -> None:
     app.command(
         "filter",
         help=(
-            "Write a trimmed MCAP: topics by regular expression, a time range; written "
-            f"atomically.\n\n{EXIT_CODES_HELP}"
+            "Write a trimmed MCAP, ROS 1 bag or ROS 2 bag: topics by regular expression, a time "
+            f"range; payloads copied byte for byte, written atomically.\n\n{EXIT_CODES_HELP}"
         ),
     )(filter_cmd)

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from itertools import pairwise
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -17,7 +19,14 @@ from superlane_tools.camera.extrinsics_estimate import (
     frame_lines,
     intrinsics_from_hfov,
 )
-from superlane_tools.camera.model import CameraModel, Intrinsics
+from superlane_tools.camera.focal_motion import (
+    MAX_DISTANCE_M,
+    MIN_DISTANCE_M,
+    FocalEstimate,
+    dash_profiles,
+    focal_from_motion,
+)
+from superlane_tools.camera.model import CameraModel, Extrinsics, Intrinsics
 from superlane_tools.errors import UsageError
 from superlane_tools.hierarchy import LEAF_IDS
 from superlane_tools.lanes import CODE_OF
@@ -61,19 +70,24 @@ def estimate_camera(
     max_frames: int = 60,
     topic: str | None = None,
     name: str = "estimated",
+    roll_rad: float | None = None,
 ) -> CameraEstimate:
-    """Estimate pitch, yaw and height from lane lines over up to ``max_frames`` frames.
+    """Estimate pitch, yaw, roll and height from lane lines over up to ``max_frames`` frames.
 
     Args:
         recording: Recording with a camera topic (images or video).
         intrinsics: Known intrinsics (e.g. from ``slt camera calibrate``); scaled to the frames.
         focal_px: Focal length in pixels at the recorded size (principal point: centre).
-        hfov_deg: Horizontal field of view (principal point: centre); with none of the three,
-            :data:`DASHCAM_HFOV_DEG` is assumed.
+        hfov_deg: Horizontal field of view (principal point: centre). With none of the three,
+            :data:`DASHCAM_HFOV_DEG` is assumed to start with, and the focal length is then
+            measured from the dashed markings' motion when the recording has a GNSS track and
+            consecutive frames 0.3-5 m apart (:mod:`superlane_tools.camera.focal_motion`).
         lane_width_m: Lane width of the road driven, metres.
         max_frames: Frames segmented, evenly spread over the recording.
         topic: Camera topic (default: the first image topic).
         name: Profile name.
+        roll_rad: Known roll, radians; None estimates it, assuming the camera rides at the lane
+            centre on average.
 
     Raises:
         UsageError: For contradictory intrinsics options.
@@ -86,12 +100,27 @@ def estimate_camera(
         raise UsageError("give at most one of --intrinsics, --focal-px and --hfov")
     frames = RecordingFrames(recording, topic)
     step = max(1, math.ceil((frames.total or max_frames) / max_frames))
+    # with nothing known about the lens, each sampled frame's successor is segmented too: the
+    # dashes' motion between the two measures the focal length (given a GNSS track)
+    lens_known = intrinsics is not None or focal_px is not None or hfov_deg is not None
+    track = None if lens_known else _gnss_track(recording)
     backend = OnnxSegmentationBackend(threads=1)
-    lines: list[FrameLines | None] = []
+    sampled: list[_Sampled] = []
+    successors: dict[int, _Sampled] = {}
     used_k: Intrinsics | None = None
     source = ""
+    previous_time: int | None = None
+    want_pairs = track is not None
     for index, frame in enumerate(frames):
-        if index % step or frame.image is None or len(lines) >= max_frames:
+        offset = index % step
+        if frame.image is None or len(sampled) >= max_frames:
+            continue
+        if offset == 0:
+            previous_time = frame.log_time_ns
+        if offset and not (want_pairs and offset == 1 and step > 1):
+            continue
+        if offset and _too_far(track, previous_time, frame.log_time_ns):
+            want_pairs = bool(successors)  # at a low frame rate, stop segmenting twice
             continue
         height, width = frame.image.shape[:2]
         if used_k is None:
@@ -99,11 +128,128 @@ def estimate_camera(
         labels = backend.segment(frame.image)
         rows, cols = np.nonzero(_LANE_LUT[labels])
         uv = np.stack([cols, rows], axis=1).astype(np.float64)
-        lines.append(frame_lines(uv, used_k, seed=index))
+        item = _Sampled(index, frame.log_time_ns, uv)
+        if offset:
+            successors[index - 1] = item
+        else:
+            sampled.append(item)
     if used_k is None:
         raise UsageError(f"{recording.name}: no decodable camera frame")
-    est = estimate_extrinsics(lines, used_k, lane_width_m)
+    lines = [frame_lines(f.uv, used_k, seed=f.frame) for f in sampled]
+    est = estimate_extrinsics(lines, used_k, lane_width_m, roll_rad)
+    if track is not None:
+        if step == 1:  # every frame is sampled: each one's successor is the next sampled one
+            successors = {a.frame: b for a, b in pairwise(sampled) if b.frame == a.frame + 1}
+        focal = (
+            _measure_focal(sampled, lines, successors, track, used_k, est.extrinsics)
+            if want_pairs
+            else f"consecutive frames more than {MAX_DISTANCE_M:g} m apart; a higher frame rate "
+            "or a slower drive is needed"
+        )
+        if isinstance(focal, str):
+            source += f"; focal length not measurable from motion ({focal})"
+        else:
+            k = replace(used_k, fx=focal.focal_px, fy=focal.focal_px)
+            lines = [frame_lines(f.uv, k, seed=f.frame) for f in sampled]
+            est = estimate_extrinsics(lines, k, lane_width_m, roll_rad)
+            used_k = k
+            source = (
+                f"focal length {focal.focal_px:.1f} px MEASURED from the dashed markings' motion "
+                f"at GNSS speed ({focal.pairs} line pairs, mean correlation "
+                f"{focal.mean_correlation:.2f}); principal point at the centre"
+            )
+    elif not lens_known:
+        source += "; focal length not measurable from motion (no GNSS track)"
     return CameraEstimate(CameraModel(used_k, est.extrinsics, name=name), est, source)
+
+
+class _Sampled(NamedTuple):
+    frame: int
+    log_time_ns: int | None
+    uv: NDArray[np.float64]
+
+
+_Track = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
+
+
+def _gnss_track(recording: Path) -> _Track | None:
+    """Return ``(log time ns, east m, north m)`` of the recording's first GNSS topic, or None."""
+    from superlane_tools.geo.enu import geodetic_to_enu, valid_fixes
+    from superlane_tools.recording import open_recording
+    from superlane_tools.recording.streams import GNSS_TYPES
+
+    with open_recording(recording) as rec:
+        topics = sorted(t.topic for t in rec.topics() if t.msgtype in GNSS_TYPES)
+        if not topics:
+            return None
+        rows = [
+            (m.log_time_ns, m.data.latitude, m.data.longitude, m.data.altitude)
+            for m in rec.messages(topics=topics[:1])
+        ]
+    if len(rows) < 2:
+        return None
+    arr = np.asarray(rows, dtype=np.float64)
+    ok = valid_fixes(arr[:, 1], arr[:, 2], arr[:, 3])
+    if ok.sum() < 2:
+        return None
+    enu = geodetic_to_enu(arr[ok, 1], arr[ok, 2], arr[ok, 3])
+    return arr[ok, 0], enu.east_m, enu.north_m
+
+
+def _too_far(track: _Track | None, t0: int | None, t1: int | None) -> bool:
+    """Return True when the GNSS track puts two frame times too far apart to follow a dash."""
+    if track is None or t0 is None or t1 is None:
+        return True
+    times, east, north = track
+    t = np.asarray([t0, t1], dtype=np.float64)
+    de = np.diff(np.interp(t, times, east))[0]
+    dn = np.diff(np.interp(t, times, north))[0]
+    return bool(np.hypot(de, dn) > MAX_DISTANCE_M)
+
+
+def _measure_focal(
+    sampled: list[_Sampled],
+    lines: list[FrameLines | None],
+    successors: dict[int, _Sampled],
+    track: _Track,
+    k: Intrinsics,
+    extrinsics: Extrinsics,
+) -> FocalEstimate | str:
+    """Return the focal length from the dashes' motion, or why it could not be measured."""
+    times, east, north = track
+    pairs = []
+    for item, fl in zip(sampled, lines, strict=True):
+        nxt = successors.get(item.frame)
+        if fl is None or nxt is None or item.log_time_ns is None or nxt.log_time_ns is None:
+            continue
+        fl2 = frame_lines(nxt.uv, k, seed=nxt.frame)
+        if fl2 is None:
+            continue
+        t = np.asarray([item.log_time_ns, nxt.log_time_ns], dtype=np.float64)
+        if t[0] < times[0] or t[1] > times[-1]:
+            continue
+        de, dn = np.diff(np.interp(t, times, east))[0], np.diff(np.interp(t, times, north))[0]
+        d = float(np.hypot(de, dn))
+        pairs.append(
+            (
+                dash_profiles(item.uv, fl, k, extrinsics),
+                dash_profiles(nxt.uv, fl2, k, extrinsics),
+                d,
+            )
+        )
+    if not pairs:
+        return "no consecutive frames with both ego lines inside the GNSS track"
+    moved = [d for _, _, d in pairs if MIN_DISTANCE_M <= d <= MAX_DISTANCE_M]
+    if not moved:
+        median = float(np.median([d for _, _, d in pairs]))
+        return (
+            f"consecutive frames {median:.1f} m apart; needs {MIN_DISTANCE_M:g}-"
+            f"{MAX_DISTANCE_M:g} m (a higher frame rate or a slower drive)"
+        )
+    found = focal_from_motion(pairs, extrinsics, k.width, k.height)
+    if found is None:
+        return f"{len(pairs)} frame pairs, no clear dash pattern alignment"
+    return found
 
 
 def _intrinsics(
@@ -122,7 +268,7 @@ def _intrinsics(
         if focal_px <= 0:
             raise UsageError(f"--focal-px must be positive, got {focal_px}")
         return (
-            Intrinsics(width, height, focal_px, focal_px, width / 2.0, height / 2.0),
+            Intrinsics(width, height, focal_px, focal_px, (width - 1) / 2.0, (height - 1) / 2.0),
             f"focal length {focal_px:g} px, principal point at the image centre",
         )
     hfov = hfov_deg if hfov_deg is not None else DASHCAM_HFOV_DEG

@@ -276,6 +276,43 @@ class RosbagRecording(ClosingRecording):
             count += 1
             yield conn, int(log_time), bytes(data)
 
+    @property
+    def connections(self) -> list[Connection]:
+        """The rosbags connections of every file of the bag (a topic may have several)."""
+        return self._connections()
+
+    @property
+    def typestore(self) -> Typestore:
+        """The types the bag defines, completed with the project typestore."""
+        return self._store
+
+    @property
+    def storage(self) -> Literal["ros1", "sqlite3", "mcap"]:
+        """The storage format: ``ros1``, or a ROS 2 bag's ``sqlite3`` or ``mcap`` files."""
+        if self.kind == "ros1":
+            return "ros1"
+        files = [self.path] if self.path.is_file() else list(self.path.iterdir())
+        return "mcap" if any(f.suffix == ".mcap" for f in files) else "sqlite3"
+
+    def start_ns(self) -> int | None:
+        """Return the earliest log time of the bag (ns) from its index, None when empty."""
+        times = [int(r.start_time) for r in self._readers if getattr(r, "message_count", 1)]
+        return min(times) if times else None
+
+    def connection_messages(
+        self,
+        topics: Collection[str] | None = None,
+        start_ns: int | None = None,
+        stop_ns: int | None = None,
+    ) -> Iterator[tuple[Connection, int, bytes]]:
+        """Yield ``(connection, log_time_ns, payload)`` in log-time order, ``[start_ns, stop_ns)``.
+
+        Payloads are the stored bytes; for copying messages into another bag with their
+        connection (message definition, hash, QoS or caller id).
+        """
+        self._iter_skips.clear()
+        yield from self._streams(topics, start_ns, stop_ns)
+
     def raw_messages(
         self,
         topics: Collection[str] | None = None,

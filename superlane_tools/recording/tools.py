@@ -1,10 +1,10 @@
-"""``slt cat`` and ``slt filter``: decoded messages as JSON lines, and trimmed MCAP copies."""
+"""``slt cat`` and ``slt filter``: decoded messages as JSON lines, and trimmed copies."""
 
 from __future__ import annotations
 
 import base64
 import re
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, fields, is_dataclass
 from pathlib import Path
 from typing import Any
@@ -15,7 +15,7 @@ from superlane_tools.errors import UsageError
 from superlane_tools.recording.base import Recording
 from superlane_tools.recording.errors import RecordingError
 from superlane_tools.recording.times import parse_time
-from superlane_tools.records import Message
+from superlane_tools.records import Message, Skipped
 
 MAX_INLINE_BYTES = 64
 """Byte arrays longer than this are shown as their length (``--full-bytes`` shows them)."""
@@ -182,15 +182,26 @@ class McapCopier:
 
 @dataclass(frozen=True)
 class FilterResult:
-    """What ``filter_mcap`` wrote: messages per topic, metadata and attachments kept."""
+    """What ``filter_recording`` wrote: messages per topic, metadata and attachments kept.
+
+    Attributes:
+        path: The output written.
+        counts: Messages written per topic.
+        metadata: MCAP metadata records copied (0 for bags).
+        attachments: MCAP attachments copied (0 for bags).
+        output_format: ``mcap``, ``ros1`` (a ``.bag``) or ``ros2`` (a bag folder).
+        skipped: What could not be read from the source (damaged bag data).
+    """
 
     path: Path
     counts: dict[str, int]
     metadata: int
     attachments: int
+    output_format: str = "mcap"
+    skipped: tuple[Skipped, ...] = ()
 
 
-def filter_mcap(
+def filter_recording(
     src: Path,
     out: Path,
     topics: str | None = None,
@@ -198,30 +209,70 @@ def filter_mcap(
     start: str | None = None,
     end: str | None = None,
 ) -> FilterResult:
-    """Copy an MCAP's matching messages in ``[start, end)`` into a new MCAP, atomically.
+    """Write the matching messages of an MCAP or a ROS bag in ``[start, end)`` to ``out``.
 
-    Schemas, channels (with their metadata), metadata records and attachments are kept; payloads
-    are copied byte for byte; chunks use the source's compression.
+    An MCAP gives an MCAP. A ROS 1 bag gives ``OUT.bag``; a ROS 2 bag (folder or ``.db3``)
+    gives a ROS 2 bag folder ``OUT`` with the source's storage (sqlite3 or mcap); either gives
+    an MCAP when ``out`` ends in ``.mcap``. Payloads are copied byte for byte, with their
+    message definitions; the output is written atomically.
 
     Raises:
-        RecordingError: If ``src`` is not a readable MCAP or ``out`` exists.
-        UsageError: For bad regular expressions or times, or when nothing matches.
+        RecordingError: If ``src`` is unreadable or ``out`` exists.
+        UsageError: For bad regular expressions, times or output formats, or when nothing matches.
     """
-    from mcap.exceptions import McapError
-    from mcap.reader import make_reader
-    from mcap.writer import CompressionType, Writer
+    from superlane_tools.recording.bag_filter import filter_bag, is_bag, output_format
 
     if out.exists():
         raise RecordingError(f"{out} exists already; not overwriting a recording")
     if out.resolve() == src.resolve():
         raise UsageError("-o must differ from the input")
     match = topic_matcher(topics, exclude)
+
+    def resolve(first: int | None) -> tuple[int | None, int | None]:
+        return time_range(first, start, end)
+
+    if not is_bag(src):
+        if out.suffix != ".mcap":
+            raise UsageError("an MCAP filters to OUT.mcap")
+        return filter_mcap(src, out, match, resolve)
+    counts, skipped = filter_bag(src, out, match, resolve)
+    kind = "ros1" if src.suffix == ".bag" else "ros2"
+    return FilterResult(out, counts, 0, 0, output_format(kind, out), tuple(skipped))
+
+
+def filter_mcap(
+    src: Path,
+    out: Path,
+    match: Callable[[str], bool],
+    resolve: Callable[[int | None], tuple[int | None, int | None]],
+) -> FilterResult:
+    """Copy an MCAP's matching messages in ``[start, end)`` into a new MCAP, atomically.
+
+    Schemas, channels (with their metadata), metadata records and attachments are kept; payloads
+    are copied byte for byte; chunks use the source's compression.
+
+    Args:
+        src: MCAP file.
+        out: Output MCAP (not existing).
+        match: ``f(topic) -> bool`` of the topics to keep.
+        resolve: Turns the first log time into the ``[start, end)`` range (ns).
+
+    Raises:
+        RecordingError: If ``src`` is not a readable MCAP.
+        UsageError: When nothing matches.
+    """
+    from mcap.exceptions import McapError
+    from mcap.reader import make_reader
+    from mcap.writer import CompressionType, Writer
+
     work = out.with_name(f".{out.name}.partial")
     counts: dict[str, int] = {}
     try:
         with src.open("rb") as fin:
             if fin.read(8) != b"\x89MCAP0\r\n":
-                raise RecordingError(f"{src.name}: slt filter reads MCAP files (convert first)")
+                raise RecordingError(
+                    f"{src.name}: slt filter reads MCAP files and ROS bags (convert first)"
+                )
             fin.seek(0)
             reader = make_reader(fin)
             header = reader.get_header()
@@ -231,9 +282,9 @@ def filter_mcap(
                 if summary is not None and summary.statistics is not None
                 else None
             )
-            if first is None and (start or end):
-                first = next((m.log_time for _, _, m in reader.iter_messages()), 0)
-            start_ns, end_ns = time_range(first, start, end)
+            if first is None:
+                first = next((m.log_time for _, _, m in reader.iter_messages()), None)
+            start_ns, end_ns = resolve(first)
             compression = "zstd"
             if summary is not None and summary.chunk_indexes:
                 compression = summary.chunk_indexes[0].compression or "none"

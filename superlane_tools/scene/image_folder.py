@@ -45,11 +45,13 @@ class InputFrame(NamedTuple):
             ``sub/img.jpg``; ``<topic>/<index:06d>`` for recording frames).
         image: ``(H, W, 3)`` uint8 BGR image, or None when it could not be read.
         problem: Why the image could not be read (empty when it could).
+        log_time_ns: Log time of a recording frame, ns since the epoch (None for files).
     """
 
     name: str
     image: NDArray[np.uint8] | None
     problem: str = ""
+    log_time_ns: int | None = None
 
 
 class SegmentedImage(NamedTuple):

@@ -58,9 +58,10 @@ class RecordingFrames:
                 try:
                     image = decode_frame(msg)
                 except ValueError as err:
-                    yield InputFrame(name, None, f"{self.topic} frame {index}: {err}")
+                    problem = f"{self.topic} frame {index}: {err}"
+                    yield InputFrame(name, None, problem, msg.log_time_ns)
                     continue
-                yield InputFrame(name, image)
+                yield InputFrame(name, image, "", msg.log_time_ns)
             self.skipped.extend(rec.skipped)
 
 

@@ -12,7 +12,7 @@ import heapq
 import json
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -160,6 +160,7 @@ def simulate_drive(
     start_ns: int = DEFAULT_START_NS,
     command: str = "",
     progress: ProgressFn | None = None,
+    camera_roll_rad: float = 0.0,
 ) -> DriveResult:
     """Simulate a drive and write the recording plus its ground truth.
 
@@ -181,6 +182,8 @@ def simulate_drive(
         start_ns: Time of the first frame, ns since the epoch.
         command: Command line for the provenance metadata.
         progress: Called as ``progress(done, total)`` after each frame.
+        camera_roll_rad: Roll of the camera about its optical axis (left side up positive),
+            radians; the recording's camera metadata carries it.
 
     Raises:
         ScenarioError: For an unknown scenario or impossible sizes/durations/formats.
@@ -197,7 +200,11 @@ def simulate_drive(
         raise ScenarioError(f"frame rate must be 1-60 Hz, got {fps}")
     if jpeg_quality is not None and not 1 <= jpeg_quality <= 100:
         raise ScenarioError(f"JPEG quality must be 1-100, got {jpeg_quality}")
+    if abs(camera_roll_rad) > 0.2:
+        raise ScenarioError(f"camera roll must be within 0.2 rad, got {camera_roll_rad}")
     camera = sim_camera(width, height)
+    if camera_roll_rad:
+        camera = replace(camera, extrinsics=replace(camera.extrinsics, roll_rad=camera_roll_rad))
     encoder = None
     if video is not None:
         from superlane_tools.recording.errors import RecordingError

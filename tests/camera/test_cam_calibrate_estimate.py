@@ -75,14 +75,27 @@ def _synthetic_lines(cam: CameraModel, width_m: float, left_m: float) -> np.ndar
 
 def test_vanishing_point_geometry_recovers_a_known_mount() -> None:
     k = intrinsics_from_hfov(640, 360, 70.0)
-    truth = Extrinsics(1.4, pitch_rad=math.radians(2.5), yaw_rad=math.radians(1.0))
+    truth = Extrinsics(
+        1.4, pitch_rad=math.radians(2.5), roll_rad=math.radians(1.5), yaw_rad=math.radians(1.0)
+    )
     cam = CameraModel(k, truth)
-    lines = [frame_lines(_synthetic_lines(cam, 3.5, 1.6 + 0.05 * i), k, seed=i) for i in range(5)]
+    # the camera wanders +-0.2 m about the lane centre (left line 1.75 m to its left)
+    offsets = [-0.2, -0.1, 0.0, 0.1, 0.2]
+    lines = [
+        frame_lines(_synthetic_lines(cam, 3.5, 1.75 + o), k, seed=i) for i, o in enumerate(offsets)
+    ]
     est = estimate_extrinsics(lines, k, lane_width_m=3.5)
     assert est.frames_used == 5
+    assert abs(est.extrinsics.roll_rad - truth.roll_rad) < math.radians(0.05)
     assert abs(est.extrinsics.pitch_rad - truth.pitch_rad) < math.radians(0.02)
     assert abs(est.extrinsics.yaw_rad - truth.yaw_rad) < math.radians(0.05)
     assert abs(est.extrinsics.height_m - 1.4) < 0.01
+    assert est.summary()["roll_method"].startswith("lane centred on average")
+    # a given roll is used as is; without it this camera's pitch and yaw come out wrong
+    fixed = estimate_extrinsics(lines, k, lane_width_m=3.5, roll_rad=0.0)
+    assert fixed.extrinsics.roll_rad == 0.0
+    assert fixed.summary()["roll_method"] == "given"
+    assert abs(fixed.extrinsics.yaw_rad - truth.yaw_rad) > math.radians(0.05)
     with pytest.raises(CameraError, match="both ego lane lines"):
         estimate_extrinsics([None, None], k)
 
@@ -102,13 +115,44 @@ def test_estimate_recovers_pitch_and_height_of_held_out_drives(
     assert result.estimate.frames_used >= 20
 
 
+@pytest.mark.slow
+def test_estimate_recovers_the_roll_of_a_held_out_drive(tmp_path: Path) -> None:
+    # roll comes from the lane being centred on average: the drive must be long enough for the
+    # simulator's lateral wander (120-400 m wavelengths) to average out
+    rec = tmp_path / "drive.mcap"
+    roll = math.radians(-1.2)
+    simulate_drive(
+        "highway_straight", 60.0, 105, "mcap", 320, 180, False, rec, fps=2.0, camera_roll_rad=roll
+    )
+    truth = sim_camera(320, 180)
+    result = estimate_camera(rec, intrinsics=truth.intrinsics, max_frames=60)
+    est = result.estimate
+    assert abs(math.degrees(est.extrinsics.roll_rad - roll)) < 0.75
+    assert abs(math.degrees(est.extrinsics.pitch_rad - truth.extrinsics.pitch_rad)) < 0.3
+    assert abs(est.extrinsics.height_m / truth.extrinsics.height_m - 1.0) < 0.10
+    assert est.roll_sigma_rad is not None
+    assert est.summary()["roll_deg"] == pytest.approx(
+        math.degrees(est.extrinsics.roll_rad), abs=1e-3
+    )
+
+
 def test_estimate_cli_without_intrinsics_says_what_it_assumed(tmp_path: Path) -> None:
     rec = tmp_path / "drive.mcap"
     simulate_drive("highway_curves", 1.5, 103, "mcap", 320, 180, False, rec, fps=6.0)
     out = tmp_path / "est.yaml"
     result = runner.invoke(app, ["camera", "estimate", str(rec), "-o", str(out), "--frames", "9"])
     assert result.exit_code == 0, result.output
+    assert "MEASURED from the dashed markings' motion at GNSS speed" in result.stderr
+    assert "MEASURED" in yaml.safe_load(out.read_text(encoding="utf-8"))["estimate"]["intrinsics"]
+    # without GNSS the focal length cannot be measured: the assumed lens stays, and says so
+    bare = tmp_path / "no_gnss.mcap"
+    cut = runner.invoke(app, ["filter", str(rec), "-o", str(bare), "--exclude", "gnss"])
+    assert cut.exit_code == 0, cut.output
+    out = tmp_path / "assumed.yaml"
+    result = runner.invoke(app, ["camera", "estimate", str(bare), "-o", str(out), "--frames", "9"])
+    assert result.exit_code == 0, result.output
     assert "ASSUMED" in result.stderr
+    assert "no GNSS track" in result.stderr
     data = yaml.safe_load(out.read_text(encoding="utf-8"))
     assert data["estimate"]["frames_used"] >= 3
     assert "ASSUMED" in data["estimate"]["intrinsics"]

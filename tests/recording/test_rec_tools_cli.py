@@ -115,6 +115,23 @@ def test_filter_trims_topics_and_time_and_keeps_metadata(tmp_path: Path) -> None
     assert "exists already" in again.stderr
 
 
+def test_filter_refuses_outputs_it_cannot_copy_into(realdata: Path, tmp_path: Path) -> None:
+    path = _drive(tmp_path / "d.mcap")
+    as_bag = runner.invoke(app, ["filter", str(path), "-o", str(tmp_path / "x.bag")])
+    assert as_bag.exit_code == 2
+    assert "an MCAP filters to OUT.mcap" in as_bag.stderr
+    bag = realdata / "bags" / "ros1_robot_localization" / "test1.bag"
+    to_ros2 = runner.invoke(app, ["filter", str(bag), "-o", str(tmp_path / "folder")])
+    assert to_ros2.exit_code == 2
+    assert "ROS 1 bag filters to OUT.bag or OUT.mcap" in to_ros2.stderr
+    log = realdata / "can_logs" / "ford_fusion" / "nothing.log"
+    not_mcap = runner.invoke(app, ["filter", str(log), "-o", str(tmp_path / "x.mcap")])
+    assert not_mcap.exit_code == 1
+    assert "reads MCAP files and ROS bags" in not_mcap.stderr
+    assert not list(tmp_path.glob("x*"))
+    assert not (tmp_path / "folder").exists()
+
+
 def test_filter_real_rosbag2_mcap(realdata: Path, tmp_path: Path) -> None:
     src = next((realdata / "bags" / "ros2_format_fixtures" / "mcap" / "talker").glob("*.mcap"))
     out = tmp_path / "topic.mcap"
@@ -127,11 +144,97 @@ def test_filter_real_rosbag2_mcap(realdata: Path, tmp_path: Path) -> None:
     assert texts[0].startswith("Hello, world!")
 
 
-def test_filter_refuses_bags(realdata: Path, tmp_path: Path) -> None:
+def _bag_messages(path: Path) -> tuple[list[tuple[str, int, bytes]], dict[str, tuple[str, str]]]:
+    """Read a bag with rosbags alone: sorted ``(topic, time, payload)`` and definitions by topic."""
+    from rosbags.rosbag1 import Reader as Reader1
+    from rosbags.rosbag2 import Reader as Reader2
+
+    reader = Reader1(path) if path.suffix == ".bag" else Reader2(path)
+    with reader:
+        msgs = sorted((c.topic, t, bytes(d)) for c, t, d in reader.messages())
+        defs = {c.topic: (c.msgtype, c.msgdef.data) for c in reader.connections}
+    return msgs, defs
+
+
+def _mcap_messages(path: Path) -> list[tuple[str, int, bytes]]:
+    from mcap.reader import make_reader
+
+    with path.open("rb") as handle:
+        return sorted(
+            (ch.topic, m.log_time, bytes(m.data))
+            for _, ch, m in make_reader(handle).iter_messages()
+        )
+
+
+def test_filter_real_ros1_bag_to_bag_and_mcap_byte_identical(
+    realdata: Path, tmp_path: Path
+) -> None:
     bag = realdata / "bags" / "ros1_robot_localization" / "test1.bag"
-    result = runner.invoke(app, ["filter", str(bag), "-o", str(tmp_path / "x.mcap")])
-    assert result.exit_code == 1
-    assert "reads MCAP files" in result.stderr
+    source, source_defs = _bag_messages(bag)
+    t0 = min(t for _, t, _ in source)
+    want = [m for m in source if m[0] == "/fix" and t0 + 10 * 10**9 <= m[1] < t0 + 20 * 10**9]
+    assert 20 <= len(want) <= 30  # ~2.5 Hz over 10 s
+
+    out = tmp_path / "fix.bag"
+    cmd = ["filter", str(bag), "-o", str(out), "-t", "^/fix$", "--start", "10", "--end", "20"]
+    result = runner.invoke(app, cmd)
+    assert result.exit_code == 0, result.output
+    got, defs = _bag_messages(out)
+    assert got == want
+    assert defs == {"/fix": source_defs["/fix"]}
+    info = runner.invoke(app, ["info", str(out), "--json"])
+    assert info.exit_code == 0, info.output
+    assert '"/fix"' in info.stdout
+
+    out_mcap = tmp_path / "no_imu.mcap"
+    result = runner.invoke(app, ["filter", str(bag), "-o", str(out_mcap), "--exclude", "imu"])
+    assert result.exit_code == 0, result.output
+    assert _mcap_messages(out_mcap) == [m for m in source if "imu" not in m[0]]
+    with open_recording(out_mcap) as rec:
+        fix = next(iter(rec.messages(topics=["/fix"])))
+        assert 42.3 < fix.data.latitude < 42.4
+    assert runner.invoke(app, ["info", str(out_mcap)]).exit_code == 0
+
+
+@pytest.mark.parametrize("storage", ["sqlite3", "mcap"])
+def test_filter_real_rosbag2_split_bag_keeps_storage(
+    realdata: Path, tmp_path: Path, storage: str
+) -> None:
+    src = realdata / "bags" / "ros2_format_fixtures" / storage / "wbag"
+    source, _ = _bag_messages(src)
+    out = tmp_path / "cut"
+    result = runner.invoke(app, ["filter", str(src), "-o", str(out), "--exclude", "^(AAA|BBB)$"])
+    assert result.exit_code == 0, result.output
+    got, defs = _bag_messages(out)
+    assert got == [m for m in source if m[0] not in {"AAA", "BBB"}]
+    assert set(defs) == {m[0] for m in got}
+    suffix = ".db3" if storage == "sqlite3" else ".mcap"
+    assert [p.suffix for p in out.iterdir() if p.name != "metadata.yaml"] == [suffix]
+    info = runner.invoke(app, ["info", str(out), "--json"])
+    assert info.exit_code == 0, info.output
+    assert not list(tmp_path.glob(".*partial"))
+
+
+def test_filter_real_rosbag2_db3_time_range_and_wrong_format(
+    realdata: Path, tmp_path: Path
+) -> None:
+    db3 = realdata / "bags" / "ros2_format_fixtures" / "sqlite3" / "talker" / "talker.db3"
+    source, _ = _bag_messages(db3)
+    t0 = min(t for _, t, _ in source)
+    out = tmp_path / "talk"
+    result = runner.invoke(
+        app, ["filter", str(db3), "-o", str(out), "-t", "^/topic$", "--start", "1"]
+    )
+    assert result.exit_code == 0, result.output
+    got, _ = _bag_messages(out)
+    assert got == [m for m in source if m[0] == "/topic" and m[1] >= t0 + 10**9]
+    assert 0 < len(got) < 10
+    with open_recording(out) as rec:
+        assert all(msg.data.data.startswith("Hello, world!") for msg in rec.messages())
+    bad = runner.invoke(app, ["filter", str(db3), "-o", str(tmp_path / "x.bag")])
+    assert bad.exit_code == 2
+    assert "ROS 2 bag filters to" in bad.stderr
+    assert not (tmp_path / "x.bag").exists()
 
 
 def test_dbc_show_the_mobileye_dbc_cantools_refuses(realdata: Path) -> None:
