@@ -63,6 +63,8 @@ def no_camera_frames(t_ns: np.ndarray) -> DriveFrames:
             lookahead_m=nan,
             near_m=nan,
             far_m=nan,
+            left_m=nan,
+            right_m=nan,
             trackable=np.zeros(n, dtype=bool),
             cov=np.full((n, 3, 3), np.nan),
         ),
