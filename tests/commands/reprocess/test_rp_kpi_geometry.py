@@ -13,6 +13,8 @@ from superlane_tools.commands.reprocess import ReprocessConfig, reprocess
 from superlane_tools.simulation.drive import simulate_drive
 from superlane_tools.simulation.sensors import VehicleOptions
 
+pytestmark = pytest.mark.slow  # whole reprocess runs; run with -m slow
+
 FAST = ReprocessConfig().with_overrides({"output.example_frames": 0, "output.plots": False})
 WIDTH_TOLERANCE_M = 0.15
 """Every method's median width at 10 m must lie this close to the simulated lane width."""
