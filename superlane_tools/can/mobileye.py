@@ -16,7 +16,7 @@ from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from superlane_tools.can.errors import CanError
 
@@ -131,7 +131,15 @@ def _column(df: pd.DataFrame, name: str, times: IntArray) -> FloatArray:
     return out
 
 
-def mobileye_table(signals: pd.DataFrame, spec: MobileyeMapping | None = None) -> pd.DataFrame:
+CORRIDOR_WIDTH_AT_M = 10.0
+"""Default distance ahead of Mobileye's corridor width, metres (``kpi.width_at_m``)."""
+
+
+def mobileye_table(
+    signals: pd.DataFrame,
+    spec: MobileyeMapping | None = None,
+    width_at_m: float = CORRIDOR_WIDTH_AT_M,
+) -> pd.DataFrame:
     """Build one row per Mobileye lane update: both ego lines in the lane model's convention.
 
     Coefficients become ``y = a0 + a1 x + a2 x^2 + a3 x^3`` with ``y`` left positive (for a
@@ -144,12 +152,14 @@ def mobileye_table(signals: pd.DataFrame, spec: MobileyeMapping | None = None) -
     Args:
         signals: Decoded CAN signals (``message``, ``signal``, ``value``, ``log_time_ns``).
         spec: The mapping (default: ``eyeq``).
+        width_at_m: Distance ahead of the corridor width, metres (at the view range when that is
+            nearer), as for the other availability methods.
 
     Returns:
         Columns ``log_time_ns`` and, per side ``left``/``right``: ``{side}_a0_m``,
         ``{side}_a1_rad``, ``{side}_a2_per_m``, ``{side}_a3_per_m2``, ``{side}_quality``,
         ``{side}_view_range_m``, ``{side}_curvature``; then ``curvature``,
-        ``lane_curvature``, ``corridor_width_m`` (between the lines 10 m ahead) and
+        ``lane_curvature``, ``corridor_width_m`` (between the lines ``width_at_m`` ahead) and
         ``corridor_length_m`` (shorter view range), NaN unless both lines pass the quality
         gate. Empty when the recording has no Mobileye lane messages.
     """
@@ -196,7 +206,7 @@ def mobileye_table(signals: pd.DataFrame, spec: MobileyeMapping | None = None) -
         )
     assert merged is not None
     merged["curvature"] = _mean_of_good(merged, list(sides), m.min_quality)
-    width, length = _corridor(merged, m.min_quality, CORRIDOR_WIDTH_AT_M)
+    width, length = _corridor(merged, m.min_quality, width_at_m)
     merged["corridor_width_m"] = width
     merged["corridor_length_m"] = length
     lane = _wide(signals, m.curvature_message)
@@ -205,36 +215,36 @@ def mobileye_table(signals: pd.DataFrame, spec: MobileyeMapping | None = None) -
     return merged.reset_index(drop=True)
 
 
-CORRIDOR_WIDTH_AT_M = 10.0
-"""Distance ahead at which Mobileye's corridor width is measured, metres."""
-
-
 def _corridor(merged: pd.DataFrame, min_quality: int, at_m: float) -> tuple[FloatArray, FloatArray]:
     """Mobileye's ego corridor: width between its lines at ``at_m`` ahead, length = view range.
 
     NaN (no corridor) unless both lines have quality >= ``min_quality``; the length is the
-    shorter of the two view ranges, from the camera as for the other methods.
+    shorter of the two view ranges. Mobileye's polynomials and view ranges are referred to its own
+    camera, taken to sit at the vehicle-frame origin of the other methods. Where the view range
+    is shorter than ``at_m`` the width is taken at the view range, as for the other methods.
     """
     n = len(merged)
     if not {"left_a0_m", "right_a0_m"} <= set(merged.columns):
         return np.full(n, np.nan), np.full(n, np.nan)
+
+    length = np.fmin(
+        merged["left_view_range_m"].to_numpy(dtype=np.float64),
+        merged["right_view_range_m"].to_numpy(dtype=np.float64),
+    )
+    x = np.where(np.isfinite(length), np.fmin(at_m, length), at_m)
 
     def at(side: str) -> FloatArray:
         a0, a1, a2, a3 = (
             merged[f"{side}_{k}"].to_numpy(dtype=np.float64)
             for k in ("a0_m", "a1_rad", "a2_per_m", "a3_per_m2")
         )
-        cubic: FloatArray = a0 + at_m * (np.nan_to_num(a1) + at_m * (a2 + at_m * np.nan_to_num(a3)))
+        cubic: FloatArray = a0 + x * (np.nan_to_num(a1) + x * (a2 + x * np.nan_to_num(a3)))
         return cubic
 
     ok = (merged["left_quality"].to_numpy() >= min_quality) & (
         merged["right_quality"].to_numpy() >= min_quality
     )
     width = np.where(ok, at("left") - at("right"), np.nan)
-    length = np.fmin(
-        merged["left_view_range_m"].to_numpy(dtype=np.float64),
-        merged["right_view_range_m"].to_numpy(dtype=np.float64),
-    )
     return width, np.where(ok, length, np.nan)
 
 
@@ -256,52 +266,128 @@ class Latency(NamedTuple):
     Attributes:
         lag_s: How much later the signal follows the reference, seconds (NaN if unknown).
         correlation: Normalised correlation at that lag.
+        sharpness: How much the correlation drops one ``resolution_s`` either side of the peak,
+            in units of the misfit ``1 - correlation`` (NaN if unknown). Below 1 the series hold
+            too little timing information for that resolution (slow, noise-sized motion only):
+            the lag is then not resolved.
+        n: Signal samples that overlapped the reference at that lag.
     """
 
     lag_s: float
     correlation: float
+    sharpness: float = float("nan")
+    n: int = 0
+
+    @property
+    def resolved(self) -> bool:
+        """Whether the lag is resolved to the search's ``resolution_s`` (sharpness >= 1)."""
+        return bool(self.sharpness >= 1.0)
+
+
+MAX_LAGS = 1001
+"""Most lags one latency search evaluates (the grid step grows for long searches)."""
+
+Series = tuple[NDArray[np.float64], NDArray[np.float64]]
+
+
+def _channels(times: ArrayLike, values: ArrayLike) -> list[Series]:
+    """Split ``(N,)`` or ``(N, k)`` samples into k finite series ``(t, v)``."""
+    t = np.asarray(times, dtype=np.float64)
+    v = np.asarray(values, dtype=np.float64)
+    v = v[:, None] if v.ndim == 1 else v
+    if v.ndim != 2 or v.shape[0] != t.shape[0]:
+        raise CanError(f"need one value (or row) per time, got {t.shape} and {v.shape}")
+    out = []
+    for k in range(v.shape[1]):
+        good = np.isfinite(t) & np.isfinite(v[:, k])
+        out.append((t[good], v[good, k]))
+    return out
+
+
+def _pooled_correlation(refs: list[Series], sigs: list[Series], lag_s: float) -> tuple[float, int]:
+    """Pearson correlation of the signals with the references shifted by ``lag_s``, pooled."""
+    sab = saa = sbb = 0.0
+    count = 0
+    for (t_ref, ref), (t_sig, sig) in zip(refs, sigs, strict=True):
+        if t_ref.size < 2:
+            continue
+        r = np.interp(t_sig - lag_s, t_ref, ref, left=np.nan, right=np.nan)
+        ok = np.isfinite(r)
+        if ok.sum() < 3:
+            continue
+        a, b = r[ok] - r[ok].mean(), sig[ok] - sig[ok].mean()
+        sab, saa, sbb = sab + float(a @ b), saa + float(a @ a), sbb + float(b @ b)
+        count += int(ok.sum())
+    if count < 10 or not saa * sbb > 0:
+        return float("nan"), count
+    return sab / float(np.sqrt(saa * sbb)), count
 
 
 def latency_by_xcorr(
-    t_s: FloatArray, reference: FloatArray, signal: FloatArray, max_lag_s: float = 1.0
+    t_ref_s: ArrayLike,
+    reference: ArrayLike,
+    t_sig_s: ArrayLike,
+    signal: ArrayLike,
+    max_lag_s: float = 0.5,
+    step_s: float = 0.005,
+    resolution_s: float = 1.0 / 15.0,
 ) -> Latency:
     """Estimate how far ``signal`` lags ``reference`` by cross-correlating them.
 
-    Both series are sampled at ``t_s`` (uniform steps assumed, e.g. camera frames); NaN
-    samples are excluded from each lag's correlation.
+    Each series keeps its own time base, so the lag is not limited to the camera's frame period:
+    for every lag ``L`` on a grid of ``step_s`` in ``[-max_lag_s, max_lag_s]`` the reference is
+    interpolated (linearly) at ``t_sig - L`` and correlated with the signal (Pearson, each
+    channel demeaned over its overlap, the channels pooled); the best grid lag is refined by a
+    parabola through its neighbours. The grid holds at most :data:`MAX_LAGS` lags, so the search
+    is bounded whatever the time stamps. NaN samples are left out; reference samples sharing a
+    time stamp (batched bridges) keep the first. The result's ``sharpness`` says whether the
+    series resolve the lag to ``resolution_s`` (e.g. one camera frame period).
 
     Args:
-        t_s: Sample times, seconds.
-        reference: The reference (e.g. the truth's curvature).
-        signal: The delayed signal (e.g. Mobileye curvature).
+        t_ref_s: ``(N,)`` reference sample times, seconds.
+        reference: ``(N,)`` or ``(N, k)`` reference, measured without delay (e.g. the camera
+            frames' own lane-line offsets).
+        t_sig_s: ``(M,)`` signal sample times, seconds (e.g. Mobileye's CAN log times).
+        signal: ``(M,)`` or ``(M, k)``: the delayed signal, the same quantities as the reference.
         max_lag_s: Largest lag searched either way, seconds.
+        step_s: Lag grid step, seconds.
+        resolution_s: The resolution the estimate is judged at, seconds.
 
     Returns:
-        The lag with the highest normalised correlation.
+        The lag (seconds, positive: the signal comes later) with the highest correlation; NaN
+        with fewer than 10 overlapping samples or constant series.
+
+    Raises:
+        CanError: If times and values do not match or the channel counts differ.
     """
-    t = np.asarray(t_s, dtype=np.float64)
-    ref = np.asarray(reference, dtype=np.float64)
-    sig = np.asarray(signal, dtype=np.float64)
-    if t.size < 10:
-        return Latency(float("nan"), float("nan"))
-    steps = np.diff(t)
-    steps = steps[steps > 0]  # samples may share a time stamp (batched camera bridges)
-    dt = float(np.median(steps)) if steps.size else 0.0
-    if not dt > 0:
-        return Latency(float("nan"), float("nan"))
-    max_lag = min(int(max_lag_s / dt), t.size // 2)  # never more lags than half the samples
-    best = (float("nan"), -np.inf)
-    for lag in range(-max_lag, max_lag + 1):
-        a = ref[: ref.size - lag] if lag >= 0 else ref[-lag:]
-        b = sig[lag:] if lag >= 0 else sig[: sig.size + lag]
-        ok = np.isfinite(a) & np.isfinite(b)
-        if ok.sum() < 10:
-            continue
-        aa, bb = a[ok] - a[ok].mean(), b[ok] - b[ok].mean()
-        denom = float(np.sqrt((aa * aa).sum() * (bb * bb).sum()))
-        if denom <= 0:
-            continue
-        corr = float((aa * bb).sum() / denom)
-        if corr > best[1]:
-            best = (lag * dt, corr)
-    return Latency(best[0], best[1] if np.isfinite(best[1]) else float("nan"))
+    nan = Latency(float("nan"), float("nan"))
+    refs = []
+    for t_ref, ref in _channels(t_ref_s, reference):
+        order = np.argsort(t_ref, kind="stable")
+        t_unique, first = np.unique(t_ref[order], return_index=True)
+        refs.append((t_unique, ref[order][first]))
+    sigs = _channels(t_sig_s, signal)
+    if len(refs) != len(sigs):
+        raise CanError(f"reference has {len(refs)} channels, signal {len(sigs)}")
+    if not max_lag_s > 0 or not step_s > 0:
+        return nan
+    step = max(step_s, 2.0 * max_lag_s / (MAX_LAGS - 1))
+    half = int(max_lag_s / step)
+    lags = step * np.arange(-half, half + 1)
+    corr = np.array([_pooled_correlation(refs, sigs, float(lag))[0] for lag in lags])
+    if not np.isfinite(corr).any():
+        return nan
+    best = int(np.nanargmax(corr))
+    lag = float(lags[best])
+    if 0 < best < lags.size - 1 and np.isfinite(corr[best - 1 : best + 2]).all():
+        c_m, c_0, c_p = corr[best - 1], corr[best], corr[best + 1]
+        bend = c_m - 2 * c_0 + c_p
+        if bend < 0:
+            lag += step * 0.5 * (c_m - c_p) / bend
+    peak, n = _pooled_correlation(refs, sigs, lag)
+    if not np.isfinite(peak) or peak < corr[best]:
+        peak, n = float(corr[best]), _pooled_correlation(refs, sigs, float(lags[best]))[1]
+    sides = [_pooled_correlation(refs, sigs, lag + d)[0] for d in (-resolution_s, resolution_s)]
+    drop = peak - float(np.nanmean(sides)) if np.isfinite(sides).any() else float("nan")
+    sharpness = drop / max(1.0 - peak, 1e-9)
+    return Latency(lag, peak, sharpness, n)

@@ -71,6 +71,13 @@ def simulate(
             help="Mobileye lanes on a second CAN bus (/can1/rx) with an id colliding with 0x180.",
         ),
     ] = False,
+    mobileye_latency: Annotated[
+        float,
+        typer.Option(
+            "--mobileye-latency",
+            help="Delay of the Mobileye lane messages after their camera frame, seconds (0-1).",
+        ),
+    ] = 0.1,
     list_: Annotated[bool, typer.Option("--list", help="List the scenarios and exit.")] = False,
 ) -> None:
     """Simulate one drive: `slt simulate --scenario NAME --out drive.mcap`."""
@@ -115,7 +122,12 @@ def simulate(
                 jpeg_quality=jpeg_quality,
                 video=video,
                 rtk=rtk,
-                vehicle=VehicleOptions(speed_kph=speed_kph, imu=imu, second_bus=second_bus),
+                vehicle=VehicleOptions(
+                    speed_kph=speed_kph,
+                    imu=imu,
+                    second_bus=second_bus,
+                    mobileye_latency_s=mobileye_latency,
+                ),
                 command=command_line(),
                 progress=bar.update,
             )

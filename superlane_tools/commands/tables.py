@@ -11,6 +11,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
 from superlane_tools.reporting.atomic import write_text_atomic
@@ -45,8 +46,10 @@ def _category(run_dir: Path, frame: pd.DataFrame, by: str) -> pd.Series:
 def availability_table(run_dirs: Sequence[Path], by: str = "run") -> pd.DataFrame:
     """Aggregate availability into Table II layout: one row per category (or run) plus total.
 
-    Columns: ``category``, ``#seq``, then per method ``<method> n/N`` (frame-based ratio, %) and
-    ``<method> k/K`` (sequence-based ratio, %); an unavailable method shows ``n/a``.
+    Columns: ``category``, ``#seq``, ``width at`` (the forward distance, m, at which every method
+    measured its corridor width), then per method ``<method> n/N`` (frame-based ratio, %),
+    ``<method> k/K`` (sequence-based ratio, %) and ``<method> width`` (median over the
+    sequences' median widths, m); an unavailable method shows ``n/a``.
 
     Raises:
         OutputError: If a folder is not a reprocess run.
@@ -65,16 +68,24 @@ def availability_table(run_dirs: Sequence[Path], by: str = "run") -> pd.DataFram
         sel = allseq if group == "total" else allseq[allseq["group"] == group]
         row: dict[str, object] = {"category": group}
         row["#seq"] = len(sel[sel["method"] == "super"])
+        if "width_at_m" in sel:  # runs written before the width distance was recorded lack it
+            row["width at"] = ", ".join(f"{v:g} m" for v in sorted(set(sel["width_at_m"])))
         for method, label in METHOD_NAMES.items():
             m = sel[sel["method"] == method]
             if m.empty or not m["method_available"].any():
                 row[f"{label} n/N"] = "n/a"
                 row[f"{label} k/K"] = "n/a"
+                row[f"{label} width"] = "n/a"
                 continue
             n, big_n = int(m["n_available"].sum()), int(m["n_frames"].sum())
             k = int(m["available"].fillna(False).astype(bool).sum())
             row[f"{label} n/N"] = f"{100 * n / big_n:.1f}% ({n}/{big_n})"
             row[f"{label} k/K"] = f"{100 * k / len(m):.1f}% ({k}/{len(m)})"
+            widths = (m["median_width_m"] if "median_width_m" in m else pd.Series([])).to_numpy(
+                dtype=float
+            )
+            widths = widths[np.isfinite(widths)]
+            row[f"{label} width"] = f"{np.median(widths):.2f} m" if widths.size else "n/a"
         rows.append(row)
     return pd.DataFrame(rows)
 

@@ -18,6 +18,7 @@ from superlane_tools.corridor.geometry import (
     CorridorParams,
     corridor_from_lanes,
     corridor_from_mask,
+    width_distance,
 )
 from superlane_tools.corridor.hough import (
     HoughParams,
@@ -49,5 +50,6 @@ __all__ = [
     "longest_run",
     "segments_at_times",
     "sequence_availability",
+    "width_distance",
     "windows",
 ]

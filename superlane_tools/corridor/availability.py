@@ -49,6 +49,8 @@ class AvailabilityParams:
         min_width_m: Narrowest usable corridor, metres.
         max_width_m: Widest usable corridor, metres.
         time_gap_s: The corridor must reach ``speed * time_gap_s`` ahead, seconds.
+        width_at_m: Forward distance at which every method measures the corridor width,
+            metres (at the corridor's far end when it is shorter); reported beside the width.
         max_outage_frames: A sequence stays available with outages up to this many frames.
         window_frames: Frames per sequence when the drive is cut into consecutive windows.
         frame_rate_hz: Camera frame rate, for outages in seconds.
@@ -59,6 +61,7 @@ class AvailabilityParams:
     min_width_m: float = 2.0
     max_width_m: float = 6.0
     time_gap_s: float = 0.7
+    width_at_m: float = 10.0
     max_outage_frames: int = 5
     window_frames: int = 450
     frame_rate_hz: float = 15.0

@@ -3,9 +3,11 @@
 The corridor is the drivable part of the ego lane ahead (up to the preceding vehicle). Its
 geometry feeds the availability KPI (corridor paper, section IV-B):
 
-* **width (m)**: the median, over image rows whose flat-ground forward distance lies in
-  ``[width_near_m, width_far_m]`` (default 5-15 m), of the lateral extent of the corridor on that
-  row (leftmost to rightmost corridor pixel, through the camera's inverse perspective mapping);
+* **width (m)**: the lateral extent of the corridor (leftmost to rightmost corridor pixel, through
+  the camera's inverse perspective mapping) at the forward distance ``width_at_m`` (default
+  10 m), the median over the image rows within ``width_band_m`` of it; where the corridor ends
+  nearer (length < ``width_at_m``), at its far end. Every method of the availability KPI
+  measures its width at the same distance by this rule (:func:`width_distance`);
 * **length (m)**: the forward distance of the far end of the *contiguous full-width* corridor:
   walking up the image from the nearest row, rows count while the corridor spans at least
   ``full_width_fraction`` of that width (and ``min_row_px`` pixels), and the walk stops at the first
@@ -14,11 +16,16 @@ geometry feeds the availability KPI (corridor paper, section IV-B):
   of metres on the flat ground, and on simulated drives it overstated the length by 12-15 m
   against the ground-truth gap to the preceding vehicle. (The farthest supported row, or a
   percentile of row distances, is biased long or short: rows are dense near the camera.)
+
+Distances are forward distances from the origin of the camera's vehicle frame (ISO 8855: the
+road point below the vehicle reference point; the camera foot with the default extrinsics), the
+same origin for every method's length and width distance.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import lru_cache
 from typing import NamedTuple
@@ -38,8 +45,10 @@ class CorridorParams:
 
     Attributes:
         threshold: Probability above which a pixel belongs to the corridor.
-        width_near_m: Nearest forward distance of the width window, metres.
-        width_far_m: Farthest forward distance of the width window, metres.
+        width_at_m: Forward distance at which the width is measured, metres (from the
+            vehicle-frame origin; at the corridor's far end when it is shorter).
+        width_band_m: Rows within this forward distance of ``width_at_m`` give the width (their
+            median), metres.
         min_row_px: Smallest number of corridor pixels for a row to count as support.
         full_width_fraction: A row counts towards the length while its lateral extent is at least
             this fraction of the corridor width.
@@ -47,8 +56,8 @@ class CorridorParams:
     """
 
     threshold: float = 0.5
-    width_near_m: float = 5.0
-    width_far_m: float = 15.0
+    width_at_m: float = 10.0
+    width_band_m: float = 1.0
     min_row_px: int = 3
     full_width_fraction: float = 0.8
     max_gap_rows: int = 2
@@ -111,11 +120,26 @@ def corridor_from_mask(
     if not support.any():
         return NO_CORRIDOR
     row_width = np.where(support, y_max - y_min, 0.0)
-    in_window = support & (x_row >= p.width_near_m) & (x_row <= p.width_far_m)
-    corridor_width = float(np.median(row_width[in_window])) if in_window.any() else math.nan
-    reference = corridor_width if in_window.any() else float(np.median(row_width[support]))
+    in_band = support & (np.abs(x_row - p.width_at_m) <= p.width_band_m)
+    reference = float(np.median(row_width[in_band if in_band.any() else support]))
     length = _full_width_length(x_row, row_width, support, reference, p)
-    return CorridorGeometry(corridor_width, length, int(support.sum()))
+    at = width_distance(p.width_at_m, length)
+    rows = support & (np.abs(x_row - at) <= p.width_band_m) & (x_row <= length + 1e-9)
+    if not rows.any():  # sparse rows far ahead: the supported row nearest to the distance
+        rows = np.zeros_like(support)
+        rows[np.flatnonzero(support)[np.argmin(np.abs(x_row[support] - at))]] = True
+    return CorridorGeometry(float(np.median(row_width[rows])), length, int(support.sum()))
+
+
+def width_distance(width_at_m: float, length_m: float) -> float:
+    """Return where a corridor's width is measured: ``width_at_m`` ahead, or its far end if nearer.
+
+    Args:
+        width_at_m: The configured width distance, metres ahead of the vehicle-frame origin.
+        length_m: The corridor's length from the same origin, metres (NaN: unknown, then
+            ``width_at_m``).
+    """
+    return float(min(width_at_m, length_m)) if math.isfinite(length_m) else float(width_at_m)
 
 
 def _full_width_length(
@@ -158,22 +182,43 @@ def _ground_grid(camera: CameraModel) -> tuple[FloatArray, FloatArray, NDArray[n
     return ground_x, ground_y, ok
 
 
+Line = float | Sequence[float] | None
+"""A lane boundary ``y(x) = c0 + c1 x + c2 x^2 + ...`` (metres, left positive): its coefficients
+low order first, one offset (a line parallel to ``x``), or None (missing)."""
+
+
 def corridor_from_lanes(
-    left_offset_m: float | None, right_offset_m: float | None, range_m: float | None
+    left: Line,
+    right: Line,
+    range_m: float | None,
+    width_at_m: float = 10.0,
+    x_origin_m: float = 0.0,
 ) -> CorridorGeometry:
-    """Corridor geometry from a lane fit: ego boundary offsets and view range.
+    """Corridor geometry from fitted ego boundaries: width between them, length = view range.
 
     Args:
-        left_offset_m: Lateral offset of the ego lane's left boundary, metres, left positive.
-        right_offset_m: Lateral offset of the right boundary, metres (negative when to the right).
-        range_m: Forward view range of the fitted lanes, metres.
+        left: The ego lane's left boundary.
+        right: The ego lane's right boundary.
+        range_m: Forward view range of the lines, metres from the lines' own origin.
+        width_at_m: Forward distance of the width, metres from the vehicle-frame origin (at the
+            corridor's far end when it is shorter, :func:`width_distance`).
+        x_origin_m: Forward position of the lines' origin in the vehicle frame, metres (e.g.
+            the camera foot's, for lines fitted from the camera foot).
 
     Returns:
-        Width ``left - right`` (NaN if a boundary is missing) and length ``range_m``.
+        Width ``left(x) - right(x)`` at the width distance (NaN if a boundary is missing) and
+        length ``range_m + x_origin_m``.
     """
+    length = math.nan if range_m is None else float(range_m) + x_origin_m
+    if left is None or right is None:
+        return CorridorGeometry(math.nan, length, 0)
+    x = width_distance(width_at_m, length) - x_origin_m
+    width = _polyval(left, x) - _polyval(right, x)
+    return CorridorGeometry(width, length, 0)
 
-    def _f(value: float | None) -> float:
-        return math.nan if value is None else float(value)
 
-    width = _f(left_offset_m) - _f(right_offset_m)
-    return CorridorGeometry(width, _f(range_m), 0)
+def _polyval(line: float | Sequence[float], x_m: float) -> float:
+    """Evaluate a boundary; a missing higher coefficient (NaN) counts as 0, a missing offset not."""
+    coeffs = np.atleast_1d(np.asarray(line, dtype=np.float64))
+    higher = np.nan_to_num(coeffs[1:])
+    return float(coeffs[0] + np.polynomial.polynomial.polyval(x_m, np.concatenate(([0.0], higher))))

@@ -16,7 +16,8 @@ The usual OpenCV lane-finding pipeline, made to report an ego-corridor width and
 6. fit ``u = a * v + b`` by length-weighted least squares on the group's segment end points, then
    gather every side candidate lying within ``support_tol_px`` of the line and refit once.
 
-Width (m) is the lateral gap between the two fitted lines at ``near_distance_m``.
+Width (m) is the lateral gap between the two fitted lines at ``width_at_m`` ahead (default 10 m,
+the distance every method of the availability KPI uses), or at the range when that is nearer.
 
 Range (m) is where the fitted line is still *supported*: the supporting segments are projected to
 the ground and chained from the nearest one outwards while the gap to the next is at most
@@ -44,6 +45,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from superlane_tools.camera.model import CameraModel
+from superlane_tools.corridor.geometry import width_distance
 
 FloatArray = NDArray[np.float64]
 
@@ -63,8 +65,10 @@ class HoughResult(NamedTuple):
     Attributes:
         left_line: Left boundary in the image, bottom row to its supported top, or None.
         right_line: Right boundary in the image, or None.
-        width_m: Corridor width at the near distance, metres (NaN if not measured).
-        range_m: Supported forward extent of the shorter boundary, metres (NaN if not measured).
+        width_m: Corridor width at ``width_at_m`` ahead (or at the range when nearer), metres
+            (NaN if not measured).
+        range_m: Supported forward extent of the shorter boundary, metres from the vehicle-frame
+            origin (NaN if not measured).
         ok: True when both boundaries were found and form a plausible lane.
         reason: Why not ok (``""`` when ok).
     """
@@ -98,8 +102,9 @@ class HoughParams:
         vanishing_tolerance: A candidate must cross the horizon row within this fraction of the
             image width from the principal column; the two boundaries must meet within this
             fraction of the image height from the horizon row.
-        near_distance_m: Forward distance (m) at which candidates are grouped and the width is
-            measured.
+        near_distance_m: Forward distance (m) at which candidates are grouped.
+        width_at_m: Forward distance (m) at which the width is measured (at the range when that
+            is nearer), from the vehicle-frame origin.
         cluster_m: Candidates within this lateral distance (m) at ``near_distance_m`` form a group.
         min_offset_m: Nearest lateral offset (m) of an ego boundary from the camera; keeps the
             near-vertical side edges of a preceding vehicle out.
@@ -121,6 +126,7 @@ class HoughParams:
     min_abs_slope: float = 0.3
     vanishing_tolerance: float = 0.15
     near_distance_m: float = 10.0
+    width_at_m: float = 10.0
     cluster_m: float = 0.5
     min_offset_m: float = 0.8
     max_offset_m: float = 3.5
@@ -330,13 +336,13 @@ def measure(
         if left is None and right is None:
             missing = "no boundaries"
         return HoughResult(left_seg, right_seg, math.nan, math.nan, False, missing)
-    v_near = _row_at_distance(cam, p.near_distance_m)
-    uv = np.array([[left.a * v_near + left.b, v_near], [right.a * v_near + right.b, v_near]])
+    reach = min(left.range_m, right.range_m)
+    v_at = _row_at_distance(cam, width_distance(p.width_at_m, reach))
+    uv = np.array([[left.a * v_at + left.b, v_at], [right.a * v_at + right.b, v_at]])
     xy, valid = cam.ground_points(uv)
     if not valid.all():
         return HoughResult(left_seg, right_seg, math.nan, math.nan, False, "above the horizon")
     width = float(xy[0, 1] - xy[1, 1])
-    reach = min(left.range_m, right.range_m)
     if not width > 0:
         return HoughResult(left_seg, right_seg, width, reach, False, "boundaries cross")
     if left.a != right.a:

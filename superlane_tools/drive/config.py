@@ -141,6 +141,9 @@ class KpiConfig:
         min_width_m: Narrowest usable corridor, metres.
         max_width_m: Widest usable corridor, metres.
         time_gap_s: The corridor must reach ``speed * time_gap_s`` ahead, seconds.
+        width_at_m: Every method's corridor width is measured this far ahead, metres (at the
+            corridor's far end when it is shorter); widths and lengths are measured from the
+            origin of the camera's vehicle frame (the camera foot with default extrinsics).
         max_outage_frames: Outage limit in frames, used only when ``max_outage_s`` is 0.
         max_outage_s: A sequence stays available with outages up to this long, seconds
             (default the paper's 5 frames at 15 Hz); dropped frames count as outage.
@@ -153,6 +156,7 @@ class KpiConfig:
     min_width_m: float = 2.0
     max_width_m: float = 6.0
     time_gap_s: float = 0.7
+    width_at_m: float = 10.0
     max_outage_frames: int = 5
     max_outage_s: float = 5.0 / 15.0
     window_s: float = 30.0
@@ -253,6 +257,8 @@ class ReprocessConfig:
             raise ConfigError("process_width must be >= 0 and workers >= 1")
         if self.corridor.mean_frames < 1 or self.kpi.window_s <= 0:
             raise ConfigError("corridor.mean_frames must be >= 1 and kpi.window_s > 0")
+        if not self.kpi.width_at_m > 0:
+            raise ConfigError(f"kpi.width_at_m must be > 0 m, got {self.kpi.width_at_m}")
         from superlane_tools.lanes import FitParams
 
         FitParams.from_dict(dict(self.fit))

@@ -70,6 +70,8 @@ class FitSeries:
         lookahead_m: Where the fit's 2*a2 measures the road (its effective look-ahead), m.
         near_m: Near end of that range, m.
         far_m: Far end of that range, m.
+        left_m: Ego left line's lateral offset at ``x = 0`` (camera foot), m, left positive.
+        right_m: Ego right line's lateral offset at ``x = 0``, m.
         trackable: Whether the lane tracker may use the fit.
         cov: ``(n, 3, 3)`` covariance of ``(a1, a2, b)`` (NaN without a fit).
     """
@@ -82,6 +84,8 @@ class FitSeries:
     lookahead_m: FloatArray
     near_m: FloatArray
     far_m: FloatArray
+    left_m: FloatArray
+    right_m: FloatArray
     trackable: NDArray[np.bool_]
     cov: FloatArray
 
@@ -143,6 +147,8 @@ def no_camera_frames(t_ns: np.ndarray) -> DriveFrames:
             lookahead_m=nan,
             near_m=nan,
             far_m=nan,
+            left_m=nan,
+            right_m=nan,
             trackable=np.zeros(n, dtype=bool),
             cov=np.full((n, 3, 3), np.nan),
         ),
@@ -214,6 +220,8 @@ _COLUMNS = (
     "ahead",
     "near",
     "far",
+    "left",
+    "right",
 )
 
 
@@ -275,6 +283,7 @@ class DriveRecorder:
         hough_ok = h is not None and h.ok
         centre, width, ahead = fit.lane_grid()
         near, far = fit.ego_support_m()
+        ego = fit.ego_lines()
         self._t.append(prep.log_time_ns)
         self._decoded.append(not prep.error)
         self._trackable.append(fit.trackable(self._max_slope))
@@ -294,6 +303,8 @@ class DriveRecorder:
                 ahead,
                 near,
                 far,
+                ego[0].offset_m if ego else math.nan,
+                ego[1].offset_m if ego else math.nan,
             )
         )
         cov = fit.shared_cov if fit.ok else None
@@ -340,6 +351,8 @@ class DriveRecorder:
                 lookahead_m=col["ahead"],
                 near_m=col["near"],
                 far_m=col["far"],
+                left_m=col["left"],
+                right_m=col["right"],
                 trackable=np.asarray(self._trackable, dtype=bool),
                 cov=cov,
             ),

@@ -20,6 +20,7 @@ from superlane_tools.camera.model import CameraModel
 from superlane_tools.corridor import (
     CorridorGeometry,
     CorridorParams,
+    HoughParams,
     HoughResult,
     corridor_from_lanes,
     corridor_from_mask,
@@ -145,7 +146,9 @@ class FrameStages:
         self._sequence = SequentialFit(
             self.fit_params, self.max_slope, config.tracking.gate_warm_start
         )
-        self._corridor_params = CorridorParams(threshold=config.corridor.threshold)
+        at = config.kpi.width_at_m
+        self._corridor_params = CorridorParams(threshold=config.corridor.threshold, width_at_m=at)
+        self._hough_params = HoughParams(width_at_m=at)
 
     def _segmentation_backend(self) -> tuple[str, Any]:
         seg = self.config.segmentation
@@ -245,7 +248,7 @@ class FrameStages:
         if self._corridor is not None:
             out.corridor_prob = self._corridor.probability_at_input(image)
         clock.lap("corridor_net")
-        out.hough = detect_ego_lane(image, cam)
+        out.hough = detect_ego_lane(image, cam, self._hough_params)
         clock.lap("hough")
         return out
 
@@ -275,7 +278,11 @@ class FrameStages:
             else None
         )
         super_corr = corridor_from_lanes(
-            left.offset_m if left else None, right.offset_m if right else None, reach
+            (left.offset_m, left.a1, left.a2) if left else None,
+            (right.offset_m, right.a1, right.a2) if right else None,
+            reach,
+            self.config.kpi.width_at_m,
+            cam.extrinsics.x_m,  # the fit's lines start at the camera foot
         )
         clock.lap("lane_fit")
         mask = None

@@ -102,6 +102,9 @@ def availability_tables(
 
     Returns:
         The long per-frame table, the per-sequence table, and the per-method frame results.
+        Every method's width is measured at ``params.width_at_m`` ahead (at the corridor's far
+        end when it is shorter: the per-frame ``width_at_m``), and widths and lengths are
+        measured from one origin, the camera's vehicle frame (the camera foot by default).
     """
     frame_parts = []
     seq_rows = []
@@ -121,6 +124,9 @@ def availability_tables(
                     "log_time_ns": t_ns,
                     "method": method,
                     "width_m": width,
+                    "width_at_m": np.where(
+                        np.isfinite(width), np.fmin(params.width_at_m, length), np.nan
+                    ),
                     "length_m": length,
                     "speed_mps": speed_mps,
                     "required_length_m": np.abs(speed_mps) * params.time_gap_s,
@@ -139,6 +145,9 @@ def availability_tables(
                 sequence=k,
                 start_ns=int(t_ns[seq.start]),
                 method_available=method not in unavailable,
+                width_at_m=params.width_at_m,
+                median_width_m=_nanmedian(width[seq.start : seq.stop]),
+                median_length_m=_nanmedian(length[seq.start : seq.stop]),
             )
             seq_rows.append(row)
     frames = pd.concat(frame_parts, ignore_index=True)
@@ -146,6 +155,11 @@ def availability_tables(
     if not seqs.empty:
         seqs["available"] = seqs["available"].astype("boolean")
     return frames, seqs, results
+
+
+def _nanmedian(values: FloatArray) -> float:
+    finite = values[np.isfinite(values)]
+    return float(np.median(finite)) if finite.size else float("nan")
 
 
 CURVATURE_SOURCES = (

@@ -224,7 +224,8 @@ def simulate_drive(
     n_frames = max(1, round(duration_s * fps))
     frame_seeds = rng["render"].integers(0, 2**31, n_frames)
     quality = jpeg_quality if jpeg_quality is not None else spec.conditions.jpeg_quality
-    me_params = MobileyeParams(quality=spec.lane_quality)
+    vehicle = vehicle or VehicleOptions()
+    me_params = MobileyeParams(quality=spec.lane_quality, latency_s=vehicle.mobileye_latency_s)
     rows = h_samples(height)
 
     # timed non-camera events: (t_ns, seq, topic, message factory args)
@@ -239,7 +240,6 @@ def simulate_drive(
     q = camera_quaternion_xyzw(camera)
     pos = camera.extrinsics.position
     push(start_ns, TOPIC_TF, ("tf", tuple(float(v) for v in pos), q))
-    vehicle = vehicle or VehicleOptions()
     for c in vehicle_can(world, start_ns, rng["sensors"], speed_kph=vehicle.speed_kph):
         push(c.log_time_ns, TOPIC_CAN, ("can", c.can_id, c.data))
     if vehicle.second_bus:

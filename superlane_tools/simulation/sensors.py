@@ -205,11 +205,18 @@ class VehicleOptions:
         imu: Also write a ``sensor_msgs/Imu`` topic (gyro z = yaw rate, with its own bias).
         second_bus: Put the Mobileye lanes on a second CAN bus, together with a camera
             heartbeat whose id (0x180) collides with the vehicle bus's speed message.
+        mobileye_latency_s: Delay of the Mobileye lane messages after their camera frame,
+            seconds (0-1).
     """
 
     speed_kph: bool = False
     imu: bool = False
     second_bus: bool = False
+    mobileye_latency_s: float = 0.1
+
+    def __post_init__(self) -> None:
+        if not 0.0 <= self.mobileye_latency_s <= 1.0:
+            raise ScenarioError(f"Mobileye latency must be 0-1 s, got {self.mobileye_latency_s} s")
 
 
 HEARTBEAT_ID = 0x180

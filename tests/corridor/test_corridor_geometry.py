@@ -11,7 +11,13 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from superlane_tools.camera.profiles import load_camera
-from superlane_tools.corridor import CorridorError, corridor_from_lanes, corridor_from_mask
+from superlane_tools.corridor import (
+    CorridorError,
+    CorridorParams,
+    corridor_from_lanes,
+    corridor_from_mask,
+    width_distance,
+)
 
 
 def _corridor_mask(half_width_m: float, length_m: float, scale: float = 1.0) -> np.ndarray:
@@ -98,3 +104,46 @@ def test_length_bridges_short_holes_but_not_long_ones() -> None:
     cut = base.copy()
     cut[v_hole - 10 : v_hole + 2] = 0  # a long cut: the corridor ends before it
     assert corridor_from_mask(cut, cam).length_m < 21.0
+
+
+def _widening_mask(cam: object, far_m: float) -> np.ndarray:
+    """A corridor 3.0 m wide at 5 m widening linearly to 4.0 m at 15 m (and on), up to far_m."""
+    xs = np.linspace(3.0, far_m, 120)
+    half = 0.5 * np.clip(3.0 + 0.1 * (xs - 5.0), 2.8, 4.0)
+    pts = [(x, h) for x, h in zip(xs, half, strict=True)]
+    pts += [(x, -h) for x, h in zip(xs[::-1], half[::-1], strict=True)]
+    mask = np.zeros((cam.height, cam.width), dtype=np.uint8)  # type: ignore[attr-defined]
+    cv2.fillPoly(mask, [_project_polygon(cam, pts)], 1)
+    return mask
+
+
+@pytest.mark.parametrize(("at_m", "want_m"), [(10.0, 3.5), (7.0, 3.2), (13.0, 3.8)])
+def test_mask_width_is_measured_at_the_configured_distance(at_m: float, want_m: float) -> None:
+    cam = load_camera("sim_default")
+    geo = corridor_from_mask(_widening_mask(cam, 40.0), cam, CorridorParams(width_at_m=at_m))
+    assert geo.width_m == pytest.approx(want_m, abs=0.08)
+
+
+def test_a_shorter_corridor_is_measured_at_its_end() -> None:
+    cam = load_camera("sim_default")
+    geo = corridor_from_mask(_widening_mask(cam, 8.0), cam)  # a leader 8 m ahead
+    assert geo.length_m < 10.0
+    want = 3.0 + 0.1 * (width_distance(10.0, geo.length_m) - 5.0)
+    assert geo.width_m == pytest.approx(want, abs=0.1)
+
+
+def test_lane_width_at_a_distance_from_curved_lines_and_a_shifted_origin() -> None:
+    # Lines diverging with heading and curvature: 3.5 m apart at the lines' origin,
+    # 3.5 + 0.02 x + 0.001 x^2 at x ahead of it.
+    left, right = (1.75, 0.01, 1e-3), (-1.75, -0.01, 0.0)
+    geo = corridor_from_lanes(left, right, 50.0, width_at_m=10.0)
+    assert geo.width_m == pytest.approx(3.5 + 0.2 + 0.1)
+    assert geo.length_m == 50.0
+    # Lines fitted from a camera 2 m ahead of the vehicle origin: 10 m ahead of the origin is
+    # 8 m ahead of the lines' origin, and the length counts from the vehicle origin too.
+    geo = corridor_from_lanes(left, right, 50.0, width_at_m=10.0, x_origin_m=2.0)
+    assert geo.width_m == pytest.approx(3.5 + 0.16 + 0.064)
+    assert geo.length_m == 52.0
+    # Lines seen only 6 m ahead: the width is taken where they end.
+    assert corridor_from_lanes(left, right, 6.0).width_m == pytest.approx(3.5 + 0.12 + 0.036)
+    assert math.isnan(corridor_from_lanes(left, None, 50.0).width_m)

@@ -83,16 +83,20 @@ def _per_pixel_reference(prob: np.ndarray, camera: object, p: CorridorParams) ->
     if not support.any():
         return math.nan, math.nan, 0
     row_width = np.where(support, y_max - y_min, 0.0)
-    win = support & (x_row >= p.width_near_m) & (x_row <= p.width_far_m)
-    width = float(np.median(row_width[win])) if win.any() else math.nan
-    ref = width if win.any() else float(np.median(row_width[support]))
+    band = support & (np.abs(x_row - p.width_at_m) <= p.width_band_m)
+    ref = float(np.median(row_width[band if band.any() else support]))
     full = np.flatnonzero(support & (row_width >= p.full_width_fraction * ref))[::-1]
     if full.size == 0:
         length = float(x_row[np.flatnonzero(support)[-1]])
     else:
         cut = np.flatnonzero(full[:-1] - full[1:] > p.max_gap_rows + 1)
         length = float(x_row[full[cut[0]] if cut.size else full[-1]])
-    return width, length, int(support.sum())
+    at = min(p.width_at_m, length)
+    rows = np.flatnonzero(support & (np.abs(x_row - at) <= p.width_band_m) & (x_row <= length))
+    if rows.size == 0:
+        sup = np.flatnonzero(support)
+        rows = sup[np.argmin(np.abs(x_row[sup] - at))][None]
+    return float(np.median(row_width[rows])), length, int(support.sum())
 
 
 @pytest.mark.parametrize("profile", ["kitti", "sim_default"])
