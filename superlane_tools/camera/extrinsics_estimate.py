@@ -30,6 +30,7 @@ from numpy.typing import NDArray
 
 from superlane_tools.camera.errors import CameraError
 from superlane_tools.camera.model import CameraModel, Extrinsics, Intrinsics
+from superlane_tools.errors import UsageError
 
 FloatArray = NDArray[np.float64]
 DASHCAM_HFOV_DEG = 60.0
@@ -342,4 +343,44 @@ def estimate_extrinsics(
         lane_width_m,
         roll_sigma,
         roll_method,
+    )
+
+
+def frame_intrinsics(
+    width: int,
+    height: int,
+    intrinsics: Intrinsics | None,
+    focal_px: float | None,
+    hfov_deg: float | None,
+) -> tuple[Intrinsics, str]:
+    """Return the intrinsics for frames of ``width`` x ``height`` and where they came from.
+
+    At most one of ``intrinsics`` (scaled to the frames), ``focal_px`` and ``hfov_deg`` is
+    given; with none, :data:`DASHCAM_HFOV_DEG` is assumed. The principal point of a focal
+    length or field of view is the image centre.
+
+    Raises:
+        UsageError: For a focal length that is not positive.
+    """
+    if intrinsics is not None:
+        k = intrinsics
+        if (k.width, k.height) != (width, height):
+            k = k.scaled(width, height)
+        return k, "given intrinsics"
+    if focal_px is not None:
+        if focal_px <= 0:
+            raise UsageError(f"--focal-px must be positive, got {focal_px}")
+        return (
+            Intrinsics(width, height, focal_px, focal_px, (width - 1) / 2.0, (height - 1) / 2.0),
+            f"focal length {focal_px:g} px, principal point at the image centre",
+        )
+    hfov = hfov_deg if hfov_deg is not None else DASHCAM_HFOV_DEG
+    what = (
+        "given"
+        if hfov_deg is not None
+        else "ASSUMED (typical dashcam; pass --hfov or --intrinsics)"
+    )
+    return (
+        intrinsics_from_hfov(width, height, hfov),
+        f"horizontal field of view {hfov:g} deg {what}, principal point at the centre",
     )

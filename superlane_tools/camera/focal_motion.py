@@ -17,11 +17,12 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
-from superlane_tools.camera.extrinsics_estimate import FrameLines
+from superlane_tools.camera.extrinsics_estimate import FrameLines, frame_lines
 from superlane_tools.camera.model import Extrinsics, Intrinsics
 
 FloatArray = NDArray[np.float64]
@@ -145,3 +146,71 @@ def focal_from_motion(
     if mean < MIN_MEAN_CORRELATION or best in (0, focals.size - 1):
         return None
     return FocalEstimate(float(focals[best]), len(used), mean)
+
+
+class SampledLines(NamedTuple):
+    """A segmented frame: its index, log time and lane-marking pixels ``(u, v)``."""
+
+    frame: int
+    log_time_ns: int | None
+    uv: NDArray[np.float64]
+
+
+Track = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
+"""A GNSS track: log time ns, east m, north m."""
+
+
+def too_far(track: Track | None, t0: int | None, t1: int | None) -> bool:
+    """Return True when the GNSS track puts two frame times too far apart to follow a dash."""
+    if track is None or t0 is None or t1 is None:
+        return True
+    times, east, north = track
+    t = np.asarray([t0, t1], dtype=np.float64)
+    de = np.diff(np.interp(t, times, east))[0]
+    dn = np.diff(np.interp(t, times, north))[0]
+    return bool(np.hypot(de, dn) > MAX_DISTANCE_M)
+
+
+def focal_from_frame_pairs(
+    sampled: list[SampledLines],
+    lines: list[FrameLines | None],
+    successors: dict[int, SampledLines],
+    track: Track,
+    k: Intrinsics,
+    extrinsics: Extrinsics,
+) -> FocalEstimate | str:
+    """Return the focal length from the dashes' motion, or why it could not be measured."""
+    times, east, north = track
+    pairs = []
+    for item, fl in zip(sampled, lines, strict=True):
+        nxt = successors.get(item.frame)
+        if fl is None or nxt is None or item.log_time_ns is None or nxt.log_time_ns is None:
+            continue
+        fl2 = frame_lines(nxt.uv, k, seed=nxt.frame)
+        if fl2 is None:
+            continue
+        t = np.asarray([item.log_time_ns, nxt.log_time_ns], dtype=np.float64)
+        if t[0] < times[0] or t[1] > times[-1]:
+            continue
+        de, dn = np.diff(np.interp(t, times, east))[0], np.diff(np.interp(t, times, north))[0]
+        d = float(np.hypot(de, dn))
+        pairs.append(
+            (
+                dash_profiles(item.uv, fl, k, extrinsics),
+                dash_profiles(nxt.uv, fl2, k, extrinsics),
+                d,
+            )
+        )
+    if not pairs:
+        return "no consecutive frames with both ego lines inside the GNSS track"
+    moved = [d for _, _, d in pairs if MIN_DISTANCE_M <= d <= MAX_DISTANCE_M]
+    if not moved:
+        median = float(np.median([d for _, _, d in pairs]))
+        return (
+            f"consecutive frames {median:.1f} m apart; needs {MIN_DISTANCE_M:g}-"
+            f"{MAX_DISTANCE_M:g} m (a higher frame rate or a slower drive)"
+        )
+    found = focal_from_motion(pairs, extrinsics, k.width, k.height)
+    if found is None:
+        return f"{len(pairs)} frame pairs, no clear dash pattern alignment"
+    return found

@@ -6,27 +6,23 @@ import math
 from dataclasses import dataclass, replace
 from itertools import pairwise
 from pathlib import Path
-from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
 from superlane_tools.camera.extrinsics_estimate import (
-    DASHCAM_HFOV_DEG,
     ExtrinsicsEstimate,
-    FrameLines,
     estimate_extrinsics,
+    frame_intrinsics,
     frame_lines,
-    intrinsics_from_hfov,
 )
 from superlane_tools.camera.focal_motion import (
     MAX_DISTANCE_M,
-    MIN_DISTANCE_M,
-    FocalEstimate,
-    dash_profiles,
-    focal_from_motion,
+    SampledLines,
+    focal_from_frame_pairs,
+    too_far,
 )
-from superlane_tools.camera.model import CameraModel, Extrinsics, Intrinsics
+from superlane_tools.camera.model import CameraModel, Intrinsics
 from superlane_tools.errors import UsageError
 from superlane_tools.hierarchy import LEAF_IDS
 from superlane_tools.lanes import CODE_OF
@@ -93,6 +89,7 @@ def estimate_camera(
         UsageError: For contradictory intrinsics options.
         CameraError: If too few frames show both ego lines.
     """
+    from superlane_tools.recording.gnss_track import gnss_track
     from superlane_tools.scene.onnx_backend import OnnxSegmentationBackend
     from superlane_tools.scene.recording_frames import RecordingFrames
 
@@ -103,10 +100,10 @@ def estimate_camera(
     # with nothing known about the lens, each sampled frame's successor is segmented too: the
     # dashes' motion between the two measures the focal length (given a GNSS track)
     lens_known = intrinsics is not None or focal_px is not None or hfov_deg is not None
-    track = None if lens_known else _gnss_track(recording)
+    track = None if lens_known else gnss_track(recording)
     backend = OnnxSegmentationBackend(threads=1)
-    sampled: list[_Sampled] = []
-    successors: dict[int, _Sampled] = {}
+    sampled: list[SampledLines] = []
+    successors: dict[int, SampledLines] = {}
     used_k: Intrinsics | None = None
     source = ""
     previous_time: int | None = None
@@ -119,16 +116,16 @@ def estimate_camera(
             previous_time = frame.log_time_ns
         if offset and not (want_pairs and offset == 1 and step > 1):
             continue
-        if offset and _too_far(track, previous_time, frame.log_time_ns):
+        if offset and too_far(track, previous_time, frame.log_time_ns):
             want_pairs = bool(successors)  # at a low frame rate, stop segmenting twice
             continue
         height, width = frame.image.shape[:2]
         if used_k is None:
-            used_k, source = _intrinsics(width, height, intrinsics, focal_px, hfov_deg)
+            used_k, source = frame_intrinsics(width, height, intrinsics, focal_px, hfov_deg)
         labels = backend.segment(frame.image)
         rows, cols = np.nonzero(_LANE_LUT[labels])
         uv = np.stack([cols, rows], axis=1).astype(np.float64)
-        item = _Sampled(index, frame.log_time_ns, uv)
+        item = SampledLines(index, frame.log_time_ns, uv)
         if offset:
             successors[index - 1] = item
         else:
@@ -141,7 +138,7 @@ def estimate_camera(
         if step == 1:  # every frame is sampled: each one's successor is the next sampled one
             successors = {a.frame: b for a, b in pairwise(sampled) if b.frame == a.frame + 1}
         focal = (
-            _measure_focal(sampled, lines, successors, track, used_k, est.extrinsics)
+            focal_from_frame_pairs(sampled, lines, successors, track, used_k, est.extrinsics)
             if want_pairs
             else f"consecutive frames more than {MAX_DISTANCE_M:g} m apart; a higher frame rate "
             "or a slower drive is needed"
@@ -161,123 +158,3 @@ def estimate_camera(
     elif not lens_known:
         source += "; focal length not measurable from motion (no GNSS track)"
     return CameraEstimate(CameraModel(used_k, est.extrinsics, name=name), est, source)
-
-
-class _Sampled(NamedTuple):
-    frame: int
-    log_time_ns: int | None
-    uv: NDArray[np.float64]
-
-
-_Track = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
-
-
-def _gnss_track(recording: Path) -> _Track | None:
-    """Return ``(log time ns, east m, north m)`` of the recording's first GNSS topic, or None."""
-    from superlane_tools.geo.enu import geodetic_to_enu, valid_fixes
-    from superlane_tools.recording import open_recording
-    from superlane_tools.recording.streams import GNSS_TYPES
-
-    with open_recording(recording) as rec:
-        topics = sorted(t.topic for t in rec.topics() if t.msgtype in GNSS_TYPES)
-        if not topics:
-            return None
-        rows = [
-            (m.log_time_ns, m.data.latitude, m.data.longitude, m.data.altitude)
-            for m in rec.messages(topics=topics[:1])
-        ]
-    if len(rows) < 2:
-        return None
-    arr = np.asarray(rows, dtype=np.float64)
-    ok = valid_fixes(arr[:, 1], arr[:, 2], arr[:, 3])
-    if ok.sum() < 2:
-        return None
-    enu = geodetic_to_enu(arr[ok, 1], arr[ok, 2], arr[ok, 3])
-    return arr[ok, 0], enu.east_m, enu.north_m
-
-
-def _too_far(track: _Track | None, t0: int | None, t1: int | None) -> bool:
-    """Return True when the GNSS track puts two frame times too far apart to follow a dash."""
-    if track is None or t0 is None or t1 is None:
-        return True
-    times, east, north = track
-    t = np.asarray([t0, t1], dtype=np.float64)
-    de = np.diff(np.interp(t, times, east))[0]
-    dn = np.diff(np.interp(t, times, north))[0]
-    return bool(np.hypot(de, dn) > MAX_DISTANCE_M)
-
-
-def _measure_focal(
-    sampled: list[_Sampled],
-    lines: list[FrameLines | None],
-    successors: dict[int, _Sampled],
-    track: _Track,
-    k: Intrinsics,
-    extrinsics: Extrinsics,
-) -> FocalEstimate | str:
-    """Return the focal length from the dashes' motion, or why it could not be measured."""
-    times, east, north = track
-    pairs = []
-    for item, fl in zip(sampled, lines, strict=True):
-        nxt = successors.get(item.frame)
-        if fl is None or nxt is None or item.log_time_ns is None or nxt.log_time_ns is None:
-            continue
-        fl2 = frame_lines(nxt.uv, k, seed=nxt.frame)
-        if fl2 is None:
-            continue
-        t = np.asarray([item.log_time_ns, nxt.log_time_ns], dtype=np.float64)
-        if t[0] < times[0] or t[1] > times[-1]:
-            continue
-        de, dn = np.diff(np.interp(t, times, east))[0], np.diff(np.interp(t, times, north))[0]
-        d = float(np.hypot(de, dn))
-        pairs.append(
-            (
-                dash_profiles(item.uv, fl, k, extrinsics),
-                dash_profiles(nxt.uv, fl2, k, extrinsics),
-                d,
-            )
-        )
-    if not pairs:
-        return "no consecutive frames with both ego lines inside the GNSS track"
-    moved = [d for _, _, d in pairs if MIN_DISTANCE_M <= d <= MAX_DISTANCE_M]
-    if not moved:
-        median = float(np.median([d for _, _, d in pairs]))
-        return (
-            f"consecutive frames {median:.1f} m apart; needs {MIN_DISTANCE_M:g}-"
-            f"{MAX_DISTANCE_M:g} m (a higher frame rate or a slower drive)"
-        )
-    found = focal_from_motion(pairs, extrinsics, k.width, k.height)
-    if found is None:
-        return f"{len(pairs)} frame pairs, no clear dash pattern alignment"
-    return found
-
-
-def _intrinsics(
-    width: int,
-    height: int,
-    intrinsics: Intrinsics | None,
-    focal_px: float | None,
-    hfov_deg: float | None,
-) -> tuple[Intrinsics, str]:
-    if intrinsics is not None:
-        k = intrinsics
-        if (k.width, k.height) != (width, height):
-            k = k.scaled(width, height)
-        return k, "given intrinsics"
-    if focal_px is not None:
-        if focal_px <= 0:
-            raise UsageError(f"--focal-px must be positive, got {focal_px}")
-        return (
-            Intrinsics(width, height, focal_px, focal_px, (width - 1) / 2.0, (height - 1) / 2.0),
-            f"focal length {focal_px:g} px, principal point at the image centre",
-        )
-    hfov = hfov_deg if hfov_deg is not None else DASHCAM_HFOV_DEG
-    what = (
-        "given"
-        if hfov_deg is not None
-        else "ASSUMED (typical dashcam; pass --hfov or --intrinsics)"
-    )
-    return (
-        intrinsics_from_hfov(width, height, hfov),
-        f"horizontal field of view {hfov:g} deg {what}, principal point at the centre",
-    )
