@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import os
-from typing import Any, NamedTuple
-
-from numpy.typing import NDArray
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 from superlane_tools.errors import ConfigError
 from superlane_tools.lanes.attributes import CODE_OF
 from superlane_tools.lanes.points import ClassLookup, LabelPoints, label_points
+
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
 
 
 class ClassMap(NamedTuple):

@@ -4,14 +4,16 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-
-import pandas as pd
+from typing import TYPE_CHECKING
 
 from superlane_tools.drive.config import ReprocessConfig
 from superlane_tools.drive.finalize import DriveTables, ReportFacts, report_sections
 from superlane_tools.reporting import Provenance, write_table
 from superlane_tools.reporting.plots import ExampleFrame
 from superlane_tools.reporting.report import write_report
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 STREAMED_FILES = {
     "frames": "frames.parquet",
