@@ -458,10 +458,11 @@ def assign_points(
     n = iq.size
     x_out = np.empty(n)
     res_out = np.empty(n)
-    labels = np.full(n, -1, dtype=np.intp)
+    labels = np.empty(n, dtype=np.intp)  # not np.full: one allocator less to compile
     c = b * inv_h
     c_h = cv * inv_h
     for i in range(n):
+        labels[i] = -1
         den = road_den(iq[i], c, c_h)
         if den < min_den:
             x_out[i] = np.nan
@@ -519,8 +520,9 @@ def line_sums(x: Any, res: Any, labels: Any, offsets: Any, near_m: float) -> tup
 def reassign(x: Any, res: Any, lines: Any, radius_m: float, radius_per_m: float) -> Any:
     """Assign each point to the nearest corrected line ``(offset, c0, c1, c2)`` within radius."""
     n = x.size
-    labels = np.full(n, -1, dtype=np.intp)
+    labels = np.empty(n, dtype=np.intp)
     for i in range(n):
+        labels[i] = -1
         xi = x[i]
         if not math.isfinite(xi):
             continue
@@ -537,8 +539,12 @@ def reassign(x: Any, res: Any, lines: Any, radius_m: float, radius_per_m: float)
 
 @_jit
 def row_coverage(rows_px: Any, labels: Any, n_lines: int) -> Any:
-    """Return per line ``[distinct image rows, first row, last row]`` of its points (pixels)."""
-    out = np.zeros((n_lines, 3), dtype=np.int64)
+    """Return per line ``[distinct image rows, first row, last row]`` of its points (pixels).
+
+    Whole numbers in a float array: float allocations only, which the other kernels compile
+    anyway (each distinct allocator costs a fraction of a second on the first run).
+    """
+    out = np.zeros((n_lines, 3))
     if rows_px.size == 0 or n_lines == 0:
         return out
     low = high = rows_px[0]  # finite pixel rows; a loop, not .min()/.max() (compile time)
@@ -547,7 +553,8 @@ def row_coverage(rows_px: Any, labels: Any, n_lines: int) -> Any:
         high = max(high, rows_px[i])
     lo = int(np.rint(low))
     hi = int(np.rint(high))
-    seen = np.zeros((n_lines, hi - lo + 1), dtype=np.bool_)
+    span = hi - lo + 1
+    seen = np.zeros(n_lines * span)
     for n in range(n_lines):
         out[n, 1] = hi + 1
         out[n, 2] = lo - 1
@@ -556,8 +563,8 @@ def row_coverage(rows_px: Any, labels: Any, n_lines: int) -> Any:
         if n < 0:
             continue
         row = int(np.rint(rows_px[i]))
-        if not seen[n, row - lo]:
-            seen[n, row - lo] = True
+        if seen[n * span + row - lo] == 0.0:
+            seen[n * span + row - lo] = 1.0
             out[n, 0] += 1
             out[n, 1] = min(out[n, 1], row)
             out[n, 2] = max(out[n, 2], row)
@@ -781,11 +788,13 @@ def local_corrections(sums_x: Any, sums_r: Any, order: int, bound_m: float) -> A
             continue
         span = x_max - x_min
         k = 0 if span < 5.0 else (1 if span < 15.0 or order == 1 else 2)
-        normal = np.empty((k + 1, k + 1))
+        normal = np.zeros((k + 1, k + 1))
+        rhs = np.zeros(k + 1)
         for i in range(k + 1):
+            rhs[i] = sums_r[n, i]
             for j in range(k + 1):
                 normal[i, j] = sums_x[n, i + j]
-        coef = solve_ridged(normal, sums_r[n, : k + 1].copy())
+        coef = solve_ridged(normal, rhs)
         worst = 0.0
         for g in range(16):
             x = x_min + (x_max - x_min) * g / 15.0

@@ -288,7 +288,17 @@ def _road_only(
 
 
 _WARM_BACKENDS: set[str] = set()
+_READY_BACKENDS: set[str] = set()
 _WARM_LOCK = threading.RLock()  # re-entered by the warm-up's own fit_frame call
+
+
+def kernels_ready(backend: str = "numba") -> bool:
+    """Return whether :func:`fit_frame` can run on ``backend`` now, without loading kernels.
+
+    True for the numpy reference and once :func:`warm_up` has finished (on any thread); a
+    pipeline asks this to keep its other stages busy instead of waiting on a compilation.
+    """
+    return backend != "numba" or backend in _READY_BACKENDS
 
 
 def warm_up(backend: str = "numba") -> float:
@@ -315,6 +325,7 @@ def warm_up(backend: str = "numba") -> float:
             for off in (-5.25, -1.75, 1.75, 5.25)
         ]
         fit_frame(np.concatenate(lines), None, cam, FitParams(backend=backend))  # type: ignore[arg-type]
+        _READY_BACKENDS.add(backend)
         return time.perf_counter() - t0
 
 

@@ -30,6 +30,7 @@ from superlane_tools.commands.reprocess.record import DriveRecorder
 from superlane_tools.commands.reprocess.signals import ImuSamples
 from superlane_tools.commands.reprocess.stages import FrameStages, Prepared
 from superlane_tools.corridor import Segment, TimeSegment, segments_at_times, windows
+from superlane_tools.lanes.multilane_fit import kernels_ready
 from superlane_tools.recording.calibration import resolve_camera
 from superlane_tools.recording.open import open_recording
 from superlane_tools.recording.streams import select_one_each
@@ -186,7 +187,7 @@ def reprocess(
                 if msg.topic == streams.frames:
                     pending.append(pool.submit(stages.prepare, index, msg))
                     index += 1
-                    while len(pending) > 2 * cfg.workers:
+                    while len(pending) > _look_ahead(cfg.workers, stages.fit_params.backend):
                         handle(pending.popleft().result())
                 elif msg.topic in can_topics:
                     can.add(msg)
@@ -247,6 +248,21 @@ def reprocess(
         notes=tuple(notes),
         frames_per_s=n / timings["total"] if timings["total"] > 0 else 0.0,
     )
+
+
+WARM_UP_LOOK_AHEAD = 128
+"""Frames the image stages may run ahead of the fit while its kernels load or compile.
+
+The first run after an install compiles the lane fit's kernels (seconds, on a side thread);
+the fit is sequential, so without this the pool would idle behind the first frame's fit. Each
+frame waiting holds its image and labels at processing size (about 1 MB at 640 x 360), so the
+buffer is bounded; results do not depend on it (the same kernels fit the same frames in order).
+"""
+
+
+def _look_ahead(workers: int, backend: str) -> int:
+    """Return how many prepared frames may wait for the sequential stages now."""
+    return 2 * workers if kernels_ready(backend) else max(2 * workers, WARM_UP_LOOK_AHEAD)
 
 
 def load_dbcs(specs: Sequence[str]) -> tuple[dict[str, LoadedDbc], list[Path]]:
