@@ -29,7 +29,7 @@ from superlane_tools.errors import UsageError
 class _Planned(NamedTuple):
     entry: BatchEntry
     job: Job
-    sha256: str
+    content_hash: str
     size_bytes: int
     mtime_ns: int
 
@@ -182,7 +182,7 @@ def run_batch(
                         _row(
                             plan.entry,
                             outcome.recording_id,
-                            plan.sha256,
+                            plan.content_hash,
                             plan.size_bytes,
                             plan.mtime_ns,
                             outcome.status,
@@ -257,7 +257,7 @@ def _row(
         sequence=entry.sequence,
         start_s=entry.start_s,
         end_s=entry.end_s,
-        sha256=sha,
+        content_hash=sha,
         size_bytes=size,
         mtime_ns=mtime,
         status=state,
