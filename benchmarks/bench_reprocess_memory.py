@@ -2,7 +2,7 @@
 
 Usage: ``python benchmarks/bench_reprocess_memory.py [--short-s 12] [--factor 10]``.
 
-Simulates a short drive and one ``--factor`` times longer with ``slt simulate`` (same scenario,
+Simulates a short drive and one ``--factor`` times longer with ``slt simulate`` (highway_curves,
 seed and camera: 1280x720 JPEG at 15 Hz, CAN, RTK), then runs ``slt reprocess`` on each in its
 own process, with default settings (plots and report included), and reads the peak resident
 memory of that process (``ru_maxrss`` of a wrapper's only child). The lane-fit kernels are
@@ -48,7 +48,7 @@ def _uptime() -> str:
 def simulate(path: Path, seconds: float) -> None:
     """Write a simulated drive of ``seconds`` with the project's simulator."""
     subprocess.run(
-        [_slt(), "simulate", "-o", str(path), "--duration", str(seconds), "--seed", "1"],
+        [_slt(), "simulate", "-s", "highway_curves", "-o", str(path), "--duration", str(seconds)],
         check=True,
         capture_output=True,
     )
@@ -89,7 +89,7 @@ def main() -> None:
         uptime_after = _uptime()
         result = {
             "command": "python benchmarks/bench_reprocess_memory.py " + " ".join(sys.argv[1:]),
-            "data": "simulated (slt simulate, default scenario, seed 1, 1280x720 JPEG at 15 Hz)",
+            "data": "simulated (slt simulate, highway_curves, seed 0, 1280x720 JPEG at 15 Hz)",
             "short_s": args.short_s,
             "long_s": args.short_s * args.factor,
             "short_mib": round(short.stat().st_size / 2**20, 1),
