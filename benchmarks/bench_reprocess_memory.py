@@ -2,12 +2,13 @@
 
 Usage: ``python benchmarks/bench_reprocess_memory.py [--short-s 12] [--factor 10]``.
 
-Simulates a short drive and one ``--factor`` times longer with ``slt simulate`` (highway_curves,
-seed and camera: 1280x720 JPEG at 15 Hz, CAN, RTK), then runs ``slt reprocess`` on each in its
-own process, with default settings (plots and report included), and reads the peak resident
-memory of that process (``ru_maxrss`` of a wrapper's only child). The lane-fit kernels are
-loaded from the cache (a warm-up run on the short drive first), so both runs measure the
-steady state. Target (issue 18): the long drive's peak RSS within 1.2x the short one's.
+Simulates a short drive and one ``--factor`` times longer with ``slt simulate`` (scenario
+highway_curves, same seed and camera: 1280x720 JPEG at 15 Hz, CAN, RTK), then runs
+``slt reprocess`` on each in its own process, with default settings (plots and report
+included), and reads the peak resident memory of that process (``ru_maxrss`` of a wrapper's
+only child). The lane-fit kernels are loaded from the cache (a warm-up run on the short drive
+first), so both runs measure the steady state. Target (issue 18): the long drive's peak RSS
+within 1.2x the short one's.
 
 Writes ``benchmarks/results/reprocess_memory.json`` with both peaks, their ratio, the run
 times and the machine load (``uptime``) before and after.
