@@ -5,12 +5,13 @@ Run: ``python benchmarks/bench_info.py [--gib 0.1 1.0] [--keep]``.
 For each size, writes a ``--gib`` GiB MCAP into the system temp folder with the project's
 writer (1 MiB JPEG-like ``CompressedImage`` payloads at 10 Hz plus 100 Hz CAN frames, chunk
 compression none), then times, like for like: (a) the library path (``mcap_file_info`` +
-``summary_from_mcap``) against the ``mcap`` library's own ``get_summary()``, interleaved,
-median of 5; (b) the whole ``slt info --json`` command in a fresh process (Python start-up and
-imports included) against a fresh process that only reads the summary with ``mcap``, median of
-3, with the children's CPU time (user + system): on a shared, loaded machine the wall time also
-holds waiting for a core. Two sizes show whether the time depends on the file size. Writes
-``benchmarks/results/info.json``; the files are removed unless ``--keep``.
+``summary_from_mcap``) against the ``mcap`` library's own ``get_summary()``, after a warm-up,
+interleaved and alternating which goes first, median of 6; (b) the whole ``slt info --json``
+command in a fresh process (Python start-up and imports included) against a fresh process that
+only reads the summary with ``mcap``, median of 3, with the children's CPU time (user +
+system): on a shared, loaded machine the wall time also holds waiting for a core. Two sizes
+show whether the time depends on the file size. Writes ``benchmarks/results/info.json``; the
+files are removed unless ``--keep``.
 """
 
 from __future__ import annotations
@@ -86,15 +87,19 @@ def _measure(path: Path) -> dict[str, object]:
     """Interleave the four timings on one file: library vs library, command vs command."""
     med = statistics.median
     lib, base, cmd, cpu, bcmd, bcpu = [], [], [], [], [], []
-    for _ in range(5):
-        t = time.perf_counter()
+
+    def ours() -> int:
         info = mcap_file_info(path)
         assert info is not None
-        summary = summary_from_mcap(path, info)
-        lib.append(time.perf_counter() - t)
-        t = time.perf_counter()
-        assert _mcap_summary(path) == summary.message_count
-        base.append(time.perf_counter() - t)
+        return summary_from_mcap(path, info).message_count
+
+    assert ours() == _mcap_summary(path)  # warm-up: both read the same pages from the cache
+    for k in range(6):  # alternate which goes first (the page cache may drop pages between)
+        for fn, times in ((ours, lib), (lambda: _mcap_summary(path), base))[:: 1 - 2 * (k % 2)]:
+            t = time.perf_counter()
+            fn()
+            times.append(time.perf_counter() - t)
+    summary = summary_from_mcap(path, mcap_file_info(path))  # type: ignore[arg-type]
     for _ in range(3):
         wall, c, stdout = _child([sys.executable, "-c", _MAIN, "info", str(path), "--json"])
         cmd.append(wall)
