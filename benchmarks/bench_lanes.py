@@ -44,8 +44,8 @@ sys.path.insert(0, str(ROOT / "pipelines"))
 from tusimple_oracle import CLASSES, load_labels, realdata_root, render  # noqa: E402
 
 from superlane_tools.camera import CameraModel, load_camera  # noqa: E402
-from superlane_tools.commands.lanes.fit import mask_points  # noqa: E402
 from superlane_tools.lanes import CostFunction, FitParams, Histogram, LaneFit, fit_frame  # noqa: E402
+from superlane_tools.lanes.class_map import mask_points  # noqa: E402
 
 FIRST_CALL = """
 import time, numpy as np
@@ -116,7 +116,7 @@ def sim_sequence(labels_dir: Path, camera: CameraModel, params: FitParams) -> di
     import cv2
     from sim_lane_accuracy import classes_yaml
 
-    from superlane_tools.commands.lanes.fit import parse_classes
+    from superlane_tools.lanes.class_map import parse_classes
 
     classes = parse_classes(classes_yaml())
     frames = []

@@ -49,11 +49,11 @@ import numpy as np
 import pyarrow.parquet as pq
 
 from superlane_tools.camera import load_camera
-from superlane_tools.commands.lanes.fit import lanes_from_row
 from superlane_tools.evaluation import evaluate, evaluate_frames, load_jsonl
 from superlane_tools.evaluation.kitti import decode_ground_truth, lane_area_mask, score_mask
 from superlane_tools.hierarchy import leaf_ids_under
 from superlane_tools.lanes.project import columns_at_rows
+from superlane_tools.lanes.table import lanes_from_row
 from superlane_tools.reporting.atomic import write_text_atomic
 
 REPO = Path(__file__).resolve().parents[1]

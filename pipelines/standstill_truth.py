@@ -20,8 +20,8 @@ import numpy as np
 
 def measure(seed: int, duration_s: float) -> str:
     """Return one line of the measurement for ``seed``."""
-    from superlane_tools.commands.reprocess.config import RtkConfig
-    from superlane_tools.commands.reprocess.signals import rtk_truth
+    from superlane_tools.drive.config import RtkConfig
+    from superlane_tools.drive.signals import rtk_truth
     from superlane_tools.simulation.scenarios import SCENARIOS
     from superlane_tools.simulation.sensors import RtkParams, fix_rows, rtk_fixes
     from superlane_tools.simulation.world import build_world

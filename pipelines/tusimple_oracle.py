@@ -30,10 +30,10 @@ from typing import Any
 import numpy as np
 
 from superlane_tools.camera import load_camera
-from superlane_tools.commands.lanes.fit import ClassMap, mask_points
 from superlane_tools.evaluation import TuSimpleRecord, evaluate
 from superlane_tools.evaluation.tusimple_export import NO_POINT, lane_columns
 from superlane_tools.lanes import FitParams, fit_frame
+from superlane_tools.lanes.class_map import ClassMap, mask_points
 
 LABEL_FILES = ("label_data_0313.json", "label_data_0531.json", "label_data_0601.json")
 CLASSES = ClassMap(lane_ids=(2,), road_ids=(1, 2), code_of_id={2: 0})

@@ -30,7 +30,24 @@ def load_document(path: str | os.PathLike[str], what: str = "config", suffix: st
         text = src.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as err:
         raise ConfigError(f"cannot read {what} {src}: {err}") from err
-    kind = FORMATS.get((suffix or src.suffix).lower(), "YAML")
+    return parse_document(text, str(src), suffix or src.suffix)
+
+
+def parse_document(text: str, source: str, suffix: str = ".yaml") -> Any:
+    """Parse TOML, JSON or YAML text (a bundled resource, a file already read).
+
+    Args:
+        text: The document.
+        source: Where it came from, for error messages (a path, ``profile NAME``).
+        suffix: Its format by file suffix (YAML when unknown).
+
+    Returns:
+        The parsed document (an empty YAML document gives None).
+
+    Raises:
+        ConfigError: If the text is not valid in its format.
+    """
+    kind = FORMATS.get(suffix.lower(), "YAML")
     try:
         if kind == "TOML":
             import tomllib
@@ -44,7 +61,7 @@ def load_document(path: str | os.PathLike[str], what: str = "config", suffix: st
 
         return yaml.safe_load(text)
     except Exception as err:  # TOMLDecodeError, JSONDecodeError, YAMLError
-        raise ConfigError(f"{src}: not valid {kind}: {err}") from err
+        raise ConfigError(f"{source}: not valid {kind}: {err}") from err
 
 
 def load_mapping(

@@ -40,6 +40,7 @@ RANKS = {
     "models": 2,
     "simulation": 3,
     "training": 3,
+    "drive": 3,
     "commands": 4,
     "cli": 5,
     "__init__": 6,
@@ -53,6 +54,7 @@ COMMAND_RANKS = {
     "reprocess": 1,
     "lanes": 1,
     "camera_estimate": 1,
+    "tables": 1,
     "batch": 2,
 }
 """Second level of ``commands``: the commands are peers (rank 1) and never import each other;
@@ -199,6 +201,22 @@ def test_architecture_page_lists_every_layer() -> None:
         assert (ROOT / module).is_file(), f"docs/architecture.md names a missing {module}"
 
 
+MAX_ORCHESTRATION_LINES = 210
+"""A command's orchestration reads top to bottom in one file of at most about 200 lines."""
+
+
+def test_each_command_reads_top_to_bottom_in_one_short_file() -> None:
+    page = (ROOT / "docs" / "architecture.md").read_text(encoding="utf-8")
+    rows = re.findall(
+        r"^\| `commands/(\w+)` \| \d \| `(superlane_tools/[\w/]+\.py)`", page, re.MULTILINE
+    )
+    expected = {u for u in COMMAND_RANKS if u not in {"__init__", "errors"}}
+    assert {unit for unit, _ in rows} == expected, rows
+    sizes = {path: len((ROOT / path).read_text(encoding="utf-8").splitlines()) for _, path in rows}
+    long = {path: n for path, n in sizes.items() if n > MAX_ORCHESTRATION_LINES}
+    assert not long, f"orchestration files over {MAX_ORCHESTRATION_LINES} lines: {long}"
+
+
 HEAVY = ("onnxruntime", "cv2", "torch", "matplotlib", "ray")
 
 
@@ -253,7 +271,8 @@ def test_tests_mirror_the_package() -> None:
     assert not missing, f"no tests/<layer>/test_*.py for {missing}"
     # `slt lanes` is tested through its CLI (tests/cli/test_cli_lanes.py) and the evaluation
     # tests; `slt camera estimate` in tests/camera/test_cam_calibrate_estimate.py.
-    untested_here = {"__init__", "errors", "lanes", "camera_estimate"}
+    # `slt tables` through its CLI too (tests/cli/test_cli_reprocess.py).
+    untested_here = {"__init__", "errors", "lanes", "camera_estimate", "tables"}
     commands = [u for u in COMMAND_RANKS if u not in untested_here]
     missing = [c for c in commands if not list((ROOT / "tests" / "commands" / c).glob("test_*.py"))]
     assert not missing, f"no tests/commands/<command>/test_*.py for {missing}"

@@ -11,6 +11,8 @@ import yaml
 
 from superlane_tools.camera.errors import CameraError
 from superlane_tools.camera.model import CameraModel
+from superlane_tools.config_files import load_document, parse_document
+from superlane_tools.errors import ConfigError
 
 _PROFILE_PACKAGE = "superlane_tools.camera"
 _PROFILE_DIR = "profiles"
@@ -63,9 +65,13 @@ def camera_from_yaml(text: str, source: str = "<string>") -> CameraModel:
         CameraError: If the YAML is malformed or misses a field.
     """
     try:
-        data: Any = yaml.safe_load(text)
-    except yaml.YAMLError as err:
-        raise CameraError(f"{source}: not valid YAML: {err}") from err
+        data = parse_document(text, source, ".yaml")
+    except ConfigError as err:
+        raise CameraError(str(err)) from err
+    return _camera_from_data(data, source)
+
+
+def _camera_from_data(data: Any, source: str) -> CameraModel:
     if not isinstance(data, dict):
         raise CameraError(f"{source}: expected a mapping with 'intrinsics' and 'extrinsics'")
     try:
@@ -100,8 +106,8 @@ def load_camera(name_or_path: str | os.PathLike[str]) -> CameraModel:
     looks_like_path = text.endswith(_SUFFIXES) or os.sep in text or "/" in text
     if path.is_file() or looks_like_path:
         try:
-            content = path.read_text(encoding="utf-8")
-        except OSError as err:
-            raise CameraError(f"cannot read camera file {text}: {err.strerror}") from err
-        return camera_from_yaml(content, source=text)
+            data = load_document(path, "camera file", ".yaml")
+        except ConfigError as err:
+            raise CameraError(str(err)) from err
+        return _camera_from_data(data, text)
     return camera_from_yaml(profile_text(text), source=f"profile {text}")

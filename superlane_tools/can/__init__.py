@@ -8,7 +8,9 @@ from superlane_tools.can.buses import (
     bind_dbcs,
     bus_matches,
     dbc_coverage,
+    dbc_name,
     decode_buses,
+    load_dbcs,
     parse_dbc_spec,
 )
 from superlane_tools.can.dbc import (
@@ -54,6 +56,7 @@ __all__ = [
     "bind_dbcs",
     "bus_matches",
     "dbc_coverage",
+    "dbc_name",
     "decode_buses",
     "decode_frames",
     "empty_signal_table",
@@ -61,6 +64,7 @@ __all__ = [
     "latency_by_xcorr",
     "load_dbc",
     "load_dbc_text",
+    "load_dbcs",
     "mobileye_table",
     "parse_dbc_spec",
     "shipped_dbc",

@@ -15,7 +15,7 @@ from typing import Any, NamedTuple
 import numpy as np
 import pandas as pd
 
-from superlane_tools.can.dbc import LoadedDbc
+from superlane_tools.can.dbc import LoadedDbc, load_dbc, shipped_dbcs
 from superlane_tools.can.decode import decode_frames, empty_signal_table
 from superlane_tools.can.errors import CanError
 
@@ -51,6 +51,31 @@ def parse_dbc_spec(text: str) -> DbcSpec:
     if not bus.strip() or not path.strip():
         raise CanError(f"--dbc must be FILE or BUS=FILE (e.g. can0=pt.dbc), got {raw!r}")
     return DbcSpec(bus.strip(), Path(path.strip()))
+
+
+def dbc_name(spec: DbcSpec) -> str:
+    """Return the name a loaded DBC goes by: its file name, ``BUS=file`` when bound to a bus."""
+    return spec.path.name if spec.bus == ALL_BUSES else f"{spec.bus}={spec.path.name}"
+
+
+def load_dbcs(
+    specs: Sequence[str], shipped: bool = True
+) -> tuple[dict[str, LoadedDbc], list[Path]]:
+    """Load ``[BUS=]FILE`` DBCs, named by :func:`dbc_name`, and return them with their files.
+
+    Args:
+        specs: ``--dbc`` arguments, in order.
+        shipped: With no specs, load the shipped DBCs instead of none.
+
+    Raises:
+        CanError: If a spec is malformed or a DBC cannot be loaded.
+    """
+    parsed = [parse_dbc_spec(p) for p in specs]
+    if not parsed:
+        files = shipped_dbcs() if shipped else []
+        return {p.name: load_dbc(p) for p in files}, list(files)
+    loaded = {dbc_name(s): load_dbc(s.path) for s in parsed}
+    return loaded, [s.path for s in parsed]
 
 
 def bind_dbcs(dbcs: Mapping[str, LoadedDbc]) -> list[BusDbc]:

@@ -199,6 +199,7 @@ def estimate_cmd(
 
     from superlane_tools.camera import camera_to_yaml, load_camera
     from superlane_tools.commands.camera_estimate import estimate_camera
+    from superlane_tools.config_files import load_document
 
     with cli_errors():
         known = load_camera(intrinsics).intrinsics if intrinsics is not None else None
@@ -220,7 +221,7 @@ def estimate_cmd(
         )
         blocks: dict[str, object] = {}
         if intrinsics is not None and Path(intrinsics).is_file():
-            source = yaml.safe_load(Path(intrinsics).read_text(encoding="utf-8"))
+            source = load_document(intrinsics, "intrinsics file", ".yaml")
             if isinstance(source, dict) and "calibration" in source:  # keep the chessboard report
                 blocks["calibration"] = source["calibration"]
         blocks["estimate"] = {**est.summary(), "intrinsics": result.intrinsics_source}

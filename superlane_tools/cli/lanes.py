@@ -63,8 +63,9 @@ def fit_cmd(
 ) -> None:
     """Fit lanes, heading, curvature and road slope to every mask under SEG_DIR."""
     from superlane_tools.camera import load_camera
-    from superlane_tools.commands.lanes.fit import fit_masks, load_classes
+    from superlane_tools.commands.lanes.fit import fit_masks
     from superlane_tools.lanes import FitParams
+    from superlane_tools.lanes.class_map import load_classes
 
     with cli_errors():
         cam = load_camera(camera)
@@ -125,8 +126,7 @@ def export_cmd(
 ) -> None:
     """Project fitted lanes into the image at each frame's rows; write TuSimple JSON lines."""
     from superlane_tools.camera import load_camera
-    from superlane_tools.commands.lanes.export import export_tusimple
-    from superlane_tools.commands.lanes.fit import parse_h_samples
+    from superlane_tools.commands.lanes.export import export_tusimple, parse_h_samples
     from superlane_tools.errors import UsageError
     from superlane_tools.evaluation.tusimple_export import ExportOptions
 

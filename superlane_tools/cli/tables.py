@@ -23,7 +23,7 @@ OutFile = Annotated[
 
 
 def _emit(frame: object, out: Path | None, runs: list[Path]) -> None:
-    from superlane_tools.commands.reprocess.run_tables import write_summary_table
+    from superlane_tools.commands.tables import write_summary_table
     from superlane_tools.reporting.report import markdown_table
 
     if out is None:
@@ -42,7 +42,7 @@ def availability_cmd(
     ] = "category",
 ) -> None:
     """Corridor paper Table II: #seq, frame-based n/N and sequence-based k/K per method."""
-    from superlane_tools.commands.reprocess.run_tables import availability_table
+    from superlane_tools.commands.tables import availability_table
     from superlane_tools.errors import UsageError
 
     with cli_errors():
@@ -54,7 +54,7 @@ def availability_cmd(
 @tables_app.command("curvature")
 def curvature_cmd(runs: RunDirs, out: OutFile = None) -> None:
     """Curvature errors against RTK per run: SUPER (2*a2) and Mobileye (2*C2)."""
-    from superlane_tools.commands.reprocess.run_tables import curvature_table
+    from superlane_tools.commands.tables import curvature_table
 
     with cli_errors():
         _emit(curvature_table(runs), out, runs)

@@ -6,11 +6,12 @@ its frame index, log time and the vertical-curvature term.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import pyarrow as pa
 
-from superlane_tools.lanes.result import LaneFit
+from superlane_tools.lanes.result import Lane, LaneFit
 
 LANES_SCHEMA = pa.schema(
     [
@@ -72,3 +73,26 @@ def fit_row(name: str, width: int, height: int, fit: LaneFit) -> dict[str, Any]:
         "quality": fit.quality,
         "reason": fit.reason,
     }
+
+
+def lanes_from_row(row: dict[str, Any]) -> tuple[list[Lane], float]:
+    """Rebuild a frame's lanes and slope ``b`` from its ``lanes.parquet`` row."""
+    lanes = [
+        Lane(
+            offset_m=float(o),
+            a1=float(a1),
+            a2=float(a2),
+            range_min_m=float(lo),
+            range_max_m=float(hi),
+        )
+        for o, a1, a2, lo, hi in zip(
+            row["offsets"],
+            row["lane_a1"],
+            row["lane_a2"],
+            row["range_min"],
+            row["range_max"],
+            strict=True,
+        )
+    ]
+    b = row["b"]
+    return lanes, float(b) if b is not None and math.isfinite(b) else 0.0

@@ -142,6 +142,30 @@ def storable_time(log_time_ns: int) -> bool:
     return 0 <= log_time_ns <= LOG_TIME_MAX_NS
 
 
+def time_range_ns(
+    rec: Recording, topics: Collection[str], start_s: float | None, end_s: float | None
+) -> tuple[int | None, int | None]:
+    """Return ``[start, stop)`` log times, ns, of offsets in seconds after the first message.
+
+    Args:
+        rec: The recording.
+        topics: Topics whose first message is time zero.
+        start_s: Start offset, seconds (None: from the beginning).
+        end_s: End offset, seconds, exclusive (None: to the end).
+
+    Returns:
+        ``(start_ns, stop_ns)``, None where open (also both None when the topics hold nothing).
+    """
+    if start_s is None and end_s is None:
+        return None, None
+    first = next((raw.log_time_ns for raw in rec.raw_messages(topics=topics)), None)
+    if first is None:
+        return None, None
+    start_ns = None if start_s is None else first + round(start_s * 1_000_000_000)
+    stop_ns = None if end_s is None else first + round(end_s * 1_000_000_000)
+    return start_ns, stop_ns
+
+
 def in_range(log_time_ns: int, start_ns: int | None, stop_ns: int | None) -> bool:
     """Return True when ``log_time_ns`` lies in ``[start_ns, stop_ns)`` (None: unbounded)."""
     return (start_ns is None or log_time_ns >= start_ns) and (

@@ -9,6 +9,8 @@ from contextlib import ExitStack
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
+from superlane_tools.config_files import load_document
+from superlane_tools.errors import ConfigError
 from superlane_tools.recording.base import (
     ClosingRecording,
     SkipLog,
@@ -29,14 +31,12 @@ _ORPHANS = "SELECT COUNT(*) FROM messages WHERE topic_id NOT IN (SELECT id FROM 
 
 def _read_ros2_metadata(folder: Path) -> dict[str, Any]:
     """Return the ``rosbag2_bagfile_information`` mapping of a ROS 2 bag folder."""
-    import yaml
-
     try:
-        doc = yaml.safe_load((folder / "metadata.yaml").read_text(encoding="utf-8"))
+        doc = load_document(folder / "metadata.yaml", "ROS 2 bag metadata", ".yaml")
         info = doc["rosbag2_bagfile_information"]
         if not isinstance(info, dict):
             raise TypeError("not a mapping")
-    except (OSError, yaml.YAMLError, KeyError, TypeError) as err:
+    except (ConfigError, KeyError, TypeError) as err:
         raise RecordingError(
             f"{folder} is not a recording: unreadable metadata.yaml ({err})"
         ) from err

@@ -113,6 +113,20 @@ def select_streams(
     return selected
 
 
+def message_total(topics: Sequence[TopicInfo], selected: Collection[str]) -> int | None:
+    """Return the messages on the selected topics (None when a count is unknown)."""
+    counts = [t.message_count for t in topics if t.topic in selected]
+    if any(c is None for c in counts):
+        return None
+    return sum(c for c in counts if c is not None)
+
+
+def topics_of_type(topics: Sequence[TopicInfo], msgtype: str) -> set[str]:
+    """Return the topics of one message type (ROS 1 / ROS 2 spellings alike)."""
+    short = msgtype.replace("/msg/", "/")
+    return {t.topic for t in topics if t.msgtype in (msgtype, short)}
+
+
 def select_one_each(topics: Sequence[TopicInfo], wanted: Mapping[str, str]) -> Streams:
     """Pick one topic per stream kind: the configured one, else the first of its message type.
 

@@ -18,6 +18,8 @@ from typing import Any, Protocol
 
 import yaml
 
+from superlane_tools.config_files import load_document
+from superlane_tools.errors import ConfigError
 from superlane_tools.reporting.atomic import write_text_atomic
 from superlane_tools.reporting.provenance import file_sha256
 from superlane_tools.scene.adapters.heads import Head, validate_heads
@@ -238,16 +240,12 @@ def load_card(path: str | os.PathLike[str]) -> ModelCard:
         ModelError: If the file is missing, unreadable or invalid.
     """
     card_path = Path(path)
+    if not card_path.exists():
+        raise ModelError(f"model card not found: {card_path}")
     try:
-        text = card_path.read_text(encoding="utf-8")
-    except FileNotFoundError as err:
-        raise ModelError(f"model card not found: {card_path}") from err
-    except OSError as err:
-        raise ModelError(f"cannot read model card {card_path}: {err.strerror}") from err
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as err:
-        raise ModelError(f"{card_path}: invalid YAML: {err}") from err
+        data = load_document(card_path, "model card", ".yaml")
+    except ConfigError as err:
+        raise ModelError(str(err)) from err
     return card_from_dict(data, str(card_path))
 
 

@@ -23,9 +23,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 from numpy.typing import NDArray
 
+from superlane_tools.config_files import load_document
+from superlane_tools.errors import ConfigError
 from superlane_tools.hierarchy import BY_NAME
 from superlane_tools.scene.adapters.heads import HEADS
 from superlane_tools.scene.adapters.loader import load_adapter
@@ -96,9 +97,9 @@ def load_dataset_list(path: str | os.PathLike[str]) -> tuple[DatasetSpec, ...]:
     """
     source = Path(path)
     try:
-        data = yaml.safe_load(source.read_text(encoding="utf-8"))
-    except (OSError, yaml.YAMLError) as err:
-        raise TrainingError(f"cannot read dataset list {source}: {err}") from err
+        data = load_document(source, "dataset list", ".yaml")
+    except ConfigError as err:
+        raise TrainingError(str(err)) from err
     entries = data.get("datasets") if isinstance(data, dict) else data
     if not isinstance(entries, list) or not entries:
         raise TrainingError(f"{source}: expected a non-empty `datasets:` list")

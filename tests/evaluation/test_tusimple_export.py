@@ -14,7 +14,6 @@ from typer.testing import CliRunner
 
 from superlane_tools.camera import load_camera
 from superlane_tools.cli.app import app
-from superlane_tools.commands.lanes.fit import find_masks, natural_key
 from superlane_tools.evaluation import load_jsonl
 from superlane_tools.evaluation.errors import EvaluationError
 from superlane_tools.evaluation.tusimple_export import (
@@ -26,6 +25,7 @@ from superlane_tools.evaluation.tusimple_export import (
     select_lines,
 )
 from superlane_tools.lanes import Lane, lanes_at_rows
+from superlane_tools.scene.label_folder import find_masks, natural_key
 
 CAM = load_camera("sim_default")
 ROWS = list(range(160, 720, 10))

@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from superlane_tools.commands.lanes.fit import mask_points, parse_classes
 from superlane_tools.hierarchy import LEAF_IDS
 from superlane_tools.lanes import CODE_OF, Lane, LaneFit
+from superlane_tools.lanes.class_map import mask_points, parse_classes
 from superlane_tools.lanes.points import (
     LEAF_LOOKUP,
     MAX_LANE_PIXELS,

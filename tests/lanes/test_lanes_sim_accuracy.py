@@ -11,7 +11,7 @@ from types import ModuleType
 import pytest
 import yaml
 
-from superlane_tools.commands.lanes.fit import parse_classes
+from superlane_tools.lanes.class_map import parse_classes
 
 SCRIPT = Path(__file__).resolve().parents[2] / "pipelines" / "sim_lane_accuracy.py"
 

@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from superlane_tools.commands.reprocess.config import TrackingConfig, config_from_mapping
+from superlane_tools.drive.config import TrackingConfig, config_from_mapping
 from superlane_tools.errors import ConfigError
 from superlane_tools.lanes.tracker import (
     TrackerParams,

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from superlane_tools.commands.reprocess.config import TrackingConfig
+from superlane_tools.drive.config import TrackingConfig
 from superlane_tools.errors import ConfigError
 from superlane_tools.lanes.tracker import (
     TrackerParams,

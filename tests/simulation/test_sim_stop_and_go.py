@@ -54,8 +54,8 @@ def test_sensors_while_standing_give_jitter_not_motion() -> None:
 
 
 def test_multipath_jumps_are_flagged_and_kept_out_of_the_truth() -> None:
-    from superlane_tools.commands.reprocess.config import RtkConfig
-    from superlane_tools.commands.reprocess.signals import rtk_truth
+    from superlane_tools.drive.config import RtkConfig
+    from superlane_tools.drive.signals import rtk_truth
 
     world = build_world(SCENARIOS["highway_curves"], 4, 60.0)
     params = RtkParams(multipath_per_min=4.0)

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import contextlib
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import NamedTuple
 
@@ -21,7 +22,7 @@ from superlane_tools.commands.batch.plan import (
     job_units,
 )
 from superlane_tools.commands.batch.root import clean_stale_tmp, root_lock
-from superlane_tools.commands.batch.status import StatusRow, StatusTable
+from superlane_tools.commands.batch.status import FileIdentity, RowContext, StatusTable
 from superlane_tools.commands.batch.worker import read_marker
 from superlane_tools.errors import UsageError
 
@@ -29,9 +30,7 @@ from superlane_tools.errors import UsageError
 class _Planned(NamedTuple):
     entry: BatchEntry
     job: Job
-    content_hash: str
-    size_bytes: int
-    mtime_ns: int
+    file: FileIdentity
 
 
 def run_batch(
@@ -68,7 +67,7 @@ def run_batch(
     kind = job_kind(kind_name)
     kind.check(params.config)
     models = kind.identities(params.config)
-    config_hash = config_sha256(params.config)
+    rows = RowContext(kind_name, models, config_sha256(params.config))
     root = params.root
     engine = engine if engine is not None else make_engine(params, kind_name)
     with root_lock(root):
@@ -91,60 +90,40 @@ def run_batch(
                 rid = fallback_id(entry)
                 counts["failed"] += 1
                 failures[rid] = row_base
+                no_file = FileIdentity()
                 status.update(
-                    _row(
-                        entry,
-                        rid,
-                        "",
-                        0,
-                        0,
-                        "failed",
-                        "failed",
-                        row_base,
-                        kind_name,
-                        models,
-                        config_hash,
-                        "",
-                        params.engine,
-                    )
+                    rows.row(entry, rid, no_file, "failed", "failed", row_base, "", params.engine)
                 )
                 continue
-            sha, size, mtime = row_base
-            rid = recording_id(entry, sha)
+            file = FileIdentity(*row_base)
+            rid = recording_id(entry, file.content_hash)
             if rid in seen:
                 continue  # the same content (and window) listed twice
             seen.add(rid)
-            key = job_key(sha, kind_name, models, config_sha256({**params.config, **window}))
+            window_hash = config_sha256({**params.config, **window})
+            key = job_key(file.content_hash, kind_name, models, window_hash)
             out_dir = root / rid
             marker = read_marker(out_dir)
             if marker is not None and marker.get("key") == key and not params.force:
                 counts["skipped"] += 1
-                done_status = str(marker.get("status", "ok"))
-                status.update(
-                    _row(
-                        entry,
-                        rid,
-                        sha,
-                        size,
-                        mtime,
-                        "skipped",
-                        done_status,
-                        str(marker.get("note", "")),
-                        kind_name,
-                        models,
-                        config_hash,
-                        key,
-                        params.engine,
-                        timings=marker.get("timings") or {},
-                        outputs=int(marker.get("outputs", 0)),
-                        frames=int(marker.get("frames", 0)),
-                        attempts=0,
-                    ),
-                    write=False,
+                done_status, note = str(marker.get("status", "ok")), str(marker.get("note", ""))
+                skipped = rows.row(
+                    entry,
+                    rid,
+                    file,
+                    "skipped",
+                    done_status,
+                    note,
+                    key,
+                    params.engine,
+                    timings=marker.get("timings") or {},
+                    outputs=int(marker.get("outputs", 0)),
+                    frames=int(marker.get("frames", 0)),
                 )
+                status.update(skipped, write=False)
                 continue
             job = Job(entry.path, out_dir, {**params.config, **window}, key, kind_name)
-            planned.append(_Planned(entry, job, sha, size, mtime))
+            planned.append(_Planned(entry, job, file))
         status.write()
 
         by_id = {p.job.recording_id: p for p in planned}
@@ -163,43 +142,28 @@ def run_batch(
                     plan = by_id[outcome.recording_id]
                     last_try = attempt > params.retries
                     if outcome.status == "failed" and not last_try:
-                        retry.append(
-                            Job(
-                                plan.job.recording,
-                                plan.job.out_dir,
-                                plan.job.config,
-                                plan.job.key,
-                                plan.job.kind,
-                                attempt + 1,
-                            )
-                        )
+                        retry.append(replace(plan.job, attempt=attempt + 1))
                     else:
                         finished += 1
                         counts[outcome.status] += 1
                         if outcome.status == "failed":
                             failures[outcome.recording_id] = outcome.error
-                    status.update(
-                        _row(
-                            plan.entry,
-                            outcome.recording_id,
-                            plan.content_hash,
-                            plan.size_bytes,
-                            plan.mtime_ns,
-                            outcome.status,
-                            outcome.status,
-                            outcome.error,
-                            kind_name,
-                            models,
-                            config_hash,
-                            outcome.key,
-                            engine.name,
-                            timings=outcome.timings,
-                            outputs=outcome.outputs,
-                            frames=outcome.frames,
-                            attempts=attempt,
-                            host=outcome.host,
-                        )
+                    row = rows.row(
+                        plan.entry,
+                        outcome.recording_id,
+                        plan.file,
+                        outcome.status,
+                        outcome.status,
+                        outcome.error,
+                        outcome.key,
+                        engine.name,
+                        timings=outcome.timings,
+                        outputs=outcome.outputs,
+                        frames=outcome.frames,
+                        attempts=attempt,
+                        host=outcome.host,
                     )
+                    status.update(row)
                     tell("running", finished, total, outcome)
 
                 if pending:
@@ -224,54 +188,4 @@ def run_batch(
         engine=engine.name,
         workers=workers,
         wall_s=time.perf_counter() - t0,
-    )
-
-
-def _row(
-    entry: BatchEntry,
-    rid: str,
-    sha: str,
-    size: int,
-    mtime: int,
-    state: str,
-    result: str,
-    error: str,
-    kind: str,
-    models: Mapping[str, str],
-    config_hash: str,
-    key: str,
-    engine: str,
-    timings: Mapping[str, float] | None = None,
-    outputs: int = 0,
-    frames: int = 0,
-    attempts: int = 0,
-    host: str = "",
-) -> StatusRow:
-    times = dict(timings or {})
-    return StatusRow(
-        recording_id=rid,
-        recording=str(entry.path),
-        category=entry.category,
-        vehicle=entry.vehicle,
-        date=entry.date,
-        sequence=entry.sequence,
-        start_s=entry.start_s,
-        end_s=entry.end_s,
-        content_hash=sha,
-        size_bytes=size,
-        mtime_ns=mtime,
-        status=state,
-        result=result,
-        error=error,
-        attempts=attempts,
-        total_s=float(times.get("total_s", 0.0)),
-        timings=times,
-        outputs=outputs,
-        frames=frames,
-        job=kind,
-        models=models,
-        config_sha256=config_hash,
-        key=key,
-        engine=engine,
-        host=host,
     )

@@ -7,12 +7,13 @@ import time
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import pandas as pd
 
 from superlane_tools._version import __version__
 from superlane_tools.commands.batch.errors import BatchError
+from superlane_tools.commands.batch.manifest import BatchEntry
 from superlane_tools.reporting import Provenance, write_table
 from superlane_tools.reporting.provenance import CONTENT_HASH
 
@@ -141,6 +142,69 @@ def read_status(root: str | Path) -> pd.DataFrame:
         if column not in frame:
             frame[column] = pd.Series(dtype=dtype)
     return frame[list(COLUMNS)].astype(COLUMNS)
+
+
+class FileIdentity(NamedTuple):
+    """A recording's content hash (``blake3:<hex>``), size and mtime (empty when unreadable)."""
+
+    content_hash: str = ""
+    size_bytes: int = 0
+    mtime_ns: int = 0
+
+
+@dataclass(frozen=True)
+class RowContext:
+    """What every status row of one batch shares: the job kind, model hashes, config hash."""
+
+    kind: str
+    models: Mapping[str, str]
+    config_hash: str
+
+    def row(
+        self,
+        entry: BatchEntry,
+        rid: str,
+        file: FileIdentity,
+        state: str,
+        result: str,
+        error: str,
+        key: str,
+        engine: str,
+        timings: Mapping[str, float] | None = None,
+        outputs: int = 0,
+        frames: int = 0,
+        attempts: int = 0,
+        host: str = "",
+    ) -> StatusRow:
+        """Return the status row of one recording."""
+        times = dict(timings or {})
+        return StatusRow(
+            recording_id=rid,
+            recording=str(entry.path),
+            category=entry.category,
+            vehicle=entry.vehicle,
+            date=entry.date,
+            sequence=entry.sequence,
+            start_s=entry.start_s,
+            end_s=entry.end_s,
+            content_hash=file.content_hash,
+            size_bytes=file.size_bytes,
+            mtime_ns=file.mtime_ns,
+            status=state,
+            result=result,
+            error=error,
+            attempts=attempts,
+            total_s=float(times.get("total_s", 0.0)),
+            timings=times,
+            outputs=outputs,
+            frames=frames,
+            job=self.kind,
+            models=self.models,
+            config_sha256=self.config_hash,
+            key=key,
+            engine=engine,
+            host=host,
+        )
 
 
 class StatusTable:

@@ -166,7 +166,7 @@ def _sections(
 
 def _paper_tables(root: Path, status: pd.DataFrame) -> list[tuple[str, pd.DataFrame, str]]:
     """The ``slt tables`` layouts (corridor paper Table II, curvature) over reprocess runs."""
-    from superlane_tools.commands.reprocess.run_tables import availability_table, curvature_table
+    from superlane_tools.commands.tables import availability_table, curvature_table
     from superlane_tools.reporting import OutputError
 
     runs = [root / str(r) for r in _done(root, status)["recording_id"]]

@@ -12,6 +12,7 @@ import math
 import os
 import re
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -22,7 +23,8 @@ from numpy.typing import NDArray
 
 from superlane_tools.camera.model import CameraModel
 from superlane_tools.commands.errors import PipelineError
-from superlane_tools.commands.lanes.fit import SCHEMA, ExportResult, lanes_from_row
+from superlane_tools.commands.lanes.fit import SCHEMA
+from superlane_tools.errors import ConfigError
 from superlane_tools.evaluation.tusimple import format_record, load_jsonl
 from superlane_tools.evaluation.tusimple_export import (
     ExportOptions,
@@ -30,7 +32,27 @@ from superlane_tools.evaluation.tusimple_export import (
     export_records,
     rows_by_raw_file,
 )
+from superlane_tools.lanes.table import lanes_from_row
 from superlane_tools.reporting import read_provenance, write_bytes_atomic, write_text_atomic
+
+
+def parse_h_samples(spec: str) -> list[int]:
+    """Parse ``START:STOP:STEP`` (stop inclusive, like TuSimple's 160:720:10 -> 160..710)."""
+    try:
+        parts = [int(v) for v in spec.split(":")]
+    except ValueError as err:
+        raise ConfigError(f"h-samples must be START:STOP:STEP integers, got {spec!r}") from err
+    if len(parts) != 3 or parts[2] <= 0 or parts[1] <= parts[0] or parts[0] < 0:
+        raise ConfigError(f"h-samples must be START:STOP:STEP with STOP > START >= 0, got {spec!r}")
+    return list(range(parts[0], parts[1], parts[2]))
+
+
+@dataclass(frozen=True)
+class ExportResult:
+    """Outcome of :func:`export_tusimple`: the JSON-lines file and its record count."""
+
+    out: Path
+    n_records: int
 
 
 def _fitted_frame(row: dict[str, Any]) -> FittedFrame:

@@ -1,6 +1,8 @@
 """``slt reprocess``: the end-to-end offline pipeline from a drive to tables, plots and reports."""
 
-from superlane_tools.commands.reprocess.config import (
+from superlane_tools.commands.reprocess.result import ReprocessResult
+from superlane_tools.commands.reprocess.run import reprocess
+from superlane_tools.drive.config import (
     BACKENDS,
     CanConfig,
     CorridorConfig,
@@ -15,7 +17,6 @@ from superlane_tools.commands.reprocess.config import (
     default_config_yaml,
     load_config,
 )
-from superlane_tools.commands.reprocess.run import ReprocessResult, reprocess
 
 __all__ = [
     "BACKENDS",

@@ -2,52 +2,14 @@
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from types import TracebackType
-from typing import Any
 
 import numpy as np
 
-from superlane_tools.commands.reprocess._examples import lane_drawings
-from superlane_tools.commands.reprocess.config import ReprocessConfig
-from superlane_tools.commands.reprocess.stages import Finished
-
-
-def lane_parameters(done: Finished) -> dict[str, Any]:
-    """Return the per-frame lane parameters published next to the annotations (JSON-able)."""
-    fit = done.fit
-
-    def num(v: float) -> float | None:
-        return float(v) if math.isfinite(v) else None
-
-    return {
-        "frame_index": done.prepared.index,
-        "a1_rad": num(fit.a1),
-        "a2_per_m": num(fit.a2),
-        "curvature_per_m": num(fit.curvature) if fit.ok else None,
-        "slope": num(fit.b),
-        "ego_left": fit.ego_left,
-        "ego_right": fit.ego_right,
-        "lane_width_m": num(fit.lane_width_m),
-        "quality": float(fit.quality),
-        "reason": fit.reason,
-        "lanes": [
-            {
-                "offset_m": ln.offset_m,
-                "a1_rad": ln.a1,
-                "a2_per_m": ln.a2,
-                "range_min_m": ln.range_min_m,
-                "range_max_m": ln.range_max_m,
-                "colour": ln.colour,
-                "style": ln.style,
-            }
-            for ln in fit.lanes
-        ],
-        "super_corridor_width_m": num(done.super_corridor.width_m),
-        "corridor_net_width_m": num(done.net_corridor.width_m),
-        "corridor_net_length_m": num(done.net_corridor.length_m),
-    }
+from superlane_tools.drive.config import ReprocessConfig
+from superlane_tools.drive.examples import lane_drawings, lane_parameters
+from superlane_tools.drive.stages import Finished
 
 
 class LiveOutputs:

@@ -10,65 +10,26 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 
 from superlane_tools.can import LoadedDbc
 from superlane_tools.can.collect import CanFrames
 from superlane_tools.commands.errors import PipelineError
-from superlane_tools.commands.reprocess._finalize import ReportFacts, drive_tables, write_outputs
-from superlane_tools.commands.reprocess.config import ReprocessConfig
-from superlane_tools.commands.reprocess.record import Corridors, DriveFrames, FitSeries
-from superlane_tools.commands.reprocess.signals import ImuSamples
+from superlane_tools.commands.reprocess.outputs import write_outputs
+from superlane_tools.commands.reprocess.result import ReprocessResult
 from superlane_tools.corridor import Segment, windows
-from superlane_tools.records import Skipped
+from superlane_tools.drive.config import ReprocessConfig
+from superlane_tools.drive.finalize import ReportFacts, drive_tables
+from superlane_tools.drive.record import no_camera_frames
+from superlane_tools.drive.signals import ImuSamples
 from superlane_tools.reporting import Provenance, input_identity
-from superlane_tools.reporting import drive_tables as tables
 from superlane_tools.reporting.gnss_sink import GnssSink
-
-
-class SignalsOnly(NamedTuple):
-    """What a camera-less reprocess wrote and stated."""
-
-    outputs: tuple[Path, ...]
-    notes: tuple[str, ...]
-    skipped: tuple[Skipped, ...]
-    seconds: float
-
 
 GRID_HZ = 15.0
 """Evaluation rate without camera frames (the corridor paper's camera rate), Hz."""
 NO_CAMERA = "no camera stream"
-
-
-def no_camera_frames(t_ns: np.ndarray) -> DriveFrames:
-    """Return a drive record at evaluation times ``t_ns`` with no image result (all NaN).
-
-    The arrays are shared and read-only: nothing writes into a record.
-    """
-    n = t_ns.size
-    nan = np.full(n, np.nan)
-    nan.flags.writeable = False
-    return DriveFrames(
-        t_ns=t_ns,
-        decoded=np.zeros(n, dtype=bool),
-        corridors=Corridors(nan, nan, nan, nan, nan, nan),
-        fit=FitSeries(
-            curvature_per_m=nan,
-            heading_rad=nan,
-            slope=nan,
-            centre_m=nan,
-            lane_width_m=nan,
-            lookahead_m=nan,
-            near_m=nan,
-            far_m=nan,
-            trackable=np.zeros(n, dtype=bool),
-            cov=np.full((n, 3, 3), np.nan),
-        ),
-        stage_s=np.zeros((n, len(tables.STAGES))),
-        stage_cpu_s=np.zeros((n, len(tables.STAGES))),
-    )
 
 
 def reprocess_signals(
@@ -79,7 +40,7 @@ def reprocess_signals(
     loaded: tuple[dict[str, LoadedDbc], list[Path]],
     topics: tuple[set[str], set[str], str],
     command: str,
-) -> SignalsOnly:
+) -> ReprocessResult:
     """Collect CAN, GNSS and IMU, then write the tables and report that need no camera.
 
     Args:
@@ -92,7 +53,7 @@ def reprocess_signals(
         command: Command line for the provenance.
 
     Returns:
-        Files written, report notes, what was lost and the seconds it took.
+        Status, files written, report notes, what was lost and the seconds it took.
 
     Raises:
         PipelineError: If the recording has neither CAN nor GNSS.
@@ -154,4 +115,10 @@ def reprocess_signals(
         src, len(frames), f"none ({NO_CAMERA})", NO_CAMERA, tuple(notes), tuple(skipped)
     )
     written = write_outputs(out, derived, provenance, cfg, [], facts)
-    return SignalsOnly(tuple(written), tuple(notes), tuple(skipped), time.perf_counter() - t_start)
+    return ReprocessResult(
+        status="partial" if skipped else "ok",
+        skipped=tuple(skipped),
+        outputs=tuple(written),
+        timings={"total": time.perf_counter() - t_start},
+        notes=tuple(notes),
+    )

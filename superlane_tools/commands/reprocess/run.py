@@ -12,70 +12,35 @@ from __future__ import annotations
 import os
 import time
 from collections import deque
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from contextlib import ExitStack
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict
 from pathlib import Path
 
-import numpy as np
-
-from superlane_tools.can import ALL_BUSES, LoadedDbc, load_dbc, parse_dbc_spec, shipped_dbcs
+from superlane_tools.can import load_dbcs
 from superlane_tools.can.collect import CanFrames
-from superlane_tools.commands.reprocess._examples import example_frame
-from superlane_tools.commands.reprocess._finalize import ReportFacts, drive_tables, write_outputs
 from superlane_tools.commands.reprocess._live import LiveOutputs
-from superlane_tools.commands.reprocess.config import ReprocessConfig, load_manifest
-from superlane_tools.commands.reprocess.record import DriveRecorder
-from superlane_tools.commands.reprocess.signals import ImuSamples
-from superlane_tools.commands.reprocess.stages import FrameStages, Prepared
-from superlane_tools.corridor import Segment, TimeSegment, segments_at_times, windows
-from superlane_tools.lanes.multilane_fit import kernels_ready
+from superlane_tools.commands.reprocess.outputs import streamed_files, write_outputs
+from superlane_tools.commands.reprocess.result import Progress, ReprocessResult
+from superlane_tools.corridor import TimeSegment
+from superlane_tools.drive.config import ReprocessConfig
+from superlane_tools.drive.examples import example_frame, example_indices
+from superlane_tools.drive.finalize import ReportFacts, drive_tables, kpi_segments
+from superlane_tools.drive.record import DriveRecorder
+from superlane_tools.drive.signals import ImuSamples
+from superlane_tools.drive.stages import FrameStages, Prepared
 from superlane_tools.recording.calibration import resolve_camera
 from superlane_tools.recording.open import open_recording
-from superlane_tools.recording.streams import select_one_each
+from superlane_tools.recording.streams import select_one_each, topics_of_type
 from superlane_tools.recording.video import decode_video
-from superlane_tools.records import Skipped, TopicInfo
+from superlane_tools.records import Skipped
 from superlane_tools.reporting import Provenance, input_identity
 from superlane_tools.reporting.gnss_sink import GnssSink
 from superlane_tools.reporting.plots import ExampleFrame
 
-Progress = Callable[[int, int | None], None]
-"""Progress callback ``(frames done, frames total or None)``."""
-
-
-@dataclass(frozen=True)
-class ReprocessResult:
-    """Outcome of :func:`reprocess`.
-
-    Attributes:
-        status: ``ok``, or ``partial`` when input data was lost or skipped.
-        skipped: What was lost (reading errors, undecodable frames).
-        outputs: Files written.
-        timings: Seconds per stage: wall time (``<stage>``, summed over worker threads) and
-            thread CPU time (``cpu_<stage>``); ``pass_wall`` / ``post`` / ``total`` wall time of
-            the streaming pass, of the tables, plots and report, and of both; ``cpu_pass`` /
-            ``cpu_post`` / ``cpu_total`` the process CPU time (all threads) of the same.
-        frames: Camera frames processed.
-        notes: Missing streams and fallbacks, as stated in the report.
-        frames_per_s: Frames per second of wall time, end to end.
-    """
-
-    status: str
-    skipped: tuple[Skipped, ...]
-    outputs: tuple[Path, ...]
-    timings: dict[str, float] = field(default_factory=dict)
-    frames: int = 0
-    notes: tuple[str, ...] = ()
-    frames_per_s: float = 0.0
-
-
-def _example_indices(total: int | None, count: int) -> set[int]:
-    if count <= 0:
-        return set()
-    if not total:
-        return {10 * (k + 1) for k in range(count)}
-    return {int(total * (k + 1) / (count + 1)) for k in range(count)}
+CAN_TYPE, IMU_TYPE = "can_msgs/msg/Frame", "sensor_msgs/msg/Imu"
+"""Every topic of these types is read unless ``topics.can`` / ``topics.imu`` names one."""
 
 
 def reprocess(
@@ -112,27 +77,18 @@ def reprocess(
         # 1. Streams, camera and stages.
         streams = select_one_each(rec.topics(), asdict(cfg.topics))
         listed = rec.topics()  # every CAN bus unless one is configured; the IMU
-        can_topics = {streams.can} if cfg.topics.can else _typed(listed, "can_msgs/msg/Frame")
-        imu_topics = {cfg.topics.imu} if cfg.topics.imu else _typed(listed, "sensor_msgs/msg/Imu")
+        can_topics = {streams.can} if cfg.topics.can else topics_of_type(listed, CAN_TYPE)
+        imu_topics = {cfg.topics.imu} if cfg.topics.imu else topics_of_type(listed, IMU_TYPE)
         if not streams.frames:  # truth, dynamics and Mobileye still need no camera
             from superlane_tools.commands.reprocess._signals_only import reprocess_signals
 
             found = (can_topics, imu_topics, streams.gnss)
-            done = reprocess_signals(rec, src, out, cfg, (dbcs, dbc_paths), found, command)
-            return ReprocessResult(
-                status="partial" if done.skipped else "ok",
-                skipped=done.skipped,
-                outputs=done.outputs,
-                timings={"total": done.seconds},
-                notes=done.notes,
-            )
+            return reprocess_signals(rec, src, out, cfg, (dbcs, dbc_paths), found, command)
         camera, camera_source = resolve_camera(rec, streams, cfg.camera)
         stages = FrameStages(cfg, camera)
         notes = [*streams.notes, f"camera: {camera_source}", *stages.notes]
         total = next((t.message_count for t in rec.topics() if t.topic == streams.frames), None)
-        wanted_examples = _example_indices(
-            total, cfg.output.example_frames if cfg.output.plots else 0
-        )
+        wanted_examples = example_indices(total, cfg.output.plots and cfg.output.example_frames)
         config_data = cfg.to_dict()
         config_data["resolved"] = {
             "streams": streams._asdict(),
@@ -156,7 +112,7 @@ def reprocess(
         out.mkdir(parents=True, exist_ok=True)
         with ExitStack() as stack:
             recorder = DriveRecorder(
-                out,
+                streamed_files(out),
                 provenance,
                 stack,
                 stages.corridor_unavailable,
@@ -187,7 +143,7 @@ def reprocess(
                 if msg.topic == streams.frames:
                     pending.append(pool.submit(stages.prepare, index, msg))
                     index += 1
-                    while len(pending) > _look_ahead(cfg.workers, stages.fit_params.backend):
+                    while len(pending) > stages.look_ahead(cfg.workers):
                         handle(pending.popleft().result())
                 elif msg.topic in can_topics:
                     can.add(msg)
@@ -204,16 +160,14 @@ def reprocess(
         skipped.append(Skipped("corrupt image", "; ".join(failed[:5]), len(failed)))
     # 3. The drive's tables from its record, CAN and GNSS; then plots and the report.
     frames = recorder.record()
-    t_ns = frames.t_ns
-    steps = np.diff(t_ns)[np.diff(t_ns) > 0]  # frames may share log times (batched bridges)
-    fps = 1e9 / float(np.median(steps)) if steps.size else 15.0
+    fps = frames.frame_rate_hz()
     derived = drive_tables(
         frames,
         can,
         dbcs,
         gnss.rows,
         cfg,
-        _kpi_segments(cfg, t_ns, fps, segments),
+        kpi_segments(cfg, frames.t_ns, fps, segments),
         cfg.kpi.availability_params(fps),
         stages.corridor_unavailable,
         imu=imu,
@@ -231,13 +185,14 @@ def reprocess(
     written = [*recorder.paths, *live.paths]
     written += write_outputs(out, derived, provenance, cfg, examples, facts)
     t_end, cpu_end = time.perf_counter(), time.process_time()
-    timings = frames.stage_totals()
-    timings["pass_wall"] = t_pass - t_start
-    timings["post"] = t_end - t_pass
-    timings["total"] = t_end - t_start
-    timings["cpu_pass"] = cpu_pass - cpu_start
-    timings["cpu_post"] = cpu_end - cpu_pass
-    timings["cpu_total"] = cpu_end - cpu_start
+    timings = frames.stage_totals() | {
+        "pass_wall": t_pass - t_start,
+        "post": t_end - t_pass,
+        "total": t_end - t_start,
+        "cpu_pass": cpu_pass - cpu_start,
+        "cpu_post": cpu_end - cpu_pass,
+        "cpu_total": cpu_end - cpu_start,
+    }
     n = len(frames)
     return ReprocessResult(
         status="partial" if skipped else "ok",
@@ -248,46 +203,3 @@ def reprocess(
         notes=tuple(notes),
         frames_per_s=n / timings["total"] if timings["total"] > 0 else 0.0,
     )
-
-
-WARM_UP_LOOK_AHEAD = 128
-"""Frames the image stages may run ahead of the fit while its kernels load or compile.
-
-The first run after an install compiles the lane fit's kernels (seconds, on a side thread);
-the fit is sequential, so without this the pool would idle behind the first frame's fit. Each
-frame waiting holds its image and labels at processing size (about 1 MB at 640 x 360), so the
-buffer is bounded; results do not depend on it (the same kernels fit the same frames in order).
-"""
-
-
-def _look_ahead(workers: int, backend: str) -> int:
-    """Return how many prepared frames may wait for the sequential stages now."""
-    return 2 * workers if kernels_ready(backend) else max(2 * workers, WARM_UP_LOOK_AHEAD)
-
-
-def load_dbcs(specs: Sequence[str]) -> tuple[dict[str, LoadedDbc], list[Path]]:
-    """Load ``[BUS=]FILE`` DBCs (none: the shipped ones); names ``BUS=file`` bind a bus."""
-    parsed = [parse_dbc_spec(p) for p in specs]
-    if not parsed:
-        return {p.name: load_dbc(p) for p in shipped_dbcs()}, list(shipped_dbcs())
-    names = [s.path.name if s.bus == ALL_BUSES else f"{s.bus}={s.path.name}" for s in parsed]
-    loaded = {n: load_dbc(s.path) for n, s in zip(names, parsed, strict=True)}
-    return loaded, [s.path for s in parsed]
-
-
-def _typed(topics: Sequence[TopicInfo], msgtype: str) -> set[str]:
-    """Return the topics of one message type (ROS 1 / ROS 2 spellings alike)."""
-    short = msgtype.replace("/msg/", "/")
-    return {t.topic for t in topics if t.msgtype in (msgtype, short)}
-
-
-def _kpi_segments(
-    config: ReprocessConfig, t_ns: np.ndarray, fps: float, given: Sequence[TimeSegment] | None
-) -> list[Segment]:
-    """Return the KPI sequences as frame ranges: given, from the manifest, or windows."""
-    if given is None and config.kpi.manifest:
-        given = load_manifest(config.kpi.manifest)
-    if given is not None:
-        return segments_at_times(t_ns, given)
-    size = max(1, round(config.kpi.window_s * fps))
-    return [Segment(s.start, s.stop, config.kpi.category) for s in windows(len(t_ns), size)]

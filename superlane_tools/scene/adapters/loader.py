@@ -15,9 +15,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 from numpy.typing import NDArray
 
+from superlane_tools.config_files import load_document, parse_document
 from superlane_tools.errors import ConfigError
 from superlane_tools.hierarchy import BY_NAME, LEAF_IDS, ancestors
 from superlane_tools.scene.adapters.heads import NODE_CODES
@@ -166,20 +166,9 @@ def load_adapter(name_or_path: str | os.PathLike[str]) -> DatasetAdapter:
         return identity_adapter()
     path = Path(text)
     if path.suffix in {".yaml", ".yml"} or path.exists():
-        try:
-            raw = path.read_text(encoding="utf-8")
-        except OSError as err:
-            raise ConfigError(f"cannot read adapter {path}: {err.strerror}") from err
-        source = str(path)
-    else:
-        entry = resources.files(_PACKAGE).joinpath(f"{text}.yaml")
-        if not entry.is_file():
-            known = ", ".join(list_adapters())
-            raise ConfigError(f"unknown dataset adapter {text!r} (bundled: {known})")
-        raw = entry.read_text(encoding="utf-8")
-        source = text
-    try:
-        data = yaml.safe_load(raw)
-    except yaml.YAMLError as err:
-        raise ConfigError(f"{source}: invalid YAML: {err}") from err
-    return adapter_from_mapping(data, source)
+        return adapter_from_mapping(load_document(path, "adapter", ".yaml"), str(path))
+    entry = resources.files(_PACKAGE).joinpath(f"{text}.yaml")
+    if not entry.is_file():
+        known = ", ".join(list_adapters())
+        raise ConfigError(f"unknown dataset adapter {text!r} (bundled: {known})")
+    return adapter_from_mapping(parse_document(entry.read_text(encoding="utf-8"), text), text)

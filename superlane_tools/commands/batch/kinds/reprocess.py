@@ -22,7 +22,7 @@ BATCH_KEYS = frozenset({"category", "segments"})
 
 
 def _config(config: Mapping[str, Any]) -> Any:
-    from superlane_tools.commands.reprocess.config import config_from_mapping
+    from superlane_tools.drive.config import config_from_mapping
 
     return config_from_mapping({k: v for k, v in config.items() if k not in BATCH_KEYS})
 

@@ -1,7 +1,7 @@
-"""After the streaming pass: a drive's record plus CAN/GNSS -> its tables; then the writer.
+"""After the streaming pass: a drive's record plus CAN/GNSS -> its tables and report sections.
 
 :func:`drive_tables` is pure (arrays and parameters in, tables and notes out);
-:func:`write_outputs` writes them with plots and the report.
+:func:`report_sections` says what the report states; the command writes both.
 """
 
 from __future__ import annotations
@@ -17,9 +17,16 @@ import pandas as pd
 from superlane_tools.can import MAPPINGS, LoadedDbc, latency_by_xcorr, mobileye_table
 from superlane_tools.can.collect import CanFrames
 from superlane_tools.can.errors import CanError
-from superlane_tools.commands.reprocess.config import ReprocessConfig, TrackingConfig
-from superlane_tools.commands.reprocess.record import DriveFrames
-from superlane_tools.commands.reprocess.signals import (
+from superlane_tools.corridor import (
+    AvailabilityParams,
+    Segment,
+    TimeSegment,
+    segments_at_times,
+    windows,
+)
+from superlane_tools.drive.config import ReprocessConfig, TrackingConfig, load_manifest
+from superlane_tools.drive.record import DriveFrames
+from superlane_tools.drive.signals import (
     ImuSamples,
     at_frames,
     can_frame_signals,
@@ -28,16 +35,13 @@ from superlane_tools.commands.reprocess.signals import (
     mobileye_at_frames,
     rtk_truth,
 )
-from superlane_tools.corridor import AvailabilityParams, Segment
 from superlane_tools.geo import DEGRADED_NOTE
 from superlane_tools.lanes.lookahead import align_super_curvature, smooth_like_truth
 from superlane_tools.lanes.tracker import COV_INDEX, COV_KEYS, track_lanes, travelled_m
 from superlane_tools.records import Skipped
-from superlane_tools.reporting import Provenance, write_table
 from superlane_tools.reporting import drive_tables as tables
 from superlane_tools.reporting.headline import headline_table
-from superlane_tools.reporting.plots import ExampleFrame
-from superlane_tools.reporting.report import Section, write_report
+from superlane_tools.reporting.report import Section
 
 
 @dataclass(frozen=True)
@@ -66,17 +70,17 @@ class DriveTables:
     notes: tuple[str, ...]
     lost: tuple[Skipped, ...] = ()
 
-    def files(self) -> dict[str, pd.DataFrame]:
-        """Return output file name -> table."""
-        return {
-            "can_signals.parquet": self.can_signals,
-            "mobileye.parquet": self.mobileye,
-            "rtk.parquet": self.rtk,
-            "curvature.parquet": self.curvature,
-            "curvature_summary.parquet": self.curvature_summary,
-            "availability_frames.parquet": self.availability_frames,
-            "availability_sequences.parquet": self.availability_sequences,
-        }
+
+def kpi_segments(
+    config: ReprocessConfig, t_ns: np.ndarray, fps: float, given: Sequence[TimeSegment] | None
+) -> list[Segment]:
+    """Return the KPI sequences as frame ranges: given, from the manifest, or windows."""
+    if given is None and config.kpi.manifest:
+        given = load_manifest(config.kpi.manifest)
+    if given is not None:
+        return segments_at_times(t_ns, given)
+    size = max(1, round(config.kpi.window_s * fps))
+    return [Segment(s.start, s.stop, config.kpi.category) for s in windows(len(t_ns), size)]
 
 
 def drive_tables(
@@ -274,31 +278,6 @@ def _add_fair_mobileye(
             notes.append(f"Mobileye 0x737 Lane_Curvature vs 2*C2: RMS difference {rms:.2e} 1/m")
 
 
-def write_outputs(
-    out: Path,
-    result: DriveTables,
-    provenance: Provenance,
-    config: ReprocessConfig,
-    examples: Sequence[ExampleFrame],
-    report: ReportFacts,
-) -> list[Path]:
-    """Write the derived tables, the plots and the report; return the files written."""
-    written = [write_table(t, out / name, provenance) for name, t in result.files().items()]
-    images: list[str] = []
-    if config.output.plots:
-        from superlane_tools.reporting.plots import plot_all
-
-        pngs = plot_all(result.curvature, result.availability_frames, examples, out / "plots")
-        written += pngs
-        images = [p.relative_to(out).as_posix() for p in pngs]
-    written += write_report(
-        out / "report.md",
-        f"slt reprocess: {report.recording.name}",
-        _sections(config, report, result, images),
-    )
-    return written
-
-
 @dataclass(frozen=True)
 class ReportFacts:
     """What the report states about the run besides the tables.
@@ -377,9 +356,10 @@ def _add_track(
             curv[f"super_{name}_curvature"] = curv[f"super_{name}_sg_curvature"]
 
 
-def _sections(
+def report_sections(
     config: ReprocessConfig, facts: ReportFacts, result: DriveTables, images: Sequence[str]
 ) -> list[Section]:
+    """Return the report's sections: the run, curvature and availability, with the plots."""
     summary, av_seqs, curv = (
         result.curvature_summary,
         result.availability_sequences,

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from superlane_tools.commands.reprocess.record import FLUSH_ROWS, _Rows
+from superlane_tools.drive.record import FLUSH_ROWS, _Rows
 
 
 def test_rows_grow_and_keep_every_value_exactly() -> None:

@@ -8,6 +8,7 @@ after the pass need; :meth:`DriveRecorder.record` returns them as a frozen :clas
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from contextlib import ExitStack
 from dataclasses import dataclass
 from pathlib import Path
@@ -17,7 +18,7 @@ import numpy as np
 import pyarrow as pa
 from numpy.typing import NDArray
 
-from superlane_tools.commands.reprocess.stages import Finished
+from superlane_tools.drive.stages import Finished
 from superlane_tools.lanes.table import fit_row
 from superlane_tools.lanes.tracker import COV_INDEX
 from superlane_tools.reporting import ParquetStreamWriter, Provenance
@@ -136,12 +137,46 @@ class DriveFrames:
     def __len__(self) -> int:
         return int(self.t_ns.shape[0])
 
+    def frame_rate_hz(self, default: float = 15.0) -> float:
+        """Return the median frame rate, Hz (``default`` with fewer than two distinct times)."""
+        steps = np.diff(self.t_ns)[np.diff(self.t_ns) > 0]  # frames may share log times
+        return 1e9 / float(np.median(steps)) if steps.size else default
+
     def stage_totals(self) -> dict[str, float]:
         """Return seconds per stage summed over frames: ``<stage>`` wall, ``cpu_<stage>`` CPU."""
         wall, cpu = self.stage_s.sum(axis=0), self.stage_cpu_s.sum(axis=0)
         out = {s: float(wall[k]) for k, s in enumerate(tables.STAGES)}
         out.update({f"cpu_{s}": float(cpu[k]) for k, s in enumerate(tables.STAGES)})
         return out
+
+
+def no_camera_frames(t_ns: np.ndarray) -> DriveFrames:
+    """Return a drive record at evaluation times ``t_ns`` with no image result (all NaN).
+
+    The arrays are shared and read-only: nothing writes into a record.
+    """
+    n = t_ns.size
+    nan = np.full(n, np.nan)
+    nan.flags.writeable = False
+    return DriveFrames(
+        t_ns=t_ns,
+        decoded=np.zeros(n, dtype=bool),
+        corridors=Corridors(nan, nan, nan, nan, nan, nan),
+        fit=FitSeries(
+            curvature_per_m=nan,
+            heading_rad=nan,
+            slope=nan,
+            centre_m=nan,
+            lane_width_m=nan,
+            lookahead_m=nan,
+            near_m=nan,
+            far_m=nan,
+            trackable=np.zeros(n, dtype=bool),
+            cov=np.full((n, 3, 3), np.nan),
+        ),
+        stage_s=np.zeros((n, len(tables.STAGES))),
+        stage_cpu_s=np.zeros((n, len(tables.STAGES))),
+    )
 
 
 def frame_rows(done: Finished, corridor_status: str, mean_frames: int) -> dict[str, dict[str, Any]]:
@@ -214,7 +249,7 @@ class DriveRecorder:
     """Streams the per-frame tables of a drive and gathers its :class:`DriveFrames`.
 
     Args:
-        out: Output folder.
+        files: Path of each streamed table: ``frames``, ``lanes``, ``corridor``, ``baseline``.
         provenance: Provenance of every table.
         stack: Closes (and on error discards) the table writers.
         corridor_status: Why the corridor network is unavailable ("" when it is available).
@@ -224,7 +259,7 @@ class DriveRecorder:
 
     def __init__(
         self,
-        out: Path,
+        files: Mapping[str, Path],
         provenance: Provenance,
         stack: ExitStack,
         corridor_status: str,
@@ -238,9 +273,7 @@ class DriveRecorder:
             "baseline": tables.BASELINE_SCHEMA,
         }
         self.writers = {
-            name: stack.enter_context(
-                ParquetStreamWriter(out / f"{name}.parquet", schema, provenance)
-            )
+            name: stack.enter_context(ParquetStreamWriter(files[name], schema, provenance))
             for name, schema in specs.items()
         }
         self._rows: dict[str, list[dict[str, Any]]] = {name: [] for name in specs}

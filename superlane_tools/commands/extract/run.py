@@ -2,120 +2,25 @@
 
 from __future__ import annotations
 
-import math
 import os
-from collections.abc import Callable, Mapping, Sequence
-from dataclasses import asdict, dataclass, field
+from collections.abc import Callable
+from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
-from superlane_tools.can import ALL_BUSES, Coverage, LoadedDbc, load_dbc, parse_dbc_spec
+from superlane_tools.can import LoadedDbc, load_dbcs
 from superlane_tools.commands.errors import PipelineError
-from superlane_tools.errors import ConfigError, UsageError
-from superlane_tools.geo import GeodeticOrigin
-from superlane_tools.recording.base import Recording, SkipLog
+from superlane_tools.commands.extract.config import ExtractConfig, ExtractResult
+from superlane_tools.recording.base import SkipLog, time_range_ns
 from superlane_tools.recording.open import open_recording
-from superlane_tools.recording.streams import STREAM_KINDS, load_stream_config, select_streams
+from superlane_tools.recording.streams import message_total, select_streams
 from superlane_tools.recording.video import read_with_video
-from superlane_tools.records import Skipped, TopicInfo
+from superlane_tools.records import Skipped
 from superlane_tools.reporting.atomic import remove_stale_temps
 from superlane_tools.reporting.can_sink import CanSink
 from superlane_tools.reporting.frame_sink import FrameSink
 from superlane_tools.reporting.gnss_sink import GnssSink
 from superlane_tools.reporting.provenance import HashedProvenance, PendingIdentities
-
-MAX_OFFSET_S = 9e9
-"""Largest --start/--end offset, seconds (int64 ns holds 292 years)."""
-FRAME_FORMATS = ("jpg", "png", "none")
-_NS = 1_000_000_000
-__all__ = [
-    "FRAME_FORMATS",
-    "STREAM_KINDS",
-    "ExtractConfig",
-    "ExtractResult",
-    "extract",
-    "load_stream_config",
-    "select_streams",
-]
-
-
-@dataclass(frozen=True)
-class ExtractConfig:
-    """What to extract and how.
-
-    Attributes:
-        topics: Restrict to these topics (streams still found by message type); empty: all.
-        streams: Explicit topic lists per kind (``frames``, ``camera_info``, ``can``, ``gnss``),
-            e.g. from a YAML config; a kind listed here is not auto-detected.
-        start_s: Start of the range, seconds after the recording's first message; None: start.
-        end_s: End of the range (exclusive), seconds after the first message; None: end.
-        start_ns: Start as an absolute log time, ns (overrides ``start_s``).
-        end_ns: End (exclusive) as an absolute log time, ns (overrides ``end_s``).
-        dbc_paths: DBC files to decode CAN frames with (none: raw frames only); ``BUS=FILE``
-            binds a DBC to one bus (CAN topic or channel), a plain file applies to all.
-        frame_format: ``jpg``, ``png`` (files) or ``none`` (index only).
-        every: Keep every Nth frame of each image topic.
-        origin: ENU origin; None: the first valid fix.
-    """
-
-    topics: tuple[str, ...] = ()
-    streams: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
-    start_s: float | None = None
-    end_s: float | None = None
-    start_ns: int | None = None
-    end_ns: int | None = None
-    dbc_paths: tuple[Path, ...] = ()
-    frame_format: str = "jpg"
-    every: int = 1
-    origin: GeodeticOrigin | None = None
-
-    def __post_init__(self) -> None:
-        if self.frame_format not in FRAME_FORMATS:
-            raise UsageError(
-                f"frame format must be one of {FRAME_FORMATS}, not {self.frame_format!r}"
-            )
-        if self.every < 1:
-            raise UsageError(f"--every must be >= 1, got {self.every}")
-        for name, value in (("--start", self.start_s), ("--end", self.end_s)):
-            if value is not None and not (math.isfinite(value) and abs(value) <= MAX_OFFSET_S):
-                raise UsageError(f"{name} must be a finite number of seconds, got {value}")
-        if self.start_s is not None and self.start_s < 0:
-            raise UsageError(f"--start must be >= 0 s, got {self.start_s}")
-        if self.end_s is not None and self.end_s <= (self.start_s or 0.0):
-            start = self.start_s or 0.0
-            raise UsageError(f"--end ({self.end_s} s) must be after --start ({start} s)")
-        unknown = set(self.streams) - set(STREAM_KINDS)
-        if unknown:
-            raise ConfigError(f"unknown stream kinds {sorted(unknown)}: use {STREAM_KINDS}")
-
-
-@dataclass(frozen=True)
-class ExtractResult:
-    """What an extraction produced.
-
-    Attributes:
-        outputs: Files written (Parquet tables; image files are listed in ``frames.parquet``).
-        selected: Kind -> topics extracted.
-        counts: Kind -> rows written (frames indexed, CAN frames, signal rows, fixes).
-        dbc_repairs: DBC file name -> repairs made while loading it.
-        skipped: What was skipped or lost (reading errors, corrupt frames), one entry per kind.
-        origin: The ENU origin used, when GNSS was extracted.
-        can_coverage: Ids matched by the DBCs of the ids seen (None without CAN or DBCs).
-    """
-
-    outputs: tuple[Path, ...]
-    selected: Mapping[str, tuple[str, ...]]
-    counts: Mapping[str, int]
-    dbc_repairs: Mapping[str, list[str]]
-    skipped: tuple[Skipped, ...]
-    origin: GeodeticOrigin | None
-    can_coverage: Coverage | None = None
-
-
-def _first_log_time_ns(rec: Recording, topics: Sequence[str]) -> int | None:
-    for raw in rec.raw_messages(topics=topics):
-        return raw.log_time_ns
-    return None
 
 
 def extract(
@@ -141,7 +46,7 @@ def extract(
         command: Command line for the provenance.
         progress: Called as ``progress(messages_done, messages_total_or_None)`` every few
             hundred messages.
-        on_dbc: Called after each DBC loads, with its name and repairs (for reporting).
+        on_dbc: Called for each loaded DBC, with its name and repairs (for reporting).
 
     Returns:
         The outputs, counts, DBC repairs and what was skipped.
@@ -156,12 +61,8 @@ def extract(
     out = Path(out_dir)
     for folder in (out, out / "frames"):  # what killed extracts into this folder left
         remove_stale_temps(folder)
-    dbcs: dict[str, LoadedDbc] = {}
-    specs = [parse_dbc_spec(str(p)) for p in config.dbc_paths]
-    for spec in specs:
-        loaded = load_dbc(spec.path)
-        name = spec.path.name if spec.bus == ALL_BUSES else f"{spec.bus}={spec.path.name}"
-        dbcs[name] = loaded
+    dbcs, dbc_files = load_dbcs([str(p) for p in config.dbc_paths], shipped=False)
+    for name, loaded in dbcs.items():
         if on_dbc is not None:
             on_dbc(name, loaded)
     skips = SkipLog()
@@ -171,22 +72,18 @@ def extract(
         if not any(selected[k] for k in ("frames", "can", "gnss")):
             listing = ", ".join(f"{t.topic} ({t.msgtype})" for t in rec.topics()) or "no topics"
             raise PipelineError(f"{src.name}: no image, CAN or GNSS topics to extract ({listing})")
-        start_ns = stop_ns = None
-        if config.start_s is not None or config.end_s is not None:
-            first = _first_log_time_ns(rec, list(kind_of))
-            if first is not None:
-                start_ns = None if config.start_s is None else first + round(config.start_s * _NS)
-                stop_ns = None if config.end_s is None else first + round(config.end_s * _NS)
+        start_ns, stop_ns = time_range_ns(rec, list(kind_of), config.start_s, config.end_s)
         start_ns = config.start_ns if config.start_ns is not None else start_ns
         stop_ns = config.end_ns if config.end_ns is not None else stop_ns
         settings = asdict(config)
         settings["streams"] = {k: list(v) for k, v in selected.items()}
         provenance = HashedProvenance(
-            PendingIdentities((src, *(spec.path for spec in specs))),
+            PendingIdentities((src, *dbc_files)),
             command=command,
             config=settings,
         )
-        total = _total(rec.topics(), set(kind_of)) if start_ns is None and stop_ns is None else None
+        whole = start_ns is None and stop_ns is None
+        total = message_total(rec.topics(), set(kind_of)) if whole else None
         frame_sink = (
             FrameSink(
                 out,
@@ -255,10 +152,3 @@ def extract(
         origin=gnss_sink.used_origin if gnss_sink else None,
         can_coverage=coverage,
     )
-
-
-def _total(topics: Sequence[TopicInfo], selected: set[str]) -> int | None:
-    counts = [t.message_count for t in topics if t.topic in selected]
-    if any(c is None for c in counts):
-        return None
-    return sum(c for c in counts if c is not None)

@@ -15,7 +15,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from superlane_tools.can import si_factor
-from superlane_tools.commands.reprocess.config import CanConfig, RtkConfig
+from superlane_tools.drive.config import CanConfig, RtkConfig
 from superlane_tools.geo import (
     curvature_noise_floor,
     geodetic_to_enu,
