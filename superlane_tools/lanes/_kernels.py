@@ -687,60 +687,6 @@ def solve_ridged(normal: Any, rhs: Any) -> Any:
 
 
 @_jit
-def refit_gauss_newton(
-    iq: Any,
-    r: Any,
-    labels: Any,
-    n_lines: int,
-    a1: float,
-    a2: float,
-    b: float,
-    cv: float,
-    inv_h: float,
-    min_den: float,
-    order: int,
-    fit_slope: bool,
-    slope_bound: float,
-    fit_vertical: bool,
-    vertical_bound: float,
-    near_m: float,
-    iterations: int,
-) -> tuple[float, float, float, float, Any, Any]:
-    """Run the Gauss-Newton loop of ``_refit.refit_shared``.
-
-    Returns ``a1, a2, b, c, offsets`` and the last step's normal matrix (for the covariance).
-    """
-    offsets = np.empty(n_lines)
-    normal = np.zeros((1, 1))
-    for _ in range(iterations if fit_slope or fit_vertical else 1):
-        normal, rhs = refit_normal(
-            iq, r, labels, n_lines, a1, a2, b, cv, inv_h, min_den, order, fit_slope,
-            fit_vertical, near_m,
-        )  # fmt: skip
-        p = solve_ridged(normal, rhs)
-        for k in range(n_lines):  # not a slice assignment (see _sort_simplex)
-            offsets[k] = p[k]
-        a1 = p[n_lines]
-        a2 = p[n_lines + 1] if order == 2 else 0.0
-        if not (fit_slope or fit_vertical):
-            break
-        done = True
-        k = n_lines + (2 if order == 2 else 1)
-        if fit_slope:
-            b_new = min(max(b + p[k], -slope_bound), slope_bound)
-            done = abs(b_new - b) < 1e-7
-            b = b_new
-            k += 1
-        if fit_vertical:
-            c_new = min(max(cv + p[k], -vertical_bound), vertical_bound)
-            done = done and abs(c_new - cv) < 1e-9
-            cv = c_new
-        if done:
-            break
-    return a1, a2, b, cv, offsets, normal
-
-
-@_jit
 def refit_ssr(
     iq: Any,
     r: Any,

@@ -274,15 +274,12 @@ def _refit_compiled(
     vertical_bound: float,
 ) -> SharedModel:
     """:func:`refit_shared` on normal equations accumulated by ``_kernels.refit_normal``."""
-    from superlane_tools.lanes._kernels import refit_gauss_newton
-
     if int((labels >= 0).sum()) < n_lines + order + 1:
         return start
     fit_slope = fit_slope and n_lines >= 2
-    a1, a2, b, c, offsets, normal = refit_gauss_newton(
-        iq, r, labels, n_lines, start.a1, start.a2, start.b, start.c, 1.0 / height_m,
-        1.0 / max_range_m, order, fit_slope, slope_bound,
-        vertical_bound > 0 and n_lines >= 2, vertical_bound, NEAR_WEIGHT_M, iterations,
+    a1, a2, b, c, offsets, normal = _gauss_newton(
+        iq, r, labels, n_lines, start, 1.0 / height_m, 1.0 / max_range_m, order, fit_slope,
+        slope_bound, vertical_bound if n_lines >= 2 else 0.0, iterations,
     )  # fmt: skip
     model = SharedModel(
         float(a1), float(a2), float(b), np.asarray(offsets, dtype=np.float64), float(c)
@@ -291,6 +288,63 @@ def _refit_compiled(
         model, np.asarray(normal), iq, r, labels, n_lines, order, fit_slope, height_m,
         max_range_m, compiled=True,
     )  # fmt: skip
+
+
+def _gauss_newton(
+    iq: FloatArray,
+    r: FloatArray,
+    labels: IntArray,
+    n_lines: int,
+    start: SharedModel,
+    inv_h: float,
+    min_den: float,
+    order: int,
+    fit_slope: bool,
+    slope_bound: float,
+    vertical_bound: float,
+    iterations: int,
+) -> tuple[float, float, float, float, FloatArray, FloatArray]:
+    """Run the Gauss-Newton loop of :func:`refit_shared` on the compiled point passes.
+
+    The loop itself is a handful of scalar steps per frame, so it stays in Python (compiling it
+    as one more kernel cost 1.5 s or more of the first run); each step's pass over the points
+    (``refit_normal``) and its small solve (``solve_ridged``) are the compiled kernels. Same
+    arithmetic, in the same order, as a compiled loop: results are identical.
+
+    Returns:
+        ``a1, a2, b, c, offsets`` and the last step's normal matrix (for the covariance).
+    """
+    from superlane_tools.lanes._kernels import refit_normal, solve_ridged
+
+    fit_vertical = vertical_bound > 0
+    a1, a2, b, cv = float(start.a1), float(start.a2), float(start.b), float(start.c)
+    offsets: FloatArray = np.empty(n_lines)
+    normal: FloatArray = np.zeros((1, 1))
+    for _ in range(iterations if fit_slope or fit_vertical else 1):
+        normal, rhs = refit_normal(
+            iq, r, labels, n_lines, a1, a2, b, cv, inv_h, min_den, order, fit_slope,
+            fit_vertical, NEAR_WEIGHT_M,
+        )  # fmt: skip
+        p = solve_ridged(normal, rhs)
+        offsets = p[:n_lines].copy()
+        a1 = float(p[n_lines])
+        a2 = float(p[n_lines + 1]) if order == 2 else 0.0
+        if not (fit_slope or fit_vertical):
+            break
+        done = True
+        k = n_lines + (2 if order == 2 else 1)
+        if fit_slope:
+            b_new = min(max(b + float(p[k]), -slope_bound), slope_bound)
+            done = abs(b_new - b) < 1e-7
+            b = b_new
+            k += 1
+        if fit_vertical:
+            c_new = min(max(cv + float(p[k]), -vertical_bound), vertical_bound)
+            done = done and abs(c_new - cv) < 1e-9
+            cv = c_new
+        if done:
+            break
+    return a1, a2, b, cv, offsets, normal
 
 
 class LocalCorrection(NamedTuple):
