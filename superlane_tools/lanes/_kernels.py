@@ -717,38 +717,3 @@ def refit_ssr(
         ssr += res * res
         count += 1
     return ssr, count
-
-
-@_jit
-def local_corrections(sums_x: Any, sums_r: Any, order: int, bound_m: float) -> Any:
-    """Return each line's bounded correction ``(c0, c1, c2)`` from ``line_sums``.
-
-    As ``_refit.local_correction``: the order grows with the support span, and the correction
-    is scaled into ``+-bound_m`` over the support.
-    """
-    n_lines = sums_x.shape[0]
-    out = np.zeros((n_lines, 3))
-    for n in range(n_lines):
-        count, x_min, x_max = sums_r[n, 3], sums_r[n, 4], sums_r[n, 5]
-        if count < 8 or bound_m <= 0:
-            continue
-        span = x_max - x_min
-        k = 0 if span < 5.0 else (1 if span < 15.0 or order == 1 else 2)
-        normal = np.zeros((k + 1, k + 1))
-        rhs = np.zeros(k + 1)
-        for i in range(k + 1):
-            rhs[i] = sums_r[n, i]
-            for j in range(k + 1):
-                normal[i, j] = sums_x[n, i + j]
-        coef = solve_ridged(normal, rhs)
-        worst = 0.0
-        for g in range(16):
-            x = x_min + (x_max - x_min) * g / 15.0
-            v = coef[0]
-            if k >= 1:
-                v += x * (coef[1] + (x * coef[2] if k == 2 else 0.0))
-            worst = max(worst, abs(v))
-        scale = bound_m / worst if worst > bound_m else 1.0
-        for i in range(k + 1):
-            out[n, i] = coef[i] * scale
-    return out

@@ -419,3 +419,39 @@ def local_correction_from_sums(
     coef = np.zeros(3)
     coef[: k + 1] = np.linalg.solve(normal, np.asarray(sums_r[: k + 1], dtype=np.float64))
     return _bounded(coef, x_min, x_max, bound_m)
+
+
+def local_corrections_compiled(
+    sums_x: FloatArray, sums_r: FloatArray, order: int, bound_m: float
+) -> FloatArray:
+    """Return each line's bounded correction ``(c0, c1, c2)`` from ``_kernels.line_sums``.
+
+    As :func:`local_correction`: the order grows with the support span, and the correction is
+    scaled into ``+-bound_m`` over the support. A few scalar steps per line, so the loop stays
+    in Python (one kernel less to compile on the first run) around the compiled
+    ``solve_ridged``; the arithmetic and its order are those of the former compiled loop.
+    """
+    from superlane_tools.lanes._kernels import solve_ridged
+
+    n_lines = sums_x.shape[0]
+    out = np.zeros((n_lines, 3))
+    for n in range(n_lines):
+        count, x_min, x_max = float(sums_r[n, 3]), float(sums_r[n, 4]), float(sums_r[n, 5])
+        if count < 8 or bound_m <= 0:
+            continue
+        span = x_max - x_min
+        k = 0 if span < 5.0 else (1 if span < 15.0 or order == 1 else 2)
+        normal = np.empty((k + 1, k + 1))
+        for i in range(k + 1):
+            normal[i] = sums_x[n, i : i + k + 1]
+        coef = solve_ridged(normal, sums_r[n, : k + 1].copy())
+        worst = 0.0
+        for g in range(16):
+            x = x_min + (x_max - x_min) * g / 15.0
+            v = float(coef[0])
+            if k >= 1:
+                v += x * (float(coef[1]) + (x * float(coef[2]) if k == 2 else 0.0))
+            worst = max(worst, abs(v))
+        scale = bound_m / worst if worst > bound_m else 1.0
+        out[n, : k + 1] = coef * scale
+    return out

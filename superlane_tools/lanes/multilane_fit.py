@@ -25,6 +25,7 @@ from superlane_tools.lanes._refit import (
     LocalCorrection,
     SharedModel,
     local_correction,
+    local_corrections_compiled,
     refit_shared,
 )
 from superlane_tools.lanes.attributes import (
@@ -610,7 +611,7 @@ def _build_lanes_compiled(
     )
     sums_x, sums_r = k.line_sums(x, resid, labels, offsets, NEAR_WEIGHT_M)
     if p.local_correction:
-        coef = k.local_corrections(sums_x, sums_r, p.order, p.local_bound_m)
+        coef = local_corrections_compiled(sums_x, sums_r, p.order, p.local_bound_m)
         lines = np.concatenate([offsets[:, None], coef], axis=1)
         labels = k.reassign(x, resid, lines, p.assign_radius_m, ASSIGN_ANGLE_RAD)
         _, sums_r = k.line_sums(x, resid, labels, offsets, NEAR_WEIGHT_M)
