@@ -237,6 +237,11 @@ def kill_and_resume(tmp: Path) -> dict[str, object]:
     }
 
 
+def _uptime() -> str:
+    """``uptime``'s line: the machine is shared, its load goes with every number."""
+    return subprocess.run(["uptime"], capture_output=True, text=True, check=False).stdout.strip()
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--recordings", type=int, default=8)
@@ -245,12 +250,15 @@ def main() -> None:
     ap.add_argument("--compression", choices=("zstd", "lz4", "none"), default="zstd")
     ap.add_argument("--ram", action="store_true", help="output roots in /dev/shm")
     ap.add_argument("--skip-kill", action="store_true", help="only the throughput part")
+    ap.add_argument("--results", help="file name in benchmarks/results (e.g. on a loaded box)")
     args = ap.parse_args()
+    uptime = [_uptime()]
     ram = Path(tempfile.mkdtemp(prefix="bench_batch_", dir="/dev/shm")) if args.ram else None
     with tempfile.TemporaryDirectory(prefix="bench_batch_") as name:
         tmp = Path(name)
-        result = {
+        result: dict[str, object] = {
             "machine": f"{platform.machine()} {platform.python_version()}",
+            "command": "python benchmarks/bench_batch.py " + " ".join(sys.argv[1:]),
             "throughput": throughput(
                 tmp, args.recordings, args.frames, args.repeats, args.compression, ram
             ),
@@ -262,6 +270,9 @@ def main() -> None:
     default = args.compression == "zstd" and not args.ram
     suffix = f"_{args.compression}" + ("_ram" if args.ram else "")
     out = RESULTS if default else RESULTS.with_name(f"batch{suffix}.json")
+    if args.results:
+        out = RESULTS.with_name(args.results)
+    result["uptime"] = [*uptime, _uptime()]
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(result, indent=1, default=str) + "\n")
     print(json.dumps(result, indent=1, default=str))

@@ -28,6 +28,34 @@ FloatArray = NDArray[np.float64]
 FLUSH_ROWS = 256
 
 
+class _Rows:
+    """Fixed-width rows appended one at a time into a growing array (amortised doubling).
+
+    A drive's per-frame numbers as compact array rows (8 bytes a value) instead of Python tuples
+    of float objects (about 30 bytes a value): memory that grows with the drive's length.
+    """
+
+    def __init__(self, width: int, dtype: type = np.float64) -> None:
+        self._data: NDArray[Any] = np.empty((FLUSH_ROWS, width), dtype=dtype)
+        self._n = 0
+
+    def append(self, row: tuple[Any, ...]) -> None:
+        """Add one row."""
+        if self._n == self._data.shape[0]:
+            grown = np.empty((2 * self._n, self._data.shape[1]), dtype=self._data.dtype)
+            grown[: self._n] = self._data
+            self._data = grown
+        self._data[self._n] = row
+        self._n += 1
+
+    def __len__(self) -> int:
+        return self._n
+
+    def array(self) -> NDArray[Any]:
+        """Return a copy of the rows so far, ``(n, width)``."""
+        return self._data[: self._n].copy()
+
+
 @dataclass(frozen=True)
 class Corridors:
     """Corridor width and length per frame (metres, NaN where not measured) of each method.
@@ -259,13 +287,12 @@ class DriveRecorder:
         self._rows: dict[str, list[dict[str, Any]]] = {name: [] for name in specs}
         self._corridor_status, self._mean_frames = corridor_status, mean_frames
         self._max_slope = max_slope
-        self._t: list[int] = []
-        self._decoded: list[bool] = []
-        self._trackable: list[bool] = []
-        self._values: list[tuple[float, ...]] = []
-        self._cov: list[tuple[float, ...]] = []
-        self._stage: list[tuple[float, ...]] = []
-        self._stage_cpu: list[tuple[float, ...]] = []
+        self._t = _Rows(1, np.int64)
+        self._flags = _Rows(2, np.bool_)  # decoded, trackable
+        self._values = _Rows(len(_COLUMNS))
+        self._cov = _Rows(len(COV_INDEX))
+        self._stage = _Rows(len(tables.STAGES))
+        self._stage_cpu = _Rows(len(tables.STAGES))
 
     @property
     def paths(self) -> list[Path]:
@@ -284,9 +311,8 @@ class DriveRecorder:
         centre, width, ahead = fit.lane_grid()
         near, far = fit.ego_support_m()
         ego = fit.ego_lines()
-        self._t.append(prep.log_time_ns)
-        self._decoded.append(not prep.error)
-        self._trackable.append(fit.trackable(self._max_slope))
+        self._t.append((prep.log_time_ns,))
+        self._flags.append((not prep.error, fit.trackable(self._max_slope)))
         self._values.append(
             (
                 done.super_corridor.width_m,
@@ -324,16 +350,16 @@ class DriveRecorder:
     def record(self) -> DriveFrames:
         """Return the frames taken so far as a :class:`DriveFrames`."""
         n = len(self._t)
-        values = np.asarray(self._values, dtype=np.float64).reshape(n, len(_COLUMNS))
+        values = self._values.array()
         col = {name: values[:, k].copy() for k, name in enumerate(_COLUMNS)}
-        upper = np.asarray(self._cov, dtype=np.float64).reshape(n, len(COV_INDEX))
+        upper = self._cov.array()
         cov = np.empty((n, 3, 3))
         for k, (i, j) in enumerate(COV_INDEX):
             cov[:, i, j] = cov[:, j, i] = upper[:, k]
-        n_stages = len(tables.STAGES)
+        flags = self._flags.array()
         return DriveFrames(
-            t_ns=np.asarray(self._t, dtype=np.int64),
-            decoded=np.asarray(self._decoded, dtype=bool),
+            t_ns=self._t.array()[:, 0].copy(),
+            decoded=flags[:, 0].copy(),
             corridors=Corridors(
                 col["super_w"],
                 col["super_l"],
@@ -353,9 +379,9 @@ class DriveRecorder:
                 far_m=col["far"],
                 left_m=col["left"],
                 right_m=col["right"],
-                trackable=np.asarray(self._trackable, dtype=bool),
+                trackable=flags[:, 1].copy(),
                 cov=cov,
             ),
-            stage_s=np.asarray(self._stage, dtype=np.float64).reshape(n, n_stages),
-            stage_cpu_s=np.asarray(self._stage_cpu, dtype=np.float64).reshape(n, n_stages),
+            stage_s=self._stage.array(),
+            stage_cpu_s=self._stage_cpu.array(),
         )

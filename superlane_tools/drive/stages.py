@@ -28,6 +28,7 @@ from superlane_tools.corridor import (
 )
 from superlane_tools.drive.config import ReprocessConfig
 from superlane_tools.lanes import FitParams, LaneFit
+from superlane_tools.lanes.multilane_fit import kernels_ready
 from superlane_tools.lanes.points import lane_points, road_points
 from superlane_tools.lanes.sequence import SequentialFit, max_plausible_slope
 from superlane_tools.recording.images import decode_frame, decode_reduced
@@ -36,6 +37,14 @@ from superlane_tools.scene.oracle import OracleLabels
 
 FloatArray = NDArray[np.float64]
 NO_CORRIDOR_MODEL = "no corridor model"
+WARM_UP_LOOK_AHEAD = 128
+"""Frames the image stages may run ahead of the fit while its kernels load or compile.
+
+The first run after an install compiles the lane fit's kernels (seconds, on a side thread);
+the fit is sequential, so without this the pool would idle behind the first frame's fit. Each
+frame waiting holds its image and labels at processing size (about 1 MB at 640 x 360), so the
+buffer is bounded; results do not depend on it (the same kernels fit the same frames in order).
+"""
 
 
 @dataclass
@@ -257,6 +266,16 @@ class FrameStages:
             return self._oracle.labels(index, image.shape[1], image.shape[0])
         labels: NDArray[np.uint8] = self._backend.segment(image)
         return labels
+
+    def look_ahead(self, workers: int) -> int:
+        """Return how many prepared frames may wait for :meth:`finish` now.
+
+        ``2 * workers`` normally; up to :data:`WARM_UP_LOOK_AHEAD` while the fit's kernels are
+        still loading or compiling (first run after an install), so the pool keeps working.
+        """
+        if kernels_ready(self.fit_params.backend):
+            return 2 * workers
+        return max(2 * workers, WARM_UP_LOOK_AHEAD)
 
     def finish(self, prep: Prepared) -> Finished:
         """Run the sequential stages (warm-started fit, corridor mean) in frame order."""

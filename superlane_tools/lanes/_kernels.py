@@ -458,10 +458,11 @@ def assign_points(
     n = iq.size
     x_out = np.empty(n)
     res_out = np.empty(n)
-    labels = np.full(n, -1, dtype=np.intp)
+    labels = np.empty(n, dtype=np.intp)  # not np.full: one allocator less to compile
     c = b * inv_h
     c_h = cv * inv_h
     for i in range(n):
+        labels[i] = -1
         den = road_den(iq[i], c, c_h)
         if den < min_den:
             x_out[i] = np.nan
@@ -519,8 +520,9 @@ def line_sums(x: Any, res: Any, labels: Any, offsets: Any, near_m: float) -> tup
 def reassign(x: Any, res: Any, lines: Any, radius_m: float, radius_per_m: float) -> Any:
     """Assign each point to the nearest corrected line ``(offset, c0, c1, c2)`` within radius."""
     n = x.size
-    labels = np.full(n, -1, dtype=np.intp)
+    labels = np.empty(n, dtype=np.intp)
     for i in range(n):
+        labels[i] = -1
         xi = x[i]
         if not math.isfinite(xi):
             continue
@@ -537,8 +539,12 @@ def reassign(x: Any, res: Any, lines: Any, radius_m: float, radius_per_m: float)
 
 @_jit
 def row_coverage(rows_px: Any, labels: Any, n_lines: int) -> Any:
-    """Return per line ``[distinct image rows, first row, last row]`` of its points (pixels)."""
-    out = np.zeros((n_lines, 3), dtype=np.int64)
+    """Return per line ``[distinct image rows, first row, last row]`` of its points (pixels).
+
+    Whole numbers in a float array: float allocations only, which the other kernels compile
+    anyway (each distinct allocator costs a fraction of a second on the first run).
+    """
+    out = np.zeros((n_lines, 3))
     if rows_px.size == 0 or n_lines == 0:
         return out
     low = high = rows_px[0]  # finite pixel rows; a loop, not .min()/.max() (compile time)
@@ -547,7 +553,8 @@ def row_coverage(rows_px: Any, labels: Any, n_lines: int) -> Any:
         high = max(high, rows_px[i])
     lo = int(np.rint(low))
     hi = int(np.rint(high))
-    seen = np.zeros((n_lines, hi - lo + 1), dtype=np.bool_)
+    span = hi - lo + 1
+    seen = np.zeros(n_lines * span)
     for n in range(n_lines):
         out[n, 1] = hi + 1
         out[n, 2] = lo - 1
@@ -556,8 +563,8 @@ def row_coverage(rows_px: Any, labels: Any, n_lines: int) -> Any:
         if n < 0:
             continue
         row = int(np.rint(rows_px[i]))
-        if not seen[n, row - lo]:
-            seen[n, row - lo] = True
+        if seen[n * span + row - lo] == 0.0:
+            seen[n * span + row - lo] = 1.0
             out[n, 0] += 1
             out[n, 1] = min(out[n, 1], row)
             out[n, 2] = max(out[n, 2], row)
@@ -680,60 +687,6 @@ def solve_ridged(normal: Any, rhs: Any) -> Any:
 
 
 @_jit
-def refit_gauss_newton(
-    iq: Any,
-    r: Any,
-    labels: Any,
-    n_lines: int,
-    a1: float,
-    a2: float,
-    b: float,
-    cv: float,
-    inv_h: float,
-    min_den: float,
-    order: int,
-    fit_slope: bool,
-    slope_bound: float,
-    fit_vertical: bool,
-    vertical_bound: float,
-    near_m: float,
-    iterations: int,
-) -> tuple[float, float, float, float, Any, Any]:
-    """Run the Gauss-Newton loop of ``_refit.refit_shared``.
-
-    Returns ``a1, a2, b, c, offsets`` and the last step's normal matrix (for the covariance).
-    """
-    offsets = np.empty(n_lines)
-    normal = np.zeros((1, 1))
-    for _ in range(iterations if fit_slope or fit_vertical else 1):
-        normal, rhs = refit_normal(
-            iq, r, labels, n_lines, a1, a2, b, cv, inv_h, min_den, order, fit_slope,
-            fit_vertical, near_m,
-        )  # fmt: skip
-        p = solve_ridged(normal, rhs)
-        for k in range(n_lines):  # not a slice assignment (see _sort_simplex)
-            offsets[k] = p[k]
-        a1 = p[n_lines]
-        a2 = p[n_lines + 1] if order == 2 else 0.0
-        if not (fit_slope or fit_vertical):
-            break
-        done = True
-        k = n_lines + (2 if order == 2 else 1)
-        if fit_slope:
-            b_new = min(max(b + p[k], -slope_bound), slope_bound)
-            done = abs(b_new - b) < 1e-7
-            b = b_new
-            k += 1
-        if fit_vertical:
-            c_new = min(max(cv + p[k], -vertical_bound), vertical_bound)
-            done = done and abs(c_new - cv) < 1e-9
-            cv = c_new
-        if done:
-            break
-    return a1, a2, b, cv, offsets, normal
-
-
-@_jit
 def refit_ssr(
     iq: Any,
     r: Any,
@@ -764,36 +717,3 @@ def refit_ssr(
         ssr += res * res
         count += 1
     return ssr, count
-
-
-@_jit
-def local_corrections(sums_x: Any, sums_r: Any, order: int, bound_m: float) -> Any:
-    """Return each line's bounded correction ``(c0, c1, c2)`` from ``line_sums``.
-
-    As ``_refit.local_correction``: the order grows with the support span, and the correction
-    is scaled into ``+-bound_m`` over the support.
-    """
-    n_lines = sums_x.shape[0]
-    out = np.zeros((n_lines, 3))
-    for n in range(n_lines):
-        count, x_min, x_max = sums_r[n, 3], sums_r[n, 4], sums_r[n, 5]
-        if count < 8 or bound_m <= 0:
-            continue
-        span = x_max - x_min
-        k = 0 if span < 5.0 else (1 if span < 15.0 or order == 1 else 2)
-        normal = np.empty((k + 1, k + 1))
-        for i in range(k + 1):
-            for j in range(k + 1):
-                normal[i, j] = sums_x[n, i + j]
-        coef = solve_ridged(normal, sums_r[n, : k + 1].copy())
-        worst = 0.0
-        for g in range(16):
-            x = x_min + (x_max - x_min) * g / 15.0
-            v = coef[0]
-            if k >= 1:
-                v += x * (coef[1] + (x * coef[2] if k == 2 else 0.0))
-            worst = max(worst, abs(v))
-        scale = bound_m / worst if worst > bound_m else 1.0
-        for i in range(k + 1):
-            out[n, i] = coef[i] * scale
-    return out

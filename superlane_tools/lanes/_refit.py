@@ -274,15 +274,12 @@ def _refit_compiled(
     vertical_bound: float,
 ) -> SharedModel:
     """:func:`refit_shared` on normal equations accumulated by ``_kernels.refit_normal``."""
-    from superlane_tools.lanes._kernels import refit_gauss_newton
-
     if int((labels >= 0).sum()) < n_lines + order + 1:
         return start
     fit_slope = fit_slope and n_lines >= 2
-    a1, a2, b, c, offsets, normal = refit_gauss_newton(
-        iq, r, labels, n_lines, start.a1, start.a2, start.b, start.c, 1.0 / height_m,
-        1.0 / max_range_m, order, fit_slope, slope_bound,
-        vertical_bound > 0 and n_lines >= 2, vertical_bound, NEAR_WEIGHT_M, iterations,
+    a1, a2, b, c, offsets, normal = _gauss_newton(
+        iq, r, labels, n_lines, start, 1.0 / height_m, 1.0 / max_range_m, order, fit_slope,
+        slope_bound, vertical_bound if n_lines >= 2 else 0.0, iterations,
     )  # fmt: skip
     model = SharedModel(
         float(a1), float(a2), float(b), np.asarray(offsets, dtype=np.float64), float(c)
@@ -291,6 +288,63 @@ def _refit_compiled(
         model, np.asarray(normal), iq, r, labels, n_lines, order, fit_slope, height_m,
         max_range_m, compiled=True,
     )  # fmt: skip
+
+
+def _gauss_newton(
+    iq: FloatArray,
+    r: FloatArray,
+    labels: IntArray,
+    n_lines: int,
+    start: SharedModel,
+    inv_h: float,
+    min_den: float,
+    order: int,
+    fit_slope: bool,
+    slope_bound: float,
+    vertical_bound: float,
+    iterations: int,
+) -> tuple[float, float, float, float, FloatArray, FloatArray]:
+    """Run the Gauss-Newton loop of :func:`refit_shared` on the compiled point passes.
+
+    The loop itself is a handful of scalar steps per frame, so it stays in Python (compiling it
+    as one more kernel cost 1.5 s or more of the first run); each step's pass over the points
+    (``refit_normal``) and its small solve (``solve_ridged``) are the compiled kernels. Same
+    arithmetic, in the same order, as a compiled loop: results are identical.
+
+    Returns:
+        ``a1, a2, b, c, offsets`` and the last step's normal matrix (for the covariance).
+    """
+    from superlane_tools.lanes._kernels import refit_normal, solve_ridged
+
+    fit_vertical = vertical_bound > 0
+    a1, a2, b, cv = float(start.a1), float(start.a2), float(start.b), float(start.c)
+    offsets: FloatArray = np.empty(n_lines)
+    normal: FloatArray = np.zeros((1, 1))
+    for _ in range(iterations if fit_slope or fit_vertical else 1):
+        normal, rhs = refit_normal(
+            iq, r, labels, n_lines, a1, a2, b, cv, inv_h, min_den, order, fit_slope,
+            fit_vertical, NEAR_WEIGHT_M,
+        )  # fmt: skip
+        p = solve_ridged(normal, rhs)
+        offsets = p[:n_lines].copy()
+        a1 = float(p[n_lines])
+        a2 = float(p[n_lines + 1]) if order == 2 else 0.0
+        if not (fit_slope or fit_vertical):
+            break
+        done = True
+        k = n_lines + (2 if order == 2 else 1)
+        if fit_slope:
+            b_new = min(max(b + float(p[k]), -slope_bound), slope_bound)
+            done = abs(b_new - b) < 1e-7
+            b = b_new
+            k += 1
+        if fit_vertical:
+            c_new = min(max(cv + float(p[k]), -vertical_bound), vertical_bound)
+            done = done and abs(c_new - cv) < 1e-9
+            cv = c_new
+        if done:
+            break
+    return a1, a2, b, cv, offsets, normal
 
 
 class LocalCorrection(NamedTuple):
@@ -365,3 +419,39 @@ def local_correction_from_sums(
     coef = np.zeros(3)
     coef[: k + 1] = np.linalg.solve(normal, np.asarray(sums_r[: k + 1], dtype=np.float64))
     return _bounded(coef, x_min, x_max, bound_m)
+
+
+def local_corrections_compiled(
+    sums_x: FloatArray, sums_r: FloatArray, order: int, bound_m: float
+) -> FloatArray:
+    """Return each line's bounded correction ``(c0, c1, c2)`` from ``_kernels.line_sums``.
+
+    As :func:`local_correction`: the order grows with the support span, and the correction is
+    scaled into ``+-bound_m`` over the support. A few scalar steps per line, so the loop stays
+    in Python (one kernel less to compile on the first run) around the compiled
+    ``solve_ridged``; the arithmetic and its order are those of the former compiled loop.
+    """
+    from superlane_tools.lanes._kernels import solve_ridged
+
+    n_lines = sums_x.shape[0]
+    out = np.zeros((n_lines, 3))
+    for n in range(n_lines):
+        count, x_min, x_max = float(sums_r[n, 3]), float(sums_r[n, 4]), float(sums_r[n, 5])
+        if count < 8 or bound_m <= 0:
+            continue
+        span = x_max - x_min
+        k = 0 if span < 5.0 else (1 if span < 15.0 or order == 1 else 2)
+        normal = np.empty((k + 1, k + 1))
+        for i in range(k + 1):
+            normal[i] = sums_x[n, i : i + k + 1]
+        coef = solve_ridged(normal, sums_r[n, : k + 1].copy())
+        worst = 0.0
+        for g in range(16):
+            x = x_min + (x_max - x_min) * g / 15.0
+            v = float(coef[0])
+            if k >= 1:
+                v += x * (float(coef[1]) + (x * float(coef[2]) if k == 2 else 0.0))
+            worst = max(worst, abs(v))
+        scale = bound_m / worst if worst > bound_m else 1.0
+        out[n, : k + 1] = coef * scale
+    return out

@@ -25,6 +25,7 @@ from superlane_tools.lanes._refit import (
     LocalCorrection,
     SharedModel,
     local_correction,
+    local_corrections_compiled,
     refit_shared,
 )
 from superlane_tools.lanes.attributes import (
@@ -288,7 +289,17 @@ def _road_only(
 
 
 _WARM_BACKENDS: set[str] = set()
+_READY_BACKENDS: set[str] = set()
 _WARM_LOCK = threading.RLock()  # re-entered by the warm-up's own fit_frame call
+
+
+def kernels_ready(backend: str = "numba") -> bool:
+    """Return whether :func:`fit_frame` can run on ``backend`` now, without loading kernels.
+
+    True for the numpy reference and once :func:`warm_up` has finished (on any thread); a
+    pipeline asks this to keep its other stages busy instead of waiting on a compilation.
+    """
+    return backend != "numba" or backend in _READY_BACKENDS
 
 
 def warm_up(backend: str = "numba") -> float:
@@ -315,6 +326,7 @@ def warm_up(backend: str = "numba") -> float:
             for off in (-5.25, -1.75, 1.75, 5.25)
         ]
         fit_frame(np.concatenate(lines), None, cam, FitParams(backend=backend))  # type: ignore[arg-type]
+        _READY_BACKENDS.add(backend)
         return time.perf_counter() - t0
 
 
@@ -599,7 +611,7 @@ def _build_lanes_compiled(
     )
     sums_x, sums_r = k.line_sums(x, resid, labels, offsets, NEAR_WEIGHT_M)
     if p.local_correction:
-        coef = k.local_corrections(sums_x, sums_r, p.order, p.local_bound_m)
+        coef = local_corrections_compiled(sums_x, sums_r, p.order, p.local_bound_m)
         lines = np.concatenate([offsets[:, None], coef], axis=1)
         labels = k.reassign(x, resid, lines, p.assign_radius_m, ASSIGN_ANGLE_RAD)
         _, sums_r = k.line_sums(x, resid, labels, offsets, NEAR_WEIGHT_M)

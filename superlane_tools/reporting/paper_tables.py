@@ -89,8 +89,8 @@ class EvalRecord:
 
 def file_ref(path: str | os.PathLike[str]) -> FileRef:
     """Return the identity of a file or folder (SHA-256 of its content)."""
-    ident = input_identity(path)
-    return FileRef(str(path), ident.name, ident.size_bytes, ident.sha256)
+    ident = input_identity(path, "sha256")  # the tables' columns are named for SHA-256
+    return FileRef(str(path), ident.name, ident.size_bytes, ident.hex_digest)
 
 
 def save_record(record: EvalRecord, out: str | os.PathLike[str]) -> Path:

@@ -9,13 +9,19 @@ import threading
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, NamedTuple, TypeAlias
+from typing import Any, Literal, NamedTuple, TypeAlias
 
 from superlane_tools._version import __version__
 from superlane_tools.reporting.errors import OutputError
 
 METADATA_KEY = b"superlane_tools"
 _CHUNK = 1 << 20
+_BLAKE3_CHUNK = 4 << 20  # blake3 releases the GIL on large updates; fewer, larger reads
+HashAlgorithm = Literal["blake3", "sha256"]
+"""Content hash of an input identity: BLAKE3 (the default, about 4x faster than SHA-256 on
+one core here) or SHA-256 (kept for files whose tables name a SHA-256 column)."""
+CONTENT_HASH: HashAlgorithm = "blake3"
+"""Algorithm of :func:`input_identity`; batch idempotency keys are built on its digests."""
 
 
 class InputIdentity(NamedTuple):
@@ -24,12 +30,24 @@ class InputIdentity(NamedTuple):
     Attributes:
         name: File or folder name (no directories, so identities compare across machines).
         size_bytes: Total size in bytes.
-        sha256: Hex SHA-256 of the content (for a folder: of its files' names and hashes).
+        content_hash: ``"<algorithm>:<hex digest>"`` of the content (for a folder: of its
+            files' names and digests), e.g. ``blake3:9f86...``. The algorithm is part of the
+            value, so identities hashed with different algorithms never compare equal.
     """
 
     name: str
     size_bytes: int
-    sha256: str
+    content_hash: str
+
+    @property
+    def algorithm(self) -> str:
+        """Return the hash algorithm of :attr:`content_hash`."""
+        return self.content_hash.partition(":")[0]
+
+    @property
+    def hex_digest(self) -> str:
+        """Return the hex digest of :attr:`content_hash`, without the algorithm."""
+        return self.content_hash.partition(":")[2]
 
 
 class HashCancelledError(Exception):
@@ -46,34 +64,73 @@ def _sha256(path: str | os.PathLike[str], stop: threading.Event | None) -> str:
     return digest.hexdigest()
 
 
+def _blake3(path: str | os.PathLike[str], stop: threading.Event | None) -> str:
+    from blake3 import blake3
+
+    digest = blake3(max_threads=1)  # one core: the command's own work runs on the other
+    buffer = bytearray(_BLAKE3_CHUNK)
+    view = memoryview(buffer)
+    with Path(path).open("rb", buffering=0) as handle:
+        while n := handle.readinto(buffer):
+            digest.update(view[:n])
+            if stop is not None and stop.is_set():
+                raise HashCancelledError
+    return str(digest.hexdigest())
+
+
+def _file_digest(
+    path: str | os.PathLike[str], stop: threading.Event | None, algorithm: HashAlgorithm
+) -> str:
+    return _blake3(path, stop) if algorithm == "blake3" else _sha256(path, stop)
+
+
 def file_sha256(path: str | os.PathLike[str]) -> str:
     """Return the hex SHA-256 of a file's content, read in 1 MiB chunks."""
     return _sha256(path, None)
 
 
-def _identity(path: str | os.PathLike[str], stop: threading.Event | None) -> InputIdentity:
+def _identity(
+    path: str | os.PathLike[str],
+    stop: threading.Event | None,
+    algorithm: HashAlgorithm = CONTENT_HASH,
+) -> InputIdentity:
     src = Path(path)
     if src.is_dir():
-        digest = hashlib.sha256()
+        listing = hashlib.sha256() if algorithm == "sha256" else _new_blake3()
         size = 0
         for item in sorted(p for p in src.rglob("*") if p.is_file()):
             rel = item.relative_to(src).as_posix()
-            digest.update(rel.encode() + b"\0" + _sha256(item, stop).encode() + b"\n")
+            part = _file_digest(item, stop, algorithm)
+            listing.update(rel.encode() + b"\0" + part.encode() + b"\n")
             size += item.stat().st_size
-        return InputIdentity(src.name, size, digest.hexdigest())
-    return InputIdentity(src.name, src.stat().st_size, _sha256(src, stop))
+        return InputIdentity(src.name, size, f"{algorithm}:{listing.hexdigest()}")
+    digest = _file_digest(src, stop, algorithm)
+    return InputIdentity(src.name, src.stat().st_size, f"{algorithm}:{digest}")
 
 
-def input_identity(path: str | os.PathLike[str]) -> InputIdentity:
-    """Return the identity of a file, or of a folder (e.g. a ROS 2 bag) from its files."""
-    return _identity(path, None)
+def _new_blake3() -> Any:
+    from blake3 import blake3
+
+    return blake3()
+
+
+def input_identity(
+    path: str | os.PathLike[str], algorithm: HashAlgorithm = CONTENT_HASH
+) -> InputIdentity:
+    """Return the identity of a file, or of a folder (e.g. a ROS 2 bag) from its files.
+
+    Args:
+        path: Input file or folder.
+        algorithm: Content hash (BLAKE3 unless a caller's schema names SHA-256).
+    """
+    return _identity(path, None, algorithm)
 
 
 class PendingIdentities:
     """Input identities hashed in a background thread while the caller does other work.
 
-    hashlib and file reads release the GIL, so hashing a large recording overlaps with reading
-    and decoding it. The thread is a daemon and stops early on :meth:`cancel`.
+    blake3 (and hashlib) and file reads release the GIL, so hashing a large recording overlaps
+    with reading and decoding it. The thread is a daemon and stops early on :meth:`cancel`.
 
     Args:
         paths: Input files or folders, in the order :meth:`result` returns them.
@@ -159,7 +216,7 @@ def resolve_provenance(source: ProvenanceSource) -> Provenance:
 class HashedProvenance:
     """A provenance finished once the inputs' background hashing is done.
 
-    The inputs are hashed (SHA-256) in a background thread while a command reads them; the
+    The inputs are hashed (BLAKE3) in a background thread while a command reads them; the
     Parquet writers call this object when they first need the provenance.
     """
 

@@ -27,3 +27,22 @@ def test_first_fit_time_excludes_kernel_loading():
     n_lanes, fit_time_s = int(out[0]), float(out[1])
     assert n_lanes == 3
     assert fit_time_s < 0.2  # kernel loading alone takes 0.4 s or more
+
+
+READY = """
+import threading
+from superlane_tools.lanes.multilane_fit import kernels_ready, warm_up
+before = kernels_ready("numba")
+side = threading.Thread(target=warm_up, args=("numba",))
+side.start()
+side.join()
+print(before, kernels_ready("numba"), kernels_ready("numpy"))
+"""
+
+
+def test_kernels_ready_after_a_warm_up_on_another_thread():
+    # reprocess lets its image stages run ahead while this is False (see run._look_ahead)
+    out = subprocess.run(
+        [sys.executable, "-c", READY], capture_output=True, text=True, check=True, timeout=300
+    ).stdout.split()
+    assert out == ["False", "True", "True"]

@@ -198,20 +198,22 @@ def read_manifest(path: str | os.PathLike[str]) -> list[BatchEntry]:
 _UNSAFE = re.compile(r"[^A-Za-z0-9_-]+")
 
 
-def recording_id(entry: BatchEntry, sha256: str) -> str:
+def recording_id(entry: BatchEntry, content_hash: str) -> str:
     """Return the output folder name of an entry: sanitised stem (+ sequence) + short hash.
 
-    The hash part is the first 10 hex digits of the content SHA-256, mixed with the sequence
-    window when there is one, so the same content always gets the same id wherever it lies.
+    The hash part is the first 10 hex digits of the content hash (``algorithm:hex``, see
+    ``reporting.InputIdentity``), mixed with the sequence window when there is one, so the same
+    content always gets the same id wherever it lies.
     """
+    digest = content_hash.rpartition(":")[2]
     stem = entry.path.name if entry.path.is_dir() else entry.path.stem
     name = _UNSAFE.sub("_", stem).strip("_")[:48] or "recording"
     if entry.sequence or entry.start_s is not None or entry.end_s is not None:
         seq = _UNSAFE.sub("_", entry.sequence).strip("_")[:24]
         name = f"{name}-{seq}" if seq else name
-        window = f"{sha256}|{entry.sequence}|{entry.start_s}|{entry.end_s}"
+        window = f"{content_hash}|{entry.sequence}|{entry.start_s}|{entry.end_s}"
         return f"{name}-{hashlib.sha256(window.encode()).hexdigest()[:10]}"
-    return f"{name}-{sha256[:10]}"
+    return f"{name}-{digest[:10]}"
 
 
 def fingerprint(path: Path) -> tuple[int, int]:

@@ -21,11 +21,15 @@ def config_sha256(config: Mapping[str, Any]) -> str:
     return hashlib.sha256(text.encode()).hexdigest()
 
 
-def job_key(sha256: str, kind: str, models: Mapping[str, str], config_hash: str) -> str:
-    """Return the idempotency key: content + tool version + job kind + models + config."""
+def job_key(content_hash: str, kind: str, models: Mapping[str, str], config_hash: str) -> str:
+    """Return the idempotency key: content + tool version + job kind + models + config.
+
+    ``content_hash`` carries its algorithm (``blake3:...``), so a key made from an older SHA-256
+    identity never equals one made from a BLAKE3 identity: such work runs again.
+    """
     text = json.dumps(
         {
-            "input": sha256,
+            "input": content_hash,
             "tool": __version__,
             "kind": kind,
             "models": dict(models),
@@ -76,12 +80,16 @@ def job_units(
 
 
 def identify(entry: BatchEntry, status: StatusTable) -> tuple[str, int, int] | str:
-    """Return ``(sha256, size_bytes, mtime_ns)`` of an entry, or a one-line reason it failed."""
+    """Return ``(content_hash, size_bytes, mtime_ns)`` of an entry, or why it failed (one line).
+
+    The content hash is :func:`input_identity`'s (``blake3:<hex>``); one recorded in the status
+    table for the same path, size and mtime is reused when it has the same algorithm.
+    """
     path = entry.path
     try:
         size, mtime = fingerprint(path)
         known = status.known_hash(str(path), size, mtime)
-        sha = known or input_identity(path).sha256
+        sha = known or input_identity(path).content_hash
     except OSError as err:
         return f"cannot read {path}: {err.strerror or err}"
     except SltError as err:

@@ -96,12 +96,12 @@ def run_batch(
                 )
                 continue
             file = FileIdentity(*row_base)
-            rid = recording_id(entry, file.sha256)
+            rid = recording_id(entry, file.content_hash)
             if rid in seen:
                 continue  # the same content (and window) listed twice
             seen.add(rid)
             window_hash = config_sha256({**params.config, **window})
-            key = job_key(file.sha256, kind_name, models, window_hash)
+            key = job_key(file.content_hash, kind_name, models, window_hash)
             out_dir = root / rid
             marker = read_marker(out_dir)
             if marker is not None and marker.get("key") == key and not params.force:

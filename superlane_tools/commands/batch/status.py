@@ -15,6 +15,7 @@ from superlane_tools._version import __version__
 from superlane_tools.commands.batch.errors import BatchError
 from superlane_tools.commands.batch.manifest import BatchEntry
 from superlane_tools.reporting import Provenance, write_table
+from superlane_tools.reporting.provenance import CONTENT_HASH
 
 STATUS_FILE = "batch_status.parquet"
 STATUSES = ("ok", "partial", "failed", "skipped")
@@ -29,7 +30,7 @@ COLUMNS: dict[str, str] = {
     "sequence": "string",
     "start_s": "float64",
     "end_s": "float64",
-    "sha256": "string",
+    "content_hash": "string",
     "size_bytes": "int64",
     "mtime_ns": "int64",
     "status": "string",
@@ -67,7 +68,7 @@ class StatusRow:
     sequence: str
     start_s: float | None
     end_s: float | None
-    sha256: str
+    content_hash: str
     size_bytes: int
     mtime_ns: int
     status: str
@@ -97,7 +98,7 @@ class StatusRow:
             "sequence": self.sequence,
             "start_s": float("nan") if self.start_s is None else self.start_s,
             "end_s": float("nan") if self.end_s is None else self.end_s,
-            "sha256": self.sha256,
+            "content_hash": self.content_hash,
             "size_bytes": self.size_bytes,
             "mtime_ns": self.mtime_ns,
             "status": self.status,
@@ -144,9 +145,9 @@ def read_status(root: str | Path) -> pd.DataFrame:
 
 
 class FileIdentity(NamedTuple):
-    """A recording's content hash, size and modification time (empty when unreadable)."""
+    """A recording's content hash (``blake3:<hex>``), size and mtime (empty when unreadable)."""
 
-    sha256: str = ""
+    content_hash: str = ""
     size_bytes: int = 0
     mtime_ns: int = 0
 
@@ -186,7 +187,7 @@ class RowContext:
             sequence=entry.sequence,
             start_s=entry.start_s,
             end_s=entry.end_s,
-            sha256=file.sha256,
+            content_hash=file.content_hash,
             size_bytes=file.size_bytes,
             mtime_ns=file.mtime_ns,
             status=state,
@@ -226,15 +227,23 @@ class StatusTable:
         return self._rows.get(recording_id)
 
     def known_hash(self, recording: str, size_bytes: int, mtime_ns: int) -> str | None:
-        """Return the SHA-256 recorded for this path when its size and mtime are unchanged."""
+        """Return the content hash recorded for this path when its size and mtime are unchanged.
+
+        Only a hash of the current algorithm (:data:`CONTENT_HASH`) counts: rows written before
+        the switch to BLAKE3 (a ``sha256`` column, no ``content_hash``) make the input hashed
+        again, and so get new idempotency keys.
+        """
+        prefix = f"{CONTENT_HASH}:"
         for row in self._rows.values():
+            value = row.get("content_hash")
             if (
                 row["recording"] == recording
                 and int(row["size_bytes"]) == size_bytes
                 and int(row["mtime_ns"]) == mtime_ns
-                and row["sha256"]
+                and isinstance(value, str)
+                and value.startswith(prefix)
             ):
-                return str(row["sha256"])
+                return value
         return None
 
     def update(self, row: StatusRow, write: bool = True) -> None:

@@ -143,7 +143,7 @@ def reprocess(
                 if msg.topic == streams.frames:
                     pending.append(pool.submit(stages.prepare, index, msg))
                     index += 1
-                    while len(pending) > 2 * cfg.workers:
+                    while len(pending) > stages.look_ahead(cfg.workers):
                         handle(pending.popleft().result())
                 elif msg.topic in can_topics:
                     can.add(msg)

@@ -64,7 +64,7 @@ def test_batch_ok_failed_and_idempotent(
     ok = status[status["status"] == "ok"]
     assert (ok["frames"] == 10).all()
     assert (ok["total_s"] > 0).all()
-    assert ok["sha256"].str.len().eq(64).all()
+    assert ok["content_hash"].str.fullmatch("blake3:[0-9a-f]{64}").all()
     for rid in ok["recording_id"]:
         marker = json.loads((root / rid / MARKER).read_text())
         assert marker["key"] == status.set_index("recording_id").loc[rid, "key"]
@@ -181,7 +181,7 @@ def test_summary_from_reprocess_tables(tmp_path: Path) -> None:
                 sequence="",
                 start_s=None,
                 end_s=None,
-                sha256="0" * 64,
+                content_hash="blake3:" + "0" * 64,
                 size_bytes=1,
                 mtime_ns=1,
                 status="ok",
@@ -216,3 +216,42 @@ def test_summary_from_reprocess_tables(tmp_path: Path) -> None:
     assert "## Availability by category" in md
     assert "| highway | super | 2 | 4 | 28 | 40 |" in md
     assert "<table>" in (root / "summary" / "report.html").read_text()
+
+
+def test_status_rows_with_sha256_identities_are_not_reused(tmp_path: Path) -> None:
+    """A root written before BLAKE3 identities: its SHA-256 rows make the input hashed again."""
+    from superlane_tools.commands.batch.manifest import recording_id
+    from superlane_tools.commands.batch.plan import identify, job_key
+    from superlane_tools.commands.batch.status import STATUS_FILE
+
+    rec = tmp_path / "drive.mcap"
+    rec.write_bytes(b"recording bytes")
+    stat = rec.stat()
+    root = tmp_path / "out"
+    root.mkdir()
+    old_sha = "a" * 64
+
+    def row(rid: str, content_hash: str) -> StatusRow:
+        return StatusRow(
+            recording_id=rid, recording=str(rec), category="", vehicle="", date="",
+            sequence="", start_s=None, end_s=None, content_hash=content_hash,
+            size_bytes=stat.st_size, mtime_ns=stat.st_mtime_ns, status="ok", result="ok",
+            error="", attempts=1, total_s=1.0, timings={}, outputs=1, frames=1, job="extract",
+            models={}, config_sha256="", key="k", engine="local", host="h",
+        )  # fmt: skip
+
+    old = row("drive-aaaaaaaaaa", "").as_record()
+    old["sha256"] = old.pop("content_hash")  # the column before BLAKE3 identities
+    old["sha256"] = old_sha
+    pd.DataFrame([old]).to_parquet(root / STATUS_FILE)
+    table = StatusTable(root, "test", {})
+    assert table.known_hash(str(rec), stat.st_size, stat.st_mtime_ns) is None
+    ident = identify(BatchEntry(rec), table)
+    assert isinstance(ident, tuple)
+    content_hash = ident[0]
+    assert content_hash.startswith("blake3:")
+    assert recording_id(BatchEntry(rec), content_hash) == f"drive-{content_hash[7:17]}"
+    assert job_key(content_hash, "extract", {}, "c") != job_key(old_sha, "extract", {}, "c")
+    # A row of the current algorithm is reused while size and mtime are unchanged.
+    table.update(row("drive-x", content_hash), write=False)
+    assert table.known_hash(str(rec), stat.st_size, stat.st_mtime_ns) == content_hash

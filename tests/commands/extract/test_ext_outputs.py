@@ -9,6 +9,7 @@ import cv2
 import numpy as np
 import pandas as pd
 import pytest
+from blake3 import blake3
 
 from superlane_tools.commands.extract import ExtractConfig, extract
 from superlane_tools.recording.mcap_source import McapRecording
@@ -68,7 +69,11 @@ def test_rerun_replaces_frame_folder_and_hashes_input(tmp_path: Path) -> None:
     for name in ("frames.parquet", "can_raw.parquet", "rtk.parquet"):
         prov = read_provenance(out / name)
         assert prov["inputs"] == [
-            {"name": "r.mcap", "size_bytes": rec.stat().st_size, "sha256": file_sha256(rec)}
+            {
+                "name": "r.mcap",
+                "size_bytes": rec.stat().st_size,
+                "content_hash": "blake3:" + blake3(rec.read_bytes()).hexdigest(),
+            }
         ]
         assert prov["command"] == "again"
 
@@ -107,6 +112,27 @@ def test_pending_identities_match_and_cancel(tmp_path: Path) -> None:
         cancelled.result()
     with pytest.raises(FileNotFoundError):
         PendingIdentities([tmp_path / "missing.bin"]).result()
+
+
+def test_input_identity_is_a_named_content_hash(tmp_path: Path) -> None:
+    data = bytes(range(256)) * 40000  # several 4 MiB reads
+    one = tmp_path / "one.bin"
+    one.write_bytes(data)
+    ident = input_identity(one)
+    assert ident.content_hash == "blake3:" + blake3(data).hexdigest()
+    assert (ident.algorithm, ident.hex_digest) == ("blake3", blake3(data).hexdigest())
+    old = input_identity(one, "sha256")
+    assert old.content_hash == "sha256:" + file_sha256(one)
+    assert old != ident  # a SHA-256 identity never equals a BLAKE3 one
+    bag = tmp_path / "bag"
+    bag.mkdir()
+    (bag / "a.db3").write_bytes(data)
+    (bag / "metadata.yaml").write_text("x: 1\n")
+    meta = blake3(b"x: 1\n").hexdigest()
+    listing = f"a.db3\0{blake3(data).hexdigest()}\nmetadata.yaml\0{meta}\n"
+    assert input_identity(bag).content_hash == "blake3:" + blake3(listing.encode()).hexdigest()
+    (bag / "metadata.yaml").write_text("x: 2\n")
+    assert input_identity(bag).content_hash != "blake3:" + blake3(listing.encode()).hexdigest()
 
 
 def test_prefetched_chunks_survive_abandoned_passes(tmp_path: Path) -> None:

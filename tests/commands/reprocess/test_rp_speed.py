@@ -141,3 +141,45 @@ def test_reprocess_reduced_decode_and_cpu_timings(tmp_path: Path) -> None:
     assert stage_cpu <= result.timings["cpu_pass"] + 0.05
     assert frames["segmentation_cpu_ms"].sum() > 0
     assert 0 < result.timings["cpu_pass"] <= result.timings["cpu_total"]
+
+
+def test_look_ahead_while_kernels_load_leaves_results_unchanged(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Frames buffered while the fit's kernels compile are fitted exactly as without a buffer."""
+    from superlane_tools.drive import stages
+
+    rec = tmp_path / "d.mcap"
+    simulate_drive("highway_curves", 3.0, 5, "mcap", 320, 180, False, rec)
+    cfg = ReprocessConfig().with_overrides(
+        {"segmentation.process_width": 160, "output.plots": False}
+    )
+    reprocess(rec, tmp_path / "plain", cfg)
+    asked: list[bool] = []
+
+    def never_ready(backend: str) -> bool:
+        asked.append(backend == "numba")
+        return False  # as on a first run: the whole drive may wait for the kernels
+
+    monkeypatch.setattr(stages, "kernels_ready", never_ready)
+    reprocess(rec, tmp_path / "ahead", cfg)
+    assert asked
+    assert all(asked)
+    for name in ("lanes.parquet", "corridor.parquet", "frames.parquet"):
+        plain = pd.read_parquet(tmp_path / "plain" / name)
+        ahead = pd.read_parquet(tmp_path / "ahead" / name)
+        timing = [c for c in plain.columns if c.endswith("_ms") or c.endswith("_s")]
+        pd.testing.assert_frame_equal(plain.drop(columns=timing), ahead.drop(columns=timing))
+
+
+def test_look_ahead_is_bounded_while_the_kernels_load(monkeypatch: pytest.MonkeyPatch) -> None:
+    from superlane_tools.drive import stages
+
+    cfg = ReprocessConfig().with_overrides({"segmentation.backend": "classical"})
+    frame_stages = stages.FrameStages(cfg, load_camera("sim_default"))
+    ready = {"numba": True}
+    monkeypatch.setattr(stages, "kernels_ready", lambda backend: ready[backend])
+    assert frame_stages.look_ahead(2) == 4
+    ready["numba"] = False
+    assert frame_stages.look_ahead(2) == stages.WARM_UP_LOOK_AHEAD
+    assert frame_stages.look_ahead(100) == 200
