@@ -210,7 +210,7 @@ def reprocess(
         frames,
         can,
         dbcs,
-        gnss.rows,
+        gnss.fixes(),
         cfg,
         _kpi_segments(cfg, t_ns, fps, segments),
         cfg.kpi.availability_params(fps),
