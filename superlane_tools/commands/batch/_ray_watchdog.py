@@ -88,8 +88,8 @@ class Instance:
         """Whether process ``pid`` belongs to the instance (mark, node id or session folder)."""
         if self.mark in env or any(b"RAY_NODE_ID=" + n in env for n in self.nodes):
             return True
-        if not self.sessions:
-            return False
+        if not self.sessions or not _is_ray(cmdline):
+            return False  # e.g. a user's `tail -f` on a log of the session is not Ray's
         if any(session in arg for arg in cmdline for session in self.sessions):
             return True
         try:
@@ -112,6 +112,11 @@ class Instance:
             for pid, env, cmd in _live_processes(proc)
             if pid != self.driver and self.owns(pid, env, cmd, proc)
         ]
+
+
+def _is_ray(cmdline: list[bytes]) -> bool:
+    """Whether a command line is a Ray process's: a ``ray::`` title or a program of Ray's."""
+    return cmdline[0].startswith(b"ray::") or any(b"/ray/" in arg for arg in cmdline[:2])
 
 
 def _live_processes(proc: Path) -> Iterator[tuple[int, list[bytes], list[bytes]]]:

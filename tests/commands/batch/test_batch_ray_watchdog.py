@@ -69,17 +69,22 @@ def test_watchdog_stops_its_instance_and_nothing_else(
         time.sleep(1.0)  # the watchdog reads the node id and session off the GCS meanwhile
         # started by the raylet: no mark, but the node id, or only a log open in the session
         agent = spawn(env=dict(os.environ, RAY_NODE_ID="abc123"))
-        with (session / "logs" / "agent.out").open("wb") as log:
-            blank_agent = spawn(stdout=log)
+        with (session / "logs" / "agent.out").open("wb") as log:  # titled, environment blank
+            blank_agent = subprocess.Popen(
+                ["bash", "-c", "exec -a ray::DashboardAgent sleep 120"], stdout=log, env={}
+            )
+            reader = spawn(stdout=log)  # not Ray's, e.g. a user's `tail -f` on the log
         others = [  # another Ray instance of the user, and an unrelated process
             spawn("--node-id=zzz", f"--session-dir={tmp_path / 'session_y'}", env=other_env),
             spawn(env=dict(os.environ, RAY_NODE_ID="zzz")),
             spawn(),
+            reader,
         ]
     mine = [gcs, worker, agent, blank_agent]
     for proc in mine:  # the sweep ran before the context returned
         assert proc.poll() is not None or not alive(proc.pid)
     assert all(proc.poll() is None for proc in others)
+    blank_agent.wait()
 
 
 def test_watchdog_stops_the_instance_of_a_sigkilled_driver(tmp_path: Path) -> None:
