@@ -31,6 +31,8 @@ sys.path.insert(0, str(HERE.parent / "tests" / "fuzz"))
 
 import fuzzcases as fc  # noqa: E402
 
+from superlane_tools.commands.batch._ray_watchdog import alive, descendants  # noqa: E402
+
 RESULTS = HERE / "results" / "ray_kill.json"
 
 
@@ -47,13 +49,13 @@ def trial(work: Path, timeout_s: float = 300.0) -> tuple[int, float]:
         if proc.poll() is not None or time.monotonic() > deadline:
             raise RuntimeError("the batch ended before a worker was seen at work")
         time.sleep(0.02)
-    started = fc.descendants(proc.pid)
+    started = descendants(proc.pid)
     if not any(b"raylet" in Path(f"/proc/{p}/cmdline").read_bytes() for p in started):
         raise RuntimeError("no raylet below the driver")
     t0 = time.monotonic()
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait()
-    while any(fc.alive(p) for p in started):
+    while any(alive(p) for p in started):
         if time.monotonic() - t0 > 60:
             raise RuntimeError(f"processes still running 60 s after the kill: {started}")
         time.sleep(0.02)

@@ -1140,33 +1140,6 @@ def leftovers(folder: Path) -> list[str]:
     return found
 
 
-def alive(pid: int) -> bool:
-    """Whether process ``pid`` runs (a zombie is dead, only not yet reaped by its parent)."""
-    try:
-        stat = Path(f"/proc/{pid}/stat").read_bytes()
-    except OSError:
-        return False
-    return stat.rpartition(b")")[2].split()[0] not in (b"Z", b"X")
-
-
-def descendants(root: int) -> list[int]:
-    """Return the processes below ``root`` in the process tree (Linux ``/proc``)."""
-    children: dict[int, list[int]] = {}
-    for entry in Path("/proc").iterdir():
-        if entry.name.isdigit():
-            try:
-                ppid = int((entry / "stat").read_bytes().rpartition(b")")[2].split()[1])
-            except (OSError, IndexError, ValueError):
-                continue
-            children.setdefault(ppid, []).append(int(entry.name))
-    found, todo = [], [root]
-    while todo:
-        kids = children.get(todo.pop(), [])
-        found += kids
-        todo += kids
-    return found
-
-
 def check_run(command: str, work: Path, need: Need) -> list[str]:
     """What is wrong with the outputs of a completed command (empty: complete and clean)."""
     problems: list[str] = []
@@ -1210,6 +1183,8 @@ def kill_campaign(
     command to completion and checks that the outputs are complete and consistent and that
     nothing temporary was left anywhere in the case folder.
     """
+    from superlane_tools.commands.batch._ray_watchdog import alive, descendants
+
     rng = random.Random(f"kill-{seed}-{command}")
     work = root / f"kill-{command}"
     shutil.rmtree(work, ignore_errors=True)
@@ -1266,7 +1241,7 @@ def kill_campaign(
         if rerun.returncode != 0:
             problems.append(f"rerun exit {rerun.returncode}: {err.decode()[-200:]}")
         problems += check_run(command, work, need if command == "extract" else Need())
-        if survivors := [p for p in started if alive(p)]:
+        if survivors := [p for p in started if alive(p)]:  # Ray's processes too
             problems.append(f"processes of the killed run still running: {survivors}")
         outcomes.append(KillOutcome(command, round(delay, 3), killed, rerun.returncode, problems))
     return outcomes

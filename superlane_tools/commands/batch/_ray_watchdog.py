@@ -119,6 +119,37 @@ def _is_ray(cmdline: list[bytes]) -> bool:
     return cmdline[0].startswith(b"ray::") or any(b"/ray/" in arg for arg in cmdline[:2])
 
 
+def _stat_fields(pid: int | str, proc: Path = PROC) -> list[bytes]:
+    """Return the fields of ``/proc/<pid>/stat`` after the command name (state first)."""
+    return (proc / str(pid) / "stat").read_bytes().rpartition(b")")[2].split()
+
+
+def alive(pid: int, proc: Path = PROC) -> bool:
+    """Whether process ``pid`` runs (a zombie is dead, only not yet reaped by its parent)."""
+    try:
+        return _stat_fields(pid, proc)[0] not in (b"Z", b"X")
+    except (OSError, IndexError):
+        return False
+
+
+def descendants(root: int, proc: Path = PROC) -> list[int]:
+    """Return the processes below ``root`` in the process tree."""
+    children: dict[int, list[int]] = {}
+    for entry in proc.iterdir():
+        if entry.name.isdigit():
+            try:
+                ppid = int(_stat_fields(entry.name, proc)[1])
+            except (OSError, IndexError, ValueError):
+                continue
+            children.setdefault(ppid, []).append(int(entry.name))
+    found, todo = [], [root]
+    while todo:
+        kids = children.get(todo.pop(), [])
+        found += kids
+        todo += kids
+    return found
+
+
 def _live_processes(proc: Path) -> Iterator[tuple[int, list[bytes], list[bytes]]]:
     """Yield ``(pid, environment, command line)`` of the readable, live processes but this one.
 
@@ -136,7 +167,7 @@ def _live_processes(proc: Path) -> Iterator[tuple[int, list[bytes], list[bytes]]
         try:
             env = (entry / "environ").read_bytes().split(b"\0")
             cmdline = (entry / "cmdline").read_bytes().split(b"\0")
-            state = (entry / "stat").read_bytes().rpartition(b")")[2].split()[0]
+            state = _stat_fields(entry.name, proc)[0]
         except (OSError, IndexError):
             continue
         if state not in (b"Z", b"X"):

@@ -13,20 +13,16 @@ from pathlib import Path
 import pytest
 
 from superlane_tools.commands.batch import MARKER
-from superlane_tools.commands.batch._ray_watchdog import OWNER_ENV, RayWatchdog
+from superlane_tools.commands.batch._ray_watchdog import (
+    OWNER_ENV,
+    RayWatchdog,
+    alive,
+    descendants,
+)
 
 pytestmark = pytest.mark.skipif(not Path("/proc/self/environ").exists(), reason="needs /proc")
 
 SLEEPER = [sys.executable, "-c", "import time; time.sleep(120)"]
-
-
-def alive(pid: int) -> bool:
-    """Whether ``pid`` runs (a zombie is dead, only not yet reaped)."""
-    try:
-        stat = Path(f"/proc/{pid}/stat").read_bytes()
-    except OSError:
-        return False
-    return stat.rpartition(b")")[2].split()[0] not in (b"Z", b"X")
 
 
 def wait_dead(pids: list[int], timeout_s: float) -> list[int]:
@@ -120,24 +116,6 @@ def test_watchdog_stops_the_instance_of_a_sigkilled_driver(tmp_path: Path) -> No
             driver.wait()
 
 
-def _descendants(root: int) -> list[int]:
-    """Return the processes below ``root`` in the process tree (from ``/proc``)."""
-    parents: dict[int, list[int]] = {}
-    for entry in Path("/proc").iterdir():
-        if entry.name.isdigit():
-            try:
-                ppid = int((entry / "stat").read_bytes().rpartition(b")")[2].split()[1])
-            except (OSError, IndexError, ValueError):
-                continue
-            parents.setdefault(ppid, []).append(int(entry.name))
-    found, todo = [], [root]
-    while todo:
-        kids = parents.get(todo.pop(), [])
-        found += kids
-        todo += kids
-    return found
-
-
 @pytest.mark.slow  # starts a real local Ray instance twice: about a minute on 2 cores
 def test_sigkilled_ray_batch_leaves_no_process_and_reruns_clean(
     tmp_path: Path, write_drive: Callable[..., Path]
@@ -159,7 +137,7 @@ def test_sigkilled_ray_batch_leaves_no_process_and_reruns_clean(
             assert driver.poll() is None, "the batch ended before it could be killed"
             assert time.monotonic() < deadline
             time.sleep(0.05)
-        ray_procs = _descendants(driver.pid)
+        ray_procs = descendants(driver.pid)
         assert any(b"raylet" in Path(f"/proc/{p}/cmdline").read_bytes() for p in ray_procs)
         os.kill(driver.pid, signal.SIGKILL)  # the driver only, as the OOM killer would
         driver.wait()
