@@ -1,6 +1,6 @@
 """Full fuzz campaign and SIGKILL campaign of ``slt``; writes ``benchmarks/results/fuzz.json``.
 
-Run: ``nice python benchmarks/fuzz.py [--cases 1100] [--kills 20] [--seed 0]``.
+Run: ``nice python benchmarks/fuzz.py [--cases 1100] [--kills 20] [--ray-kills 6] [--seed 0]``.
 
 Cases come from ``tests/fuzz/fuzzcases.py`` (damaged MCAP, ROS 1 and ROS 2 bags, candump,
 ASC, BLF and NMEA logs, mutated real DBCs, bad image frames, extreme timestamps, colliding and
@@ -8,8 +8,9 @@ long topic names, odd paths and configs; real data from ``SLT_REALDATA`` where p
 runs ``slt`` in a forked child with a timeout (a hang is a finding), and is classified: clean,
 traceback, internal error, hang, wrong exit code, data lost beyond the damage, files outside
 ``--out``. Then ``extract``, ``reprocess`` and ``batch`` are each SIGKILLed at ``--kills``
-random moments and rerun; a trial passes when the rerun exits 0 with complete, consistent
-outputs and nothing temporary left anywhere.
+random moments and rerun, and a ray-engine batch at ``--ray-kills`` (only its driver killed;
+no process it started may survive); a trial passes when the rerun exits 0 with complete,
+consistent outputs and nothing temporary left anywhere.
 
 The JSON holds the summary table (overall and per family), every non-clean case with its
 exit code and the tail of its stderr, the kill trials, the machine and the wall time.
@@ -54,6 +55,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cases", type=int, default=1100)
     parser.add_argument("--kills", type=int, default=20)
+    parser.add_argument(
+        "--ray-kills", type=int, default=6, help="kill trials of a ray-engine batch (0: none)"
+    )
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--timeout", type=float, default=90.0, help="seconds per case")
     parser.add_argument("--out", type=Path, default=RESULTS)
@@ -72,9 +76,12 @@ def main() -> None:
                 print(f"{n}/{len(cases)} cases, {time.time() - started:.0f} s", flush=True)
         fuzz_s = time.time() - started
         kills = []
-        for command in ("extract", "reprocess", "batch"):
+        commands = [(c, args.kills) for c in ("extract", "reprocess", "batch")]
+        if args.ray_kills:
+            commands.append(("batch-ray", args.ray_kills))
+        for command, n in commands:
             t0 = time.time()
-            trials = fc.kill_campaign(command, args.kills, root, seed=args.seed)
+            trials = fc.kill_campaign(command, n, root, seed=args.seed)
             kills.append(
                 {
                     "command": command,

@@ -23,12 +23,12 @@ def measure(seed: int, duration_s: float) -> str:
     from superlane_tools.drive.config import RtkConfig
     from superlane_tools.drive.signals import rtk_truth
     from superlane_tools.simulation.scenarios import SCENARIOS
-    from superlane_tools.simulation.sensors import RtkParams, fix_rows, rtk_fixes
+    from superlane_tools.simulation.sensors import RtkParams, gnss_fixes, rtk_fixes
     from superlane_tools.simulation.world import build_world
 
     world = build_world(SCENARIOS["stop_and_go"], seed, duration_s)
     fixes = rtk_fixes(world, RtkParams(), 0, np.random.default_rng(seed))
-    rows = fix_rows(fixes)
+    rows = gnss_fixes(fixes)
     t = np.arange(0.0, duration_s, 1 / 15)
     path = world.path
     speed = np.interp(t, path.t_s, path.speed_mps)

@@ -41,6 +41,7 @@ from superlane_tools.lanes.lookahead import align_super_curvature, smooth_like_t
 from superlane_tools.lanes.tracker import COV_INDEX, COV_KEYS, track_lanes, travelled_m
 from superlane_tools.records import Skipped
 from superlane_tools.reporting import drive_tables as tables
+from superlane_tools.reporting.gnss_sink import GnssFixes
 from superlane_tools.reporting.headline import headline_table
 from superlane_tools.reporting.report import Section
 
@@ -88,7 +89,7 @@ def drive_tables(
     frames: DriveFrames,
     can: CanFrames,
     dbcs: Mapping[str, LoadedDbc],
-    gnss_rows: Sequence[Mapping[str, Any]],
+    gnss: GnssFixes,
     config: ReprocessConfig,
     segments: Sequence[Segment],
     params: AvailabilityParams,
@@ -114,7 +115,7 @@ def drive_tables(
             detail = f"no CAN id matched by any DBC: 0 of {coverage.seen} ids (wrong DBC?)"
             lost.append(Skipped("CAN signals", detail, coverage.seen))
     speed_s, yaw_s = can_frame_signals(signals, config.can)
-    rtk = rtk_truth(gnss_rows, t_ns, config.rtk, speed_s)
+    rtk = rtk_truth(gnss, t_ns, config.rtk, speed_s)
     if speed_s is None and (fallback := gnss_speed(rtk)) is not None:
         speed_s = fallback
         notes.append("speed: no CAN speed, estimated from the GNSS fixes")

@@ -7,8 +7,7 @@ streaming pass and processed afterwards; frames never are.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
@@ -26,6 +25,7 @@ from superlane_tools.geo.curvature import CurvatureParams, trajectory_curvature
 from superlane_tools.geo.dynamics import DynamicsCurvature, DynamicsParams
 from superlane_tools.recording.align import align
 from superlane_tools.records import Message
+from superlane_tools.reporting.gnss_sink import GnssFixes
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -134,13 +134,13 @@ class RtkTruth(NamedTuple):
     n_slow: int = 0
 
 
-def _worst_variance(frame: pd.DataFrame) -> FloatArray:
+def _worst_variance(fixes: GnssFixes) -> FloatArray:
     """Worse of the east and north variances per fix, m^2 (NaN where unknown)."""
-    var = np.full(len(frame), np.nan)
-    for i, cov in enumerate(frame["covariance_m2"]):
-        if cov is not None and len(cov) == 9 and (cov[0] > 0 or cov[4] > 0):
-            var[i] = max(float(cov[0]), float(cov[4]))
-    return var
+    east, north = fixes.covariance_m2[:, 0], fixes.covariance_m2[:, 4]
+    with np.errstate(invalid="ignore"):
+        known = fixes.has_covariance & ((east > 0) | (north > 0))
+        worse = np.where(north > east, north, east)  # as max(east, north), NaN included
+    return np.where(known, worse, np.nan)
 
 
 def curvature_params(config: RtkConfig) -> CurvatureParams:
@@ -157,12 +157,12 @@ def curvature_params(config: RtkConfig) -> CurvatureParams:
 
 
 def rtk_truth(
-    rows: Sequence[Mapping[str, Any]],
+    gnss: GnssFixes,
     frame_t_ns: IntArray,
     config: RtkConfig,
     speed: Series | None = None,
 ) -> RtkTruth:
-    """Turn collected fixes (``GnssSink.rows``) into the flagged trajectory and frame curvature.
+    """Turn collected fixes (``GnssSink.fixes()``) into the flagged trajectory and frame curvature.
 
     Fixes that are not RTK fixed (``status < min_status``), have a horizontal variance above
     ``max_horizontal_var_m2`` or an invalid position are flagged and excluded; a drive without
@@ -173,31 +173,26 @@ def rtk_truth(
     """
     n_frames = frame_t_ns.shape[0]
     nan = np.full(n_frames, np.nan)
-    frame = pd.DataFrame(list(rows))
-    if frame.empty:
-        return RtkTruth(frame, nan, nan.copy(), nan.copy(), np.zeros(n_frames, bool), 0, 0, 0)
-    frame = frame.sort_values("log_time_ns", kind="stable", ignore_index=True)
-    var = _worst_variance(frame)
+    if not len(gnss):
+        empty = pd.DataFrame()
+        return RtkTruth(empty, nan, nan.copy(), nan.copy(), np.zeros(n_frames, bool), 0, 0, 0)
+    var = _worst_variance(gnss)
     grades = grade_fixes(
-        frame["latitude_deg"].to_numpy(dtype=np.float64),
-        frame["longitude_deg"].to_numpy(dtype=np.float64),
-        frame["altitude_m"].to_numpy(dtype=np.float64),
-        frame["fix_status"].to_numpy(dtype=np.float64, na_value=math.nan),
+        gnss.latitude_deg,
+        gnss.longitude_deg,
+        gnss.altitude_m,
+        gnss.fix_status_or_nan(),
         var,
         config.min_status,
         config.max_horizontal_var_m2,
     )
     good, reasons = grades.good, grades.reasons
-    t = frame["log_time_ns"].to_numpy(dtype=np.int64)
-    east = np.full(len(frame), np.nan)
+    t = gnss.log_time_ns
+    east = np.full(len(gnss), np.nan)
     north, up = east.copy(), east.copy()
     if good.any():
-        lat = np.where(good, frame["latitude_deg"].to_numpy(dtype=np.float64), np.nan)
-        enu = geodetic_to_enu(
-            lat,
-            frame["longitude_deg"].to_numpy(dtype=np.float64),
-            frame["altitude_m"].to_numpy(dtype=np.float64),
-        )
+        lat = np.where(good, gnss.latitude_deg, np.nan)
+        enu = geodetic_to_enu(lat, gnss.longitude_deg, gnss.altitude_m)
         east, north, up = enu.east_m, enu.north_m, enu.up_m
     gap_s = np.concatenate([[0.0], np.diff(t) / 1e9])
     dropout = gap_s > config.max_gap_s
@@ -224,11 +219,13 @@ def rtk_truth(
     fixes = pd.DataFrame(
         {
             "log_time_ns": t,
-            "topic": frame["topic"].astype(str),
-            "latitude_deg": frame["latitude_deg"].to_numpy(dtype=np.float64),
-            "longitude_deg": frame["longitude_deg"].to_numpy(dtype=np.float64),
-            "altitude_m": frame["altitude_m"].to_numpy(dtype=np.float64),
-            "fix_status": frame["fix_status"].astype("Int8"),
+            "topic": gnss.topic_names().astype(str),
+            "latitude_deg": gnss.latitude_deg,
+            "longitude_deg": gnss.longitude_deg,
+            "altitude_m": gnss.altitude_m,
+            "fix_status": pd.arrays.IntegerArray(
+                gnss.fix_status.astype(np.int8), ~gnss.has_fix_status
+            ),
             "east_m": east,
             "north_m": north,
             "up_m": up,

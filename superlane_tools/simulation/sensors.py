@@ -15,6 +15,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from superlane_tools.reporting.gnss_sink import GnssFixes
 from superlane_tools.simulation.errors import ScenarioError
 from superlane_tools.simulation.groundtruth import LaneTruth
 from superlane_tools.simulation.world import World
@@ -118,9 +119,9 @@ def _ar1(rng: np.random.Generator, n: int, dt_s: float, sigma: float, tau_s: flo
     return out
 
 
-def fix_rows(fixes: list[FixSample], topic: str = "/gnss/fix") -> list[dict[str, Any]]:
-    """Return fixes as the rows a GNSS sink collects (``reprocess``'s truth takes these)."""
-    return [
+def gnss_fixes(fixes: list[FixSample], topic: str = "/gnss/fix") -> GnssFixes:
+    """Return fixes as a GNSS sink collects them (``reprocess``'s truth takes these)."""
+    return GnssFixes.from_rows(
         {
             "topic": topic,
             "log_time_ns": f.log_time_ns,
@@ -131,7 +132,7 @@ def fix_rows(fixes: list[FixSample], topic: str = "/gnss/fix") -> list[dict[str,
             "covariance_m2": list(f.covariance_enu_m2),
         }
         for f in fixes
-    ]
+    )
 
 
 def rtk_fixes(

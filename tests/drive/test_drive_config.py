@@ -15,6 +15,7 @@ from superlane_tools.commands.reprocess import ReprocessConfig, load_config
 from superlane_tools.drive.config import RtkConfig
 from superlane_tools.drive.signals import rtk_truth
 from superlane_tools.errors import ConfigError
+from superlane_tools.reporting.gnss_sink import GnssFixes
 
 
 def test_toml_and_yaml_load_the_same(tmp_path: Path) -> None:
@@ -118,7 +119,7 @@ def test_rtk_flags_degraded_fixes_and_dropouts() -> None:
         for ti, la, lo, s in zip(t, lat, lon, status, strict=True)
     ]
     frames = np.arange(0, 20_000_000_000, 66_666_667, dtype=np.int64)
-    truth = rtk_truth(rows, frames, RtkConfig())
+    truth = rtk_truth(GnssFixes.from_rows(rows), frames, RtkConfig())
     assert truth.n_degraded == 5
     assert truth.n_dropouts == 1
     assert (~truth.fixes["good"].iloc[20:25]).all()

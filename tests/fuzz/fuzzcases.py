@@ -1174,12 +1174,17 @@ def kill_campaign(
 ) -> list[KillOutcome]:
     """SIGKILL ``slt <command>`` at random moments, rerun it, and check the outputs.
 
-    ``extract`` and ``reprocess`` run on one drive, ``batch`` (extract jobs) on two. Each trial
+    ``extract`` and ``reprocess`` run on one drive, ``batch`` (extract jobs) on two;
+    ``batch-ray`` is that batch on the ray engine, where only the driver is killed (as the OOM
+    killer would) and every process it had started (Ray's included) must be gone when the rerun
+    ends. Each trial
     kills the process group after a random time within the measured duration of a full run
     (a previous complete output is in place for half of the trials), then reruns the same
     command to completion and checks that the outputs are complete and consistent and that
     nothing temporary was left anywhere in the case folder.
     """
+    from superlane_tools.commands.batch._ray_watchdog import alive, descendants
+
     rng = random.Random(f"kill-{seed}-{command}")
     work = root / f"kill-{command}"
     shutil.rmtree(work, ignore_errors=True)
@@ -1190,13 +1195,15 @@ def kill_campaign(
 
         (work / "d.mcap").unlink()
         simulate_drive("highway_curves", 2.0, 3, "mcap", 160, 90, False, work / "d.mcap")
-    if command == "batch":
+    if command.startswith("batch"):
         (work / "recs").mkdir()
         shutil.copy(work / "d.mcap", work / "recs" / "a.mcap")
         write_drive(work / "recs" / "b.mcap", "mcap", frames=20, times=None)
         (work / "c.toml").write_text('frame_format = "jpg"\n')
         args = ["batch", "recs", "--out", OUT, "--job", "extract", "--config", "c.toml", "--force"]
         args += ["--workers", "1"]
+        if command == "batch-ray":
+            args += ["--engine", "ray"]
     elif command == "reprocess":
         args = ["reprocess", "d.mcap", "--out", OUT, "--no-plots"]
     else:
@@ -1211,11 +1218,16 @@ def kill_campaign(
             shutil.rmtree(work / OUT)  # half the trials into a fresh folder
         delay = rng.uniform(0.05, 0.8 * full_s)  # runs vary: stay inside most of them
         proc = _slt(args, work)
+        started: list[int] = []
         try:
             proc.wait(timeout=delay)
             killed = False
         except subprocess.TimeoutExpired:
-            os.killpg(proc.pid, signal.SIGKILL)
+            if command == "batch-ray":
+                started = descendants(proc.pid)
+                os.kill(proc.pid, signal.SIGKILL)
+            else:
+                os.killpg(proc.pid, signal.SIGKILL)
             proc.wait()
             killed = True
         problems = []
@@ -1229,5 +1241,7 @@ def kill_campaign(
         if rerun.returncode != 0:
             problems.append(f"rerun exit {rerun.returncode}: {err.decode()[-200:]}")
         problems += check_run(command, work, need if command == "extract" else Need())
+        if survivors := [p for p in started if alive(p)]:  # Ray's processes too
+            problems.append(f"processes of the killed run still running: {survivors}")
         outcomes.append(KillOutcome(command, round(delay, 3), killed, rerun.returncode, problems))
     return outcomes

@@ -11,7 +11,7 @@ from superlane_tools.simulation.sensors import (
     VEHICLE_DBC,
     RtkParams,
     dbc_path,
-    fix_rows,
+    gnss_fixes,
     rtk_fixes,
     vehicle_can,
 )
@@ -61,7 +61,7 @@ def test_multipath_jumps_are_flagged_and_kept_out_of_the_truth() -> None:
     params = RtkParams(multipath_per_min=4.0)
     fixes = rtk_fixes(world, params, 0, np.random.default_rng(1))
     assert any(f.status == 1 for f in fixes)
-    rows = fix_rows(fixes)
+    rows = gnss_fixes(fixes)
     t = np.arange(0.0, 60.0, 1 / 15)
     path = world.path
     true_k = np.interp(np.interp(t, path.t_s, path.s_m), world.road.s_m, path.curvature)

@@ -1,7 +1,9 @@
 """The ``ray`` engine: Ray tasks, one recording per task, models loaded once per worker.
 
 Ray is an optional extra and is imported only inside these functions. With no address, a
-private local Ray instance is started (and stopped afterwards); ``address="auto"`` joins the
+private local Ray instance is started (and stopped afterwards), owned by a watchdog process
+(:mod:`._ray_watchdog`) that stops exactly that instance's processes when the driver ends, even
+by SIGKILL; ``address="auto"`` joins the
 cluster started on this machine with ``ray start``; ``ray://host:10001`` or ``host:6379``
 join a remote one. Every node reads the recordings and writes into the output root by the same
 paths, so the root must be shared storage (NFS, a mounted object store).
@@ -21,6 +23,7 @@ from collections.abc import Mapping, Sequence
 from types import TracebackType
 from typing import Any, Self
 
+from superlane_tools.commands.batch._ray_watchdog import RayWatchdog
 from superlane_tools.commands.batch.engine import Job, JobOutcome, OnDone, failed_outcome
 from superlane_tools.commands.batch.errors import BatchError, EngineUnavailableError
 from superlane_tools.commands.batch.worker import execute, init_worker
@@ -80,6 +83,7 @@ class RayEngine:
         self._num_cpus = num_cpus
         self._ray: Any = None
         self._owns_ray = False
+        self._watchdog: RayWatchdog | None = None
         self._task: Any = None
         self._config_ref: Any = None
         self._workers = 0
@@ -97,11 +101,7 @@ class RayEngine:
                 if self._address:
                     ray.init(address=self._address, log_to_driver=False)
                 else:
-                    ray.init(
-                        num_cpus=self._num_cpus or self._requested,
-                        include_dashboard=False,
-                        log_to_driver=False,
-                    )
+                    self._start_local(ray)
             except Exception as err:  # ConnectionError, RuntimeError, ... from ray.init
                 where = self._address or "a local instance"
                 raise BatchError(f"cannot start or join Ray at {where}: {err}") from err
@@ -111,6 +111,25 @@ class RayEngine:
         self._task = ray.remote(num_cpus=1, max_retries=0)(run_on_worker)
         self._config_ref = ray.put(self._config)
         return self
+
+    def _start_local(self, ray: Any) -> None:
+        """Start a private instance whose processes the watchdog stops when this driver ends."""
+        self._watchdog = RayWatchdog().__enter__()
+        try:
+            with self._watchdog.marking():
+                ray.init(
+                    num_cpus=self._num_cpus or self._requested,
+                    include_dashboard=False,
+                    log_to_driver=False,
+                )
+        except BaseException:
+            self._stop_watchdog()
+            raise
+
+    def _stop_watchdog(self) -> None:
+        watchdog, self._watchdog = self._watchdog, None
+        if watchdog is not None:
+            watchdog.__exit__(None, None, None)
 
     def __exit__(
         self,
@@ -123,8 +142,11 @@ class RayEngine:
             return
         self._task = self._config_ref = None
         if self._owns_ray:
-            ray.shutdown()
-            self._owns_ray = False
+            try:
+                ray.shutdown()
+            finally:
+                self._owns_ray = False
+                self._stop_watchdog()
 
     def run(self, jobs: Sequence[Job], on_done: OnDone) -> None:
         """Run ``jobs`` as tasks, ``workers`` in flight; a task whose worker died fails its job."""

@@ -141,7 +141,7 @@ def extract(
         "frames": frame_sink.kept if frame_sink else 0,
         "can_frames": can_sink.frames if can_sink else 0,
         "can_signals": can_sink.signal_rows if can_sink else 0,
-        "gnss_fixes": len(gnss_sink.rows) if gnss_sink else 0,
+        "gnss_fixes": len(gnss_sink) if gnss_sink else 0,
     }
     return ExtractResult(
         outputs=tuple(outputs),

@@ -101,7 +101,7 @@ def reprocess_signals(
         frames,
         can,
         dbcs,
-        gnss.rows,
+        gnss.fixes(),
         cfg,
         segments,
         cfg.kpi.availability_params(GRID_HZ),

@@ -165,7 +165,7 @@ def reprocess(
         frames,
         can,
         dbcs,
-        gnss.rows,
+        gnss.fixes(),
         cfg,
         kpi_segments(cfg, frames.t_ns, fps, segments),
         cfg.kpi.availability_params(fps),
