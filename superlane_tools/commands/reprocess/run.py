@@ -25,6 +25,7 @@ from superlane_tools.can.collect import CanFrames
 from superlane_tools.commands.reprocess._examples import example_frame
 from superlane_tools.commands.reprocess._finalize import ReportFacts, drive_tables, write_outputs
 from superlane_tools.commands.reprocess._live import LiveOutputs
+from superlane_tools.commands.reprocess._threads import single_native_threads
 from superlane_tools.commands.reprocess.config import ReprocessConfig, load_manifest
 from superlane_tools.commands.reprocess.record import DriveRecorder
 from superlane_tools.commands.reprocess.signals import ImuSamples
@@ -103,8 +104,25 @@ def reprocess(
         PipelineError: If it has no camera images.
         UsageError: For a bad configuration, missing calibration or unusable model.
     """
-    cfg = config or ReprocessConfig()
-    src, out = Path(recording_path), Path(out_dir)
+    with single_native_threads():
+        return _reprocess(
+            Path(recording_path),
+            Path(out_dir),
+            config or ReprocessConfig(),
+            progress,
+            command,
+            segments,
+        )
+
+
+def _reprocess(
+    src: Path,
+    out: Path,
+    cfg: ReprocessConfig,
+    progress: Progress | None,
+    command: str,
+    segments: Sequence[TimeSegment] | None,
+) -> ReprocessResult:
     t_start, cpu_start = time.perf_counter(), time.process_time()
     dbcs, dbc_paths = load_dbcs(cfg.can.dbcs)
     with open_recording(src) as rec:

@@ -137,3 +137,19 @@ def test_reprocess_reduced_decode_and_cpu_timings(tmp_path: Path) -> None:
     assert stage_cpu <= result.timings["cpu_pass"] + 0.05
     assert frames["segmentation_cpu_ms"].sum() > 0
     assert 0 < result.timings["cpu_pass"] <= result.timings["cpu_total"]
+
+
+def test_native_thread_pools_held_to_one_and_restored() -> None:
+    from threadpoolctl import threadpool_info
+
+    from superlane_tools.commands.reprocess._threads import single_native_threads
+
+    before_cv2 = cv2.getNumThreads()
+    before_blas = [p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"]
+    with single_native_threads():
+        assert cv2.getNumThreads() == 1
+        inside = [p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"]
+        assert inside
+        assert set(inside) == {1}
+    assert cv2.getNumThreads() == before_cv2
+    assert [p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"] == before_blas
