@@ -38,7 +38,7 @@ from superlane_tools.recording.video import decode_video
 from superlane_tools.records import Skipped, TopicInfo
 from superlane_tools.reporting import Provenance, input_identity
 from superlane_tools.reporting.gnss_sink import GnssSink
-from superlane_tools.reporting.plots import ExampleFrame
+from superlane_tools.reporting.plots import example_plot
 
 Progress = Callable[[int, int | None], None]
 """Progress callback ``(frames done, frames total or None)``."""
@@ -168,7 +168,9 @@ def _reprocess(
         # 2. One streaming pass: frames through the stages, CAN and GNSS collected.
         can, imu = CanFrames(), ImuSamples()
         gnss = GnssSink(None, None, provenance)
-        examples: list[ExampleFrame] = []
+        # Example plots (matplotlib, a fixed ~1.5 s of CPU per drive) are drawn on their own
+        # thread while the pass runs, instead of after it with one core idle.
+        example_pngs: list[Future[Path]] = []
         failed: list[str] = []
         out.mkdir(parents=True, exist_ok=True)
         with ExitStack() as stack:
@@ -182,6 +184,7 @@ def _reprocess(
             )
             live = stack.enter_context(LiveOutputs(out, cfg, streams.frames))
             pool = stack.enter_context(ThreadPoolExecutor(cfg.workers, "slt-reprocess"))
+            plotter = stack.enter_context(ThreadPoolExecutor(1, "slt-example-plots"))
             pending: deque[Future[Prepared]] = deque()
             done_count = 0
 
@@ -193,7 +196,8 @@ def _reprocess(
                 if prep.error:
                     failed.append(f"frame {prep.index}: {prep.error}")
                 if prep.index in wanted_examples and prep.image is not None:
-                    examples.append(example_frame(done))
+                    example = example_frame(done)
+                    example_pngs.append(plotter.submit(example_plot, example, out / "plots"))
                 done_count += 1
                 if progress is not None:
                     progress(done_count, total)
@@ -246,7 +250,8 @@ def _reprocess(
         tuple(skipped),
     )
     written = [*recorder.paths, *live.paths]
-    written += write_outputs(out, derived, provenance, cfg, examples, facts)
+    rendered = [f.result() for f in example_pngs]
+    written += write_outputs(out, derived, provenance, cfg, [], facts, rendered)
     t_end, cpu_end = time.perf_counter(), time.process_time()
     timings = frames.stage_totals()
     timings["pass_wall"] = t_pass - t_start
