@@ -3,7 +3,7 @@
 Usage::
 
     python benchmarks/bench_reprocess.py [--frames N] [--repeats R] [--recording PATH]
-        [--seg-model NAME] [--corridor-model NAME] [--out FILE.json]
+        [--seg-model NAME] [--corridor-model NAME] [--set KEY=VALUE ...] [--out FILE.json]
 
 Simulates a ``highway_curves`` drive at 1280x720 (15 Hz) once (or uses ``--recording``), runs
 ``reprocess`` once untimed (the lane-fit kernels compile on a first run; that is
@@ -92,6 +92,13 @@ def main() -> None:
     parser.add_argument("--recording", default="", help="use this 1280x720 recording")
     parser.add_argument("--seg-model", default="", help="segmentation model (default: shipped)")
     parser.add_argument("--corridor-model", default="", help="corridor model (default: shipped)")
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="config override, VALUE as JSON, e.g. corridor.net_every=2 (repeatable)",
+    )
     parser.add_argument("--out", type=Path, default=RESULTS, help="results JSON")
     args = parser.parse_args()
     from superlane_tools.commands.reprocess import ReprocessConfig, reprocess
@@ -104,6 +111,9 @@ def main() -> None:
         segmentation=replace(config.segmentation, model=args.seg_model),
         corridor=replace(config.corridor, model=args.corridor_model),
     )
+    overrides = {k: json.loads(v) for k, _, v in (item.partition("=") for item in args.set)}
+    if overrides:
+        config = config.with_overrides(overrides)
     uptime_before = _uptime()
     print(uptime_before, flush=True)
     with tempfile.TemporaryDirectory() as tmp:
@@ -143,7 +153,8 @@ def main() -> None:
         "config": "defaults (segmentation backend auto, process_width 640, 2 workers, plots + "
         "annotations)"
         + (f"; seg model {args.seg_model}" if args.seg_model else "")
-        + (f"; corridor model {args.corridor_model}" if args.corridor_model else ""),
+        + (f"; corridor model {args.corridor_model}" if args.corridor_model else "")
+        + "".join(f"; {item}" for item in args.set),
         "segmentation_backend": backend,
         "models": models,
         "uptime_before": uptime_before,
