@@ -37,65 +37,6 @@ import numpy as np
 RESULTS = Path(__file__).resolve().parent / "results" / "quantize.json"
 
 
-def _frames(data: Path, split: str) -> list[Path]:
-    from superlane_tools.training.datasets import TUSIMPLE_VAL_FRAMES, _split_rows, tusimple_labels
-
-    folder = data / "tusimple" / "train_frames"
-    labels = tusimple_labels(folder)
-    return [
-        folder / x["raw_file"] for x in labels[_split_rows(len(labels), split, TUSIMPLE_VAL_FRAMES)]
-    ]
-
-
-def _tensor(path: Path, spec: Any) -> np.ndarray:
-    import cv2
-
-    from superlane_tools.scene.onnx_backend import preprocess
-
-    image = cv2.imread(str(path))
-    height = round(image.shape[0] * 640 / image.shape[1])
-    return preprocess(cv2.resize(image, (640, height), interpolation=cv2.INTER_AREA), spec)
-
-
-def _quantise(src: Path, dst: Path, calib: list[Path], spec: Any, layout: str) -> None:
-    from onnxruntime.quantization import (
-        CalibrationDataReader,
-        CalibrationMethod,
-        QuantFormat,
-        QuantType,
-        quantize_static,
-    )
-    from onnxruntime.quantization.shape_inference import quant_pre_process
-
-    class Reader(CalibrationDataReader):  # type: ignore[misc]
-        def __init__(self) -> None:
-            self._paths = iter(calib)
-
-        def get_next(self) -> dict[str, np.ndarray] | None:
-            path = next(self._paths, None)
-            return None if path is None else {spec.name: _tensor(path, spec)}
-
-    pre = dst.with_name(dst.stem + "_pre.onnx")
-    quant_pre_process(str(src), str(pre), skip_symbolic_shape=True)
-    fmt, ops = {
-        "qdq_all": (QuantFormat.QDQ, None),
-        "qdq_conv": (QuantFormat.QDQ, ["Conv"]),
-        "qoperator_conv_concat": (QuantFormat.QOperator, ["Conv", "Concat"]),
-    }[layout]
-    quantize_static(
-        str(pre),
-        str(dst),
-        Reader(),
-        quant_format=fmt,
-        op_types_to_quantize=ops,
-        per_channel=True,
-        activation_type=QuantType.QUInt8,
-        weight_type=QuantType.QInt8,
-        calibrate_method=CalibrationMethod.MinMax,
-    )
-    pre.unlink()
-
-
 def _session(path: Path) -> Any:
     import onnxruntime as ort
 
@@ -127,21 +68,27 @@ def main() -> None:
     args = parser.parse_args()
     from superlane_tools.scene.model_card import load_card
     from superlane_tools.scene.onnx_backend import resolve_model
+    from superlane_tools.training.quantize import (
+        LAYOUTS,
+        network_input,
+        quantize_model,
+        tusimple_split,
+    )
 
     src, card_path = resolve_model(args.model)
     card = load_card(card_path)
-    calib = _frames(args.data, "train")[::3]
-    held_out = _frames(args.data, "val")
+    calib = tusimple_split(args.data, "train")[::3]
+    held_out = tusimple_split(args.data, "val")
     uptime = subprocess.run(["uptime"], capture_output=True, text=True, check=False).stdout.strip()
     with tempfile.TemporaryDirectory() as tmp:
         folder = args.keep or Path(tmp)
         folder.mkdir(parents=True, exist_ok=True)
         files = {"float32": src}
-        for layout in ("qdq_all", "qdq_conv", "qoperator_conv_concat"):
+        for layout in LAYOUTS:
             files[layout] = folder / f"{args.model}_int8_{layout}.onnx"
-            _quantise(src, files[layout], calib, card.input, layout)
+            quantize_model(src, files[layout], calib, card.input, layout)
         sessions = {k: _session(p) for k, p in files.items()}
-        tensors = [_tensor(p, card.input) for p in held_out]
+        tensors = [network_input(p, card.input) for p in held_out]
         times: dict[str, list[float]] = {k: [] for k in files}
         for s in sessions.values():
             for _ in range(3):
