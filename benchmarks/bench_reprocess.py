@@ -38,15 +38,6 @@ from pathlib import Path
 from typing import Any
 
 RESULTS = Path(__file__).resolve().parent / "results" / "reprocess.json"
-IMAGE_STAGES = (
-    "decode",
-    "segmentation",
-    "points",
-    "corridor_net",
-    "hough",
-    "lane_fit",
-    "corridor_geometry",
-)
 
 
 def _decode_only(path: Path) -> tuple[int, float, float]:
@@ -75,7 +66,9 @@ def _uptime() -> str:
 
 def _budget(med: dict[str, float], n: int) -> dict[str, float]:
     """CPU ms per frame per stage, adding up to the whole process CPU time per frame."""
-    stages = {s: 1e3 * med[f"cpu_{s}"] / n for s in IMAGE_STAGES if f"cpu_{s}" in med}
+    from superlane_tools.reporting.drive_tables import STAGES
+
+    stages = {s: 1e3 * med[f"cpu_{s}"] / n for s in STAGES if f"cpu_{s}" in med}
     # Reading and deserialising messages, the frame-order hand-off, row building, Parquet and
     # annotation writes of the streaming pass (process CPU minus the timed stages).
     stages["pass_other"] = 1e3 * med["cpu_pass"] / n - sum(stages.values())
