@@ -147,6 +147,7 @@ class FrameStages:
         self.corridor_unavailable = ""
         self._corridor = self._corridor_model()
         self._smoother: Any = None
+        self._held_prob: NDArray[np.float32] | None = None  # corridor.net_every > 1
         if self._corridor is not None:
             from superlane_tools.scene.corridor_runtime import CorridorSmoother
 
@@ -254,7 +255,7 @@ class FrameStages:
         ):
             out.road_uv = road_points(out.labels, seed=seed)
         clock.lap("points")
-        if self._corridor is not None:
+        if self._corridor is not None and index % self.config.corridor.net_every == 0:
             out.corridor_prob = self._corridor.probability_at_input(image)
         clock.lap("corridor_net")
         out.hough = detect_ego_lane(image, cam, self._hough_params)
@@ -281,6 +282,7 @@ class FrameStages:
         """Run the sequential stages (warm-started fit, corridor mean) in frame order."""
         if prep.image is None:
             self._sequence.reset()
+            self._held_prob = None
             if self._smoother is not None:
                 self._smoother.reset()
             nan = CorridorGeometry(math.nan, math.nan, 0)
@@ -306,8 +308,10 @@ class FrameStages:
         clock.lap("lane_fit")
         mask = None
         net = CorridorGeometry(math.nan, math.nan, 0)
-        if self._smoother is not None and prep.corridor_prob is not None:
-            mask = self._smoother.update(prep.corridor_prob)
+        if prep.corridor_prob is not None:
+            self._held_prob = prep.corridor_prob
+        if self._smoother is not None and self._held_prob is not None:
+            mask = self._smoother.update(self._held_prob)
             net = corridor_from_mask(mask, cam, self._corridor_params)
         clock.lap("corridor_geometry")
         return Finished(prep, fit, super_corr, net, mask, cam)

@@ -22,6 +22,7 @@ from superlane_tools.scene.adapters import (
     load_adapter,
     validate_heads,
 )
+from superlane_tools.scene.adapters.heads import argmax_channels
 from superlane_tools.training.toy_dataset import toy_frame
 
 
@@ -145,3 +146,25 @@ def test_every_leaf_survives_codes_and_heads() -> None:
     ]
     assert np.array_equal(decode_heads(scores), leaf)
     assert validate_heads(HEADS) == []
+
+
+def _reference_decode(scores: list[np.ndarray]) -> np.ndarray:
+    """Argmax down the tree, the plain way: ``np.argmax`` over the pixels each head governs."""
+    current = np.array([NODE_CODES[c] for c in HEADS[0].classes], np.uint8)[scores[0].argmax(0)]
+    for head, score in zip(HEADS[1:], scores[1:], strict=True):
+        mask = current == NODE_CODES[head.parent]
+        codes = np.array([NODE_CODES[c] for c in head.classes], np.uint8)
+        current[mask] = codes[np.argmax(score[:, mask], axis=0)]
+    return codes_to_leaf(current)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_fast_decode_equals_plain_argmax_down_the_tree(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    scores = [rng.normal(size=(len(h.classes), 37, 53)).astype(np.float32) for h in HEADS]
+    if seed % 2:  # ties everywhere: the first of the largest wins, as np.argmax
+        scores = [np.round(s) for s in scores]
+    scores[0][2] += seed  # from mixed to mostly `support`
+    assert np.array_equal(decode_heads(scores), _reference_decode(scores))
+    for score in scores:
+        assert np.array_equal(argmax_channels(score), score.argmax(0))

@@ -12,12 +12,13 @@ import yaml
 from superlane_tools.hierarchy import LEAF_IDS
 from superlane_tools.scene import SegmentationBackend
 from superlane_tools.scene.corridor_runtime import CorridorSmoother, OnnxCorridorModel
-from superlane_tools.scene.model_card import card_path_for, load_card
+from superlane_tools.scene.model_card import InputSpec, card_path_for, load_card
 from superlane_tools.scene.model_errors import ModelError
 from superlane_tools.scene.onnx_backend import (
     DEFAULT_CORRIDOR_MODEL,
     DEFAULT_SEGMENTATION_MODEL,
     OnnxSegmentationBackend,
+    preprocess,
     resolve_model,
 )
 from superlane_tools.training.toy_dataset import toy_frame, write_toy_dataset
@@ -135,3 +136,31 @@ def test_shipped_segmentation_on_a_real_frame(realdata: Path) -> None:
     assert labels.shape == image.shape[:2]
     bottom = labels[600:, 400:880]  # the road ahead of the car
     assert np.mean(bottom == LEAF_IDS["road"]) > 0.5
+
+
+@pytest.mark.parametrize(
+    ("order", "mean", "std"),
+    [
+        ("RGB", (0.45, 0.45, 0.45), (0.25, 0.25, 0.25)),
+        ("BGR", (0.1, 0.2, 0.3), (0.3, 0.2, 0.7)),
+        ("GRAY", (0.37,), (0.71,)),
+    ],
+)
+def test_preprocess_equals_the_normalisation_formula(
+    order: str, mean: tuple[float, ...], std: tuple[float, ...]
+) -> None:
+    import cv2
+
+    image = np.random.default_rng(3).integers(0, 256, (90, 160, 3), dtype=np.uint8)
+    spec = InputSpec("image", 64, 36, order, mean, std)
+    resized = cv2.resize(image, (64, 36), interpolation=cv2.INTER_AREA)
+    if order == "GRAY":
+        pixels = cv2.cvtColor(resized, cv2.COLOR_BGR2GRAY)[:, :, None]
+    else:
+        pixels = resized[:, :, ::-1] if order == "RGB" else resized
+    m, s = np.asarray(mean, np.float32), np.asarray(std, np.float32)
+    expected = ((pixels.astype(np.float32) / 255.0 - m) / s).transpose(2, 0, 1)[None]
+    tensor = preprocess(image, spec)
+    assert tensor.dtype == np.float32
+    assert tensor.flags.c_contiguous
+    assert np.array_equal(tensor, expected)  # bit for bit: the table holds the same float32 ops

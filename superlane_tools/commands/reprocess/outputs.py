@@ -49,14 +49,20 @@ def write_outputs(
     config: ReprocessConfig,
     examples: Sequence[ExampleFrame],
     report: ReportFacts,
+    rendered: Sequence[Path] = (),
 ) -> list[Path]:
-    """Write the derived tables, the plots and the report; return the files written."""
+    """Write the derived tables, the plots and the report; return the files written.
+
+    ``rendered``: example plots already written (during the pass), listed after the plots
+    drawn here, as :func:`~superlane_tools.reporting.plots.plot_all` orders its own examples.
+    """
     written = [write_table(t, out / name, provenance) for name, t in table_files(result).items()]
     images: list[str] = []
     if config.output.plots:
         from superlane_tools.reporting.plots import plot_all
 
         pngs = plot_all(result.curvature, result.availability_frames, examples, out / "plots")
+        pngs += rendered
         written += pngs
         images = [p.relative_to(out).as_posix() for p in pngs]
     written += write_report(

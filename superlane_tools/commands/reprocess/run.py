@@ -21,6 +21,7 @@ from pathlib import Path
 from superlane_tools.can import load_dbcs
 from superlane_tools.can.collect import CanFrames
 from superlane_tools.commands.reprocess._live import LiveOutputs
+from superlane_tools.commands.reprocess._threads import single_native_threads
 from superlane_tools.commands.reprocess.outputs import streamed_files, write_outputs
 from superlane_tools.commands.reprocess.result import Progress, ReprocessResult
 from superlane_tools.corridor import TimeSegment
@@ -37,12 +38,13 @@ from superlane_tools.recording.video import decode_video
 from superlane_tools.records import Skipped
 from superlane_tools.reporting import Provenance, input_identity
 from superlane_tools.reporting.gnss_sink import GnssSink
-from superlane_tools.reporting.plots import ExampleFrame
+from superlane_tools.reporting.plots import example_plot
 
 CAN_TYPE, IMU_TYPE = "can_msgs/msg/Frame", "sensor_msgs/msg/Imu"
 """Every topic of these types is read unless ``topics.can`` / ``topics.imu`` names one."""
 
 
+@single_native_threads()  # BLAS and OpenCV pools at one thread: our workers fill the cores
 def reprocess(
     recording_path: str | os.PathLike[str],
     out_dir: str | os.PathLike[str],
@@ -107,7 +109,7 @@ def reprocess(
         # 2. One streaming pass: frames through the stages, CAN and GNSS collected.
         can, imu = CanFrames(), ImuSamples()
         gnss = GnssSink(None, None, provenance)
-        examples: list[ExampleFrame] = []
+        example_pngs: list[Future[Path]] = []  # drawn on their own thread during the pass
         failed: list[str] = []
         out.mkdir(parents=True, exist_ok=True)
         with ExitStack() as stack:
@@ -121,6 +123,7 @@ def reprocess(
             )
             live = stack.enter_context(LiveOutputs(out, cfg, streams.frames))
             pool = stack.enter_context(ThreadPoolExecutor(cfg.workers, "slt-reprocess"))
+            plotter = stack.enter_context(ThreadPoolExecutor(1, "slt-example-plots"))
             pending: deque[Future[Prepared]] = deque()
             done_count = 0
 
@@ -132,7 +135,8 @@ def reprocess(
                 if prep.error:
                     failed.append(f"frame {prep.index}: {prep.error}")
                 if prep.index in wanted_examples and prep.image is not None:
-                    examples.append(example_frame(done))
+                    example = example_frame(done)
+                    example_pngs.append(plotter.submit(example_plot, example, out / "plots"))
                 done_count += 1
                 if progress is not None:
                     progress(done_count, total)
@@ -183,7 +187,8 @@ def reprocess(
         tuple(skipped),
     )
     written = [*recorder.paths, *live.paths]
-    written += write_outputs(out, derived, provenance, cfg, examples, facts)
+    rendered = [f.result() for f in example_pngs]
+    written += write_outputs(out, derived, provenance, cfg, [], facts, rendered)
     t_end, cpu_end = time.perf_counter(), time.process_time()
     timings = frames.stage_totals() | {
         "pass_wall": t_pass - t_start,

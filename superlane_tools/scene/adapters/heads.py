@@ -13,6 +13,7 @@ child is governed by its parent's decision: argmax down the tree (:func:`decode_
 from __future__ import annotations
 
 from collections.abc import Sequence
+from functools import cache
 from typing import NamedTuple
 
 import numpy as np
@@ -71,6 +72,13 @@ def leaf_to_codes(leaf_ids: NDArray[np.uint8]) -> NDArray[np.uint8]:
 
 def codes_to_leaf(codes: NDArray[np.uint8]) -> NDArray[np.uint8]:
     """Convert node codes to leaf ids; inner nodes take their :data:`DEFAULT_LEAF`."""
+    out: NDArray[np.uint8] = np.take(_leaf_lut(), codes)
+    return out
+
+
+@cache
+def _leaf_lut() -> NDArray[np.uint8]:
+    """Return the 256-entry table node code -> leaf id of :func:`codes_to_leaf`."""
     lut = np.zeros(256, dtype=np.uint8)
     for name, code in NODE_CODES.items():
         if name == "void":
@@ -79,8 +87,17 @@ def codes_to_leaf(codes: NDArray[np.uint8]) -> NDArray[np.uint8]:
         while node.leaf_id < 0:
             node = BY_NAME[DEFAULT_LEAF[node.name]]
         lut[code] = node.leaf_id
-    out: NDArray[np.uint8] = lut[codes]
-    return out
+    lut.flags.writeable = False
+    return lut
+
+
+@cache
+def _class_codes(classes: tuple[str, ...]) -> NDArray[np.uint8]:
+    """Return the 256-entry table channel index -> node code of a head's classes."""
+    lut = np.zeros(256, dtype=np.uint8)
+    lut[: len(classes)] = [NODE_CODES[c] for c in classes]
+    lut.flags.writeable = False
+    return lut
 
 
 def head_target_lut(head: Head) -> NDArray[np.int64]:
@@ -116,16 +133,35 @@ def decode_heads(
     Returns:
         ``(H, W)`` ``uint8`` leaf ids.
     """
-    first = heads[0]
-    codes_of = np.array([NODE_CODES[c] for c in first.classes], dtype=np.uint8)
-    current = codes_of[np.argmax(scores[0], axis=0)]
+    current = np.take(_class_codes(tuple(heads[0].classes)), argmax_channels(scores[0]))
     for head, score in zip(heads[1:], scores[1:], strict=True):
         mask = current == NODE_CODES[head.parent]
         if not mask.any():
             continue
-        codes_of = np.array([NODE_CODES[c] for c in head.classes], dtype=np.uint8)
-        current[mask] = codes_of[np.argmax(score[:, mask], axis=0)]
+        refined = np.take(_class_codes(tuple(head.classes)), argmax_channels(score))
+        current = np.where(mask, refined, current)
     return codes_to_leaf(current)
+
+
+def argmax_channels(scores: NDArray[np.floating]) -> NDArray[np.uint8]:
+    """Return the ``(H, W)`` index of the largest of ``(C, H, W)`` scores (first on ties).
+
+    Equals ``np.argmax(scores, axis=0)`` for scores without NaN (C <= 255), but runs one
+    vectorised comparison per channel over contiguous planes instead of a strided argmax per
+    pixel (about 10x faster for the few channels of a head). A channel that beats every
+    earlier one is larger than any index held so far, so ``max(index, channel * larger)``
+    takes it without a masked write.
+    """
+    best = np.array(scores[0], copy=True)
+    index = np.zeros(best.shape, dtype=np.uint8)
+    larger = np.empty(best.shape, dtype=bool)
+    step = np.empty(best.shape, dtype=np.uint8)
+    for channel in range(1, scores.shape[0]):
+        np.greater(scores[channel], best, out=larger)
+        np.multiply(larger.view(np.uint8), channel, out=step)
+        np.maximum(index, step, out=index)
+        np.maximum(best, scores[channel], out=best)
+    return index
 
 
 def validate_heads(heads: Sequence[Head]) -> list[str]:

@@ -14,6 +14,7 @@ import pytest
 from superlane_tools.camera.profiles import load_camera
 from superlane_tools.commands.reprocess import ReprocessConfig, reprocess
 from superlane_tools.corridor import CorridorParams, corridor_from_mask
+from superlane_tools.errors import ConfigError
 from superlane_tools.recording.images import decode_frame, decode_reduced
 from superlane_tools.records import Message
 from superlane_tools.reporting.drive_tables import STAGES
@@ -183,3 +184,43 @@ def test_look_ahead_is_bounded_while_the_kernels_load(monkeypatch: pytest.Monkey
     ready["numba"] = False
     assert frame_stages.look_ahead(2) == stages.WARM_UP_LOOK_AHEAD
     assert frame_stages.look_ahead(100) == 200
+
+
+def test_native_thread_pools_held_to_one_and_restored() -> None:
+    from threadpoolctl import threadpool_info
+
+    from superlane_tools.commands.reprocess._threads import single_native_threads
+
+    before_cv2 = cv2.getNumThreads()
+    before_blas = [p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"]
+    with single_native_threads():
+        assert cv2.getNumThreads() == 1
+        inside = [p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"]
+        assert inside
+        assert set(inside) == {1}
+    assert cv2.getNumThreads() == before_cv2
+    assert [p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"] == before_blas
+
+
+def test_corridor_net_every_second_frame(tmp_path: Path) -> None:
+    rec = tmp_path / "d.mcap"
+    simulate_drive("highway_curves", 1.0, 2, "mcap", 320, 180, False, rec)
+    runs = {}
+    for every in (1, 2):
+        cfg = ReprocessConfig().with_overrides(
+            {"segmentation.process_width": 160, "output.plots": False, "corridor.net_every": every}
+        )
+        assert reprocess(rec, tmp_path / f"e{every}", cfg).status == "ok"
+        runs[every] = (
+            pd.read_parquet(tmp_path / f"e{every}" / "corridor.parquet"),
+            pd.read_parquet(tmp_path / f"e{every}" / "frames.parquet"),
+        )
+    (corr1, frames1), (corr2, frames2) = runs[1], runs[2]
+    # Every frame still gets a corridor from the mean; the network ran on even frames only.
+    assert corr2["width_m"].notna().sum() == corr1["width_m"].notna().sum()
+    odd = frames2["frame_index"] % 2 == 1
+    assert frames2.loc[odd, "corridor_net_cpu_ms"].max() < frames1["corridor_net_cpu_ms"].min()
+    # Frame 0 is the same (network run, nothing held yet); frame 1 holds frame 0's output.
+    assert corr2["width_m"].iloc[0] == corr1["width_m"].iloc[0]
+    with pytest.raises(ConfigError, match="net_every"):
+        ReprocessConfig().with_overrides({"corridor.net_every": 0})
