@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import math
+import os
+import signal
+import time
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -186,7 +189,7 @@ def test_look_ahead_is_bounded_while_the_kernels_load(monkeypatch: pytest.Monkey
     assert frame_stages.look_ahead(100) == 200
 
 
-def test_native_thread_pools_held_to_one_and_restored() -> None:
+def test_blas_pool_held_to_one_and_restored() -> None:
     from threadpoolctl import threadpool_info
 
     from superlane_tools.commands.reprocess._threads import single_native_threads
@@ -194,12 +197,43 @@ def test_native_thread_pools_held_to_one_and_restored() -> None:
     before_cv2 = cv2.getNumThreads()
     before_blas = [p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"]
     with single_native_threads():
-        assert cv2.getNumThreads() == 1
         inside = [p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"]
         assert inside
         assert set(inside) == {1}
-    assert cv2.getNumThreads() == before_cv2
+        assert cv2.getNumThreads() == before_cv2  # OpenCV's pool is not touched (fork safety)
     assert [p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"] == before_blas
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="needs fork")
+def test_thread_limits_do_not_hang_in_a_forked_child() -> None:
+    """A child forked after the parent's OpenCV pool ran enters the limits and leaves promptly.
+
+    ``cv2.setNumThreads`` in such a child blocked forever (the fuzz suite's reprocess hangs).
+    """
+    from superlane_tools.commands.reprocess._threads import single_native_threads
+
+    big = np.zeros((2000, 2000, 3), np.uint8)
+    for _ in range(5):  # start OpenCV's worker threads in this (the parent) process
+        cv2.resize(big, (1000, 1000), interpolation=cv2.INTER_AREA)
+    pid = os.fork()
+    if pid == 0:
+        code = 1
+        try:
+            with single_native_threads():
+                cv2.resize(big, (640, 360), interpolation=cv2.INTER_AREA)
+            code = 0
+        finally:
+            os._exit(code)
+    deadline = time.monotonic() + 30.0
+    while time.monotonic() < deadline:
+        done, status = os.waitpid(pid, os.WNOHANG)
+        if done:
+            assert os.waitstatus_to_exitcode(status) == 0
+            return
+        time.sleep(0.05)
+    os.kill(pid, signal.SIGKILL)
+    os.waitpid(pid, 0)
+    pytest.fail("the forked child hung inside single_native_threads()")
 
 
 def test_corridor_net_every_second_frame(tmp_path: Path) -> None:
