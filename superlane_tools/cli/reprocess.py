@@ -161,7 +161,7 @@ def _warm_up_in_background(backend: str) -> None:
         from superlane_tools.lanes.multilane_fit import warm_up
 
         with contextlib.suppress(Exception):  # the fit raises the same error, with context
-            warm_up(backend)
+            warm_up(backend, separate_process=True)
 
     threading.Thread(target=warm, name="slt-kernel-warm-up", daemon=True).start()
 

@@ -92,6 +92,15 @@ _CACHE_DIR = kernel_cache_dir()
 _CACHE_OK = _writable(_CACHE_DIR)
 
 
+def cache_is_cold() -> bool:
+    """Return True when the kernels would compile here: a writable cache holding no index yet.
+
+    False also where no cache folder is writable (a separate process could not hand its
+    compiled kernels over).
+    """
+    return _CACHE_OK and not any(_CACHE_DIR.rglob("*.nbi"))
+
+
 class _CompileNote(event.Listener):
     """Print :data:`COMPILE_NOTE` once, when numba starts compiling a kernel of this module."""
 

@@ -11,6 +11,7 @@ bounded per-line correction.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import threading
 import time
@@ -302,7 +303,23 @@ def kernels_ready(backend: str = "numba") -> bool:
     return backend != "numba" or backend in _READY_BACKENDS
 
 
-def warm_up(backend: str = "numba") -> float:
+def _compile_in_child() -> None:
+    """Compile the kernels into the cache in a child process (no GIL shared with this one).
+
+    Its one ``note:`` line goes to this process's stderr; any failure is left to the in-process
+    warm-up that follows, which compiles (or raises) as before.
+    """
+    import subprocess
+    import sys
+
+    code = "from superlane_tools.lanes.multilane_fit import warm_up; warm_up('numba')"
+    with contextlib.suppress(OSError, subprocess.SubprocessError):
+        subprocess.run(
+            [sys.executable, "-c", code], stdout=subprocess.DEVNULL, timeout=900, check=False
+        )
+
+
+def warm_up(backend: str = "numba", *, separate_process: bool = False) -> float:
     """Load (or compile) the fit's kernels once per process by fitting a small synthetic frame.
 
     :func:`fit_frame` calls this before it starts its clock, so ``fit_time_s`` (and the
@@ -311,14 +328,25 @@ def warm_up(backend: str = "numba") -> float:
     made while another thread warms up (``slt reprocess`` starts one early, on a side thread)
     waits for it, outside the caller's clock.
 
+    Args:
+        backend: ``numba`` or ``numpy``.
+        separate_process: On a cold kernel cache, compile in a child process and load its
+            result: numba's compiler is Python holding the GIL, so compiling on a side thread
+            slows every other stage of the first run; a child compiles on the other core.
+
     Returns:
         Seconds spent, 0 when the backend was already warm.
     """
     with _WARM_LOCK:
         if backend in _WARM_BACKENDS:
             return 0.0
-        _WARM_BACKENDS.add(backend)
         t0 = time.perf_counter()
+        if separate_process and backend == "numba":
+            from superlane_tools.lanes._kernels import cache_is_cold
+
+            if cache_is_cold():
+                _compile_in_child()
+        _WARM_BACKENDS.add(backend)
         cam = CameraModel(Intrinsics(640, 360, 500.0, 500.0, 319.5, 179.5), Extrinsics(1.5, 0.05))
         x = np.linspace(5.0, 40.0, 120)
         lines = [

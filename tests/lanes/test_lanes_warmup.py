@@ -46,3 +46,31 @@ def test_kernels_ready_after_a_warm_up_on_another_thread():
         [sys.executable, "-c", READY], capture_output=True, text=True, check=True, timeout=300
     ).stdout.split()
     assert out == ["False", "True", "True"]
+
+
+SEPARATE = """
+from superlane_tools.lanes._kernels import _CompileNote, cache_is_cold
+from superlane_tools.lanes.multilane_fit import kernels_ready, warm_up
+cold = cache_is_cold()
+warm_up("numba", separate_process=True)
+print(cold, cache_is_cold(), kernels_ready("numba"), _CompileNote.printed)
+"""
+
+
+def test_cold_cache_compiles_in_a_child_process(tmp_path):
+    """On a cold cache the kernels compile in a child; this process only loads them."""
+    import os
+
+    env = {**os.environ, "SLT_CACHE_DIR": str(tmp_path)}
+    done = subprocess.run(
+        [sys.executable, "-c", SEPARATE],
+        capture_output=True,
+        text=True,
+        check=True,
+        timeout=600,
+        env=env,
+    )
+    assert done.stdout.split() == ["True", "False", "True", "False"]  # no compile here
+    # the child printed the one note (stderr is shared); the parent loaded without compiling
+    assert done.stderr.count("note: compiling lane-fit kernels (first run only)") == 1
+    assert list((tmp_path / "numba").rglob("*.nbi"))
