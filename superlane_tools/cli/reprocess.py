@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import inspect
+import subprocess
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -92,19 +93,21 @@ def reprocess_cmd(
     Options override the config file. Missing streams degrade gracefully and are stated in
     the report; exit code 3 means input data was lost.
     """
-    from superlane_tools.commands.reprocess import (
-        ReprocessConfig,
-        default_config_yaml,
-        load_config,
-    )
     from superlane_tools.errors import UsageError
+    from superlane_tools.lanes.kernel_cache import start_compiling
 
     if print_config:
+        from superlane_tools.commands.reprocess import default_config_yaml
+
         typer.echo(default_config_yaml(), nl=False)
         return
     with cli_errors():
         if recording is None:
             raise UsageError("missing argument RECORDING (or use --print-config)")
+        # First: on a cold kernel cache the compiler is this run's critical path.
+        compiler = start_compiling()
+        from superlane_tools.commands.reprocess import ReprocessConfig, load_config
+
         cfg = load_config(config) if config is not None else ReprocessConfig()
         overrides: dict[str, Any] = {}
         if camera is not None:
@@ -127,7 +130,7 @@ def reprocess_cmd(
             overrides["workers"] = workers
         cfg = cfg.with_overrides(overrides)
         target = out if out is not None else Path("runs") / _recording_name(recording)
-        result, added = _run(recording, target, cfg, with_signals)
+        result, added = _run(recording, target, cfg, with_signals, compiler)
         if added is not None:
             console.print(
                 f"annotations.mcap: added {len(added)} signal channels "
@@ -147,36 +150,20 @@ def reprocess_cmd(
     exit_with(report_skipped(result.skipped))
 
 
-def _warm_up_in_background(backend: str) -> None:
-    """Load or compile the lane-fit kernels on a side thread while decoding and segmentation run.
-
-    The first run after an install compiles them (seconds, with a ``note:`` line); started here,
-    that overlaps the image stages instead of stalling the first lane fit. A failure is left to
-    the fit itself to report.
-    """
-    import contextlib
-    import threading
-
-    def warm() -> None:
-        from superlane_tools.lanes.multilane_fit import warm_up
-
-        with contextlib.suppress(Exception):  # the fit raises the same error, with context
-            warm_up(backend, separate_process=True)
-
-    threading.Thread(target=warm, name="slt-kernel-warm-up", daemon=True).start()
-
-
 def _run(
-    recording: Path, target: Path, cfg: Any, with_signals: bool
+    recording: Path,
+    target: Path,
+    cfg: Any,
+    with_signals: bool,
+    compiler: subprocess.Popen[bytes] | None,
 ) -> tuple[Any, dict[str, int] | None]:
     """Reprocess into a staging folder, add the signal channels, publish the run in one step."""
     from superlane_tools.commands.reprocess import reprocess
     from superlane_tools.lanes import FitParams
+    from superlane_tools.lanes.multilane_fit import warm_up_in_background
     from superlane_tools.reporting.run_folder import staged_run
 
-    backend = FitParams.from_dict(dict(getattr(cfg, "fit", {}))).backend
-    if backend == "numba":
-        _warm_up_in_background(backend)
+    warm_up_in_background(FitParams.from_dict(dict(getattr(cfg, "fit", {}))).backend, compiler)
     added: dict[str, int] | None = None
     with staged_run(target) as stage:  # the whole run appears at once, or not at all
         with progress("reprocess", unit="frames") as bar:

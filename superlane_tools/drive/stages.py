@@ -10,6 +10,9 @@ from __future__ import annotations
 
 import math
 import time
+from collections import deque
+from collections.abc import Iterator
+from concurrent.futures import Future, wait
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -28,7 +31,7 @@ from superlane_tools.corridor import (
 )
 from superlane_tools.drive.config import ReprocessConfig
 from superlane_tools.lanes import FitParams, LaneFit
-from superlane_tools.lanes.multilane_fit import kernels_ready
+from superlane_tools.lanes.multilane_fit import kernels_loading, warm_up_in_background
 from superlane_tools.lanes.points import lane_points, road_points
 from superlane_tools.lanes.sequence import SequentialFit, max_plausible_slope
 from superlane_tools.recording.images import decode_frame, decode_reduced
@@ -37,14 +40,17 @@ from superlane_tools.scene.oracle import OracleLabels
 
 FloatArray = NDArray[np.float64]
 NO_CORRIDOR_MODEL = "no corridor model"
-WARM_UP_LOOK_AHEAD = 128
+WARM_UP_LOOK_AHEAD = 256
 """Frames the image stages may run ahead of the fit while its kernels load or compile.
 
-The first run after an install compiles the lane fit's kernels (seconds, on a side thread);
-the fit is sequential, so without this the pool would idle behind the first frame's fit. Each
-frame waiting holds its image and labels at processing size (about 1 MB at 640 x 360), so the
-buffer is bounded; results do not depend on it (the same kernels fit the same frames in order).
+The first run after an install compiles the lane fit's kernels (about 10 s of one core, in a
+child process); the fit is sequential, so without this the pool would idle behind the first
+frame's fit. Each frame waiting holds its image and labels at processing size (about 1.8 MB at
+640 x 360), so the buffer is bounded (about 0.5 GB, on that first run only); results do not
+depend on it (the same kernels fit the same frames in order).
 """
+CATCH_UP = 2
+"""Frames of a warm-up backlog finished per frame submitted, once the kernels are loaded."""
 
 
 @dataclass
@@ -64,6 +70,9 @@ class Prepared:
         road_uv: Road pixels, or None when the fit will not use them.
         corridor_prob: Corridor probability at the network's input size, or None.
         hough: The Hough baseline's result, or None.
+        net_corridor: Corridor geometry of the network's three-frame mean, once
+            :meth:`FrameStages.smooth` has run on this frame (None before).
+        net_mask: That averaged corridor probability, or None.
         seconds: Wall time per stage, seconds.
         cpu_seconds: CPU time of the running thread per stage, seconds.
     """
@@ -80,6 +89,8 @@ class Prepared:
     road_uv: FloatArray | None = None
     corridor_prob: NDArray[np.float32] | None = None
     hough: HoughResult | None = None
+    net_corridor: CorridorGeometry | None = None
+    net_mask: NDArray[np.float32] | None = None
     seconds: dict[str, float] = field(default_factory=dict)
     cpu_seconds: dict[str, float] = field(default_factory=dict)
 
@@ -139,6 +150,7 @@ class FrameStages:
         self.config = config
         self.camera = camera
         self.fit_params = FitParams.from_dict(dict(config.fit))
+        warm_up_in_background(self.fit_params.backend)  # no-op when loaded or loading
         self.notes: list[str] = []
         self.models: dict[str, str] = {}
         self._cameras: dict[tuple[int, int], CameraModel] = {}
@@ -268,23 +280,66 @@ class FrameStages:
         labels: NDArray[np.uint8] = self._backend.segment(image)
         return labels
 
-    def look_ahead(self, workers: int) -> int:
-        """Return how many prepared frames may wait for :meth:`finish` now.
+    def due(self, pending: deque[Future[Prepared]], workers: int) -> Iterator[Prepared]:
+        """Pop the prepared frames that :meth:`finish` must take now, oldest first.
 
-        ``2 * workers`` normally; up to :data:`WARM_UP_LOOK_AHEAD` while the fit's kernels are
-        still loading or compiling (first run after an install), so the pool keeps working.
+        Normally all but ``2 * workers`` of them. While the fit's kernels load on a side
+        thread (:func:`~superlane_tools.lanes.multilane_fit.warm_up_in_background`; on the
+        first run after an install that means compiling them in a child process), up to
+        :data:`WARM_UP_LOOK_AHEAD` may wait, so the image stages keep working instead of
+        idling behind the first fit; the newest frame is awaited first, so that one core
+        prepares frames while the compiler, the critical path of that run, has the other;
+        and this thread runs :meth:`smooth` on the waiting frames. The backlog left when the
+        kernels are loaded is taken :data:`CATCH_UP` frames per call, so the pool keeps
+        preparing new frames while the fit catches up.
         """
-        if kernels_ready(self.fit_params.backend):
-            return 2 * workers
-        return max(2 * workers, WARM_UP_LOOK_AHEAD)
+        if kernels_loading(self.fit_params.backend):
+            wait([pending[-1]])
+            for future in pending:  # what can run before the fit does, in frame order
+                if not future.done():
+                    break
+                self.smooth(future.result())
+            keep = max(2 * workers, WARM_UP_LOOK_AHEAD)
+        else:
+            keep = max(2 * workers, len(pending) - CATCH_UP)
+        while len(pending) > keep:
+            yield pending.popleft().result()
 
-    def finish(self, prep: Prepared) -> Finished:
-        """Run the sequential stages (warm-started fit, corridor mean) in frame order."""
+    def smooth(self, prep: Prepared) -> CorridorGeometry:
+        """Run the corridor network's three-frame mean on ``prep``: in frame order, once each.
+
+        It does not depend on the fit, so it may run ahead of it (while the fit's kernels
+        compile); :meth:`finish` runs it on frames it has not seen yet.
+
+        Returns:
+            ``prep.net_corridor``, the corridor geometry of the averaged probability.
+        """
+        if prep.net_corridor is not None:
+            return prep.net_corridor
+        clock = prep.clock()
+        net = CorridorGeometry(math.nan, math.nan, 0)
         if prep.image is None:
-            self._sequence.reset()
             self._held_prob = None
             if self._smoother is not None:
                 self._smoother.reset()
+        else:
+            if prep.corridor_prob is not None:
+                self._held_prob = prep.corridor_prob
+            if self._smoother is not None and self._held_prob is not None:
+                height, width = prep.image.shape[:2]
+                prep.net_mask = self._smoother.update(self._held_prob)
+                net = corridor_from_mask(
+                    prep.net_mask, self.camera_for(width, height), self._corridor_params
+                )
+        prep.net_corridor = net
+        clock.lap("corridor_geometry")
+        return net
+
+    def finish(self, prep: Prepared) -> Finished:
+        """Run the sequential stages (warm-started fit, corridor mean) in frame order."""
+        net = self.smooth(prep)
+        if prep.image is None:
+            self._sequence.reset()
             nan = CorridorGeometry(math.nan, math.nan, 0)
             return Finished(prep, LaneFit(reason="frame not decoded"), nan, nan, None, self.camera)
         height, width = prep.image.shape[:2]
@@ -306,12 +361,4 @@ class FrameStages:
             cam.extrinsics.x_m,  # the fit's lines start at the camera foot
         )
         clock.lap("lane_fit")
-        mask = None
-        net = CorridorGeometry(math.nan, math.nan, 0)
-        if prep.corridor_prob is not None:
-            self._held_prob = prep.corridor_prob
-        if self._smoother is not None and self._held_prob is not None:
-            mask = self._smoother.update(self._held_prob)
-            net = corridor_from_mask(mask, cam, self._corridor_params)
-        clock.lap("corridor_geometry")
-        return Finished(prep, fit, super_corr, net, mask, cam)
+        return Finished(prep, fit, super_corr, net, prep.net_mask, cam)

@@ -20,16 +20,19 @@ exact flat-slope path of :func:`road_den`.
 from __future__ import annotations
 
 import math
-import os
 import sys
-import tempfile
 from collections.abc import Callable
-from pathlib import Path
 from typing import Any, TypeVar, cast
 
 import numba
 import numpy as np
 from numba.core import event
+
+from superlane_tools.lanes.kernel_cache import (
+    COMPILE_NOTE,
+    kernel_cache_dir,
+    writable,
+)
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -52,53 +55,8 @@ CFG_INV_SIGMA = 7
 CFG_SIZE = 8
 
 
-CACHE_ENV = "SLT_CACHE_DIR"
-"""Environment variable naming superlane-tools' cache root (kernels go to its ``numba/``)."""
-COMPILE_NOTE = "note: compiling lane-fit kernels (first run only)"
-
-
-def kernel_cache_dir() -> Path:
-    """Return the folder of the compiled-kernel cache (it may not exist yet).
-
-    ``$SLT_CACHE_DIR/numba`` when set, else ``$XDG_CACHE_HOME/superlane-tools/numba``, else the
-    platform's user cache folder (``~/.cache`` on Linux, ``~/Library/Caches`` on macOS,
-    ``%LOCALAPPDATA%`` on Windows) ``/superlane-tools/numba``.
-    """
-    root = os.environ.get(CACHE_ENV)
-    if root:
-        return Path(root).expanduser() / "numba"
-    xdg = os.environ.get("XDG_CACHE_HOME")
-    if xdg:
-        base = Path(xdg).expanduser()
-    elif sys.platform == "win32" and os.environ.get("LOCALAPPDATA"):
-        base = Path(os.environ["LOCALAPPDATA"])
-    elif sys.platform == "darwin":
-        base = Path.home() / "Library" / "Caches"
-    else:
-        base = Path.home() / ".cache"
-    return base / "superlane-tools" / "numba"
-
-
-def _writable(folder: Path) -> bool:
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-        tempfile.TemporaryFile(dir=folder).close()
-    except OSError:
-        return False
-    return True
-
-
 _CACHE_DIR = kernel_cache_dir()
-_CACHE_OK = _writable(_CACHE_DIR)
-
-
-def cache_is_cold() -> bool:
-    """Return True when the kernels would compile here: a writable cache holding no index yet.
-
-    False also where no cache folder is writable (a separate process could not hand its
-    compiled kernels over).
-    """
-    return _CACHE_OK and not any(_CACHE_DIR.rglob("*.nbi"))
+_CACHE_OK = writable(_CACHE_DIR)
 
 
 class _CompileNote(event.Listener):
@@ -726,3 +684,31 @@ def refit_ssr(
         ssr += res * res
         count += 1
     return ssr, count
+
+
+def compile_all() -> None:
+    """Compile (or load from the cache) every kernel for the argument types the fit passes.
+
+    A cold cache's compiler process runs this
+    (:func:`superlane_tools.lanes.kernel_cache.start_compiling`): it needs neither the fit's
+    modules nor data. The tests check that a fit afterwards compiles nothing more.
+    """
+    from numba import types
+
+    f8, i8, flag = types.float64, types.int64, types.boolean
+    a, a2, ia = types.float64[::1], types.float64[:, ::1], types.intp[::1]
+    signatures: dict[Any, tuple[Any, ...]] = {
+        ray_slopes: (a, a, a2, f8, f8, f8, f8),
+        total_cost: (a, a, a, a, a, a, a),
+        batch_cost: (a, a, a, a, a2, a, a),
+        nelder_mead: (a2, a, ia, a, a, a, f8, f8, i8, a, a, a, a, a, a),
+        assign_points: (a, a, f8, f8, f8, f8, f8, f8, a, f8, f8),
+        line_sums: (a, a, ia, a, f8),
+        reassign: (a, a, a2, f8, f8),
+        row_coverage: (a, ia, i8),
+        refit_normal: (a, a, ia, i8, f8, f8, f8, f8, f8, f8, i8, flag, flag, f8),
+        solve_ridged: (a2, a),
+        refit_ssr: (a, a, ia, a, f8, f8, f8, f8, f8, f8, f8),
+    }
+    for kernel, signature in signatures.items():
+        kernel.compile(signature)

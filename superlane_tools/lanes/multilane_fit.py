@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import subprocess
 import threading
 import time
 
@@ -39,6 +40,7 @@ from superlane_tools.lanes.attributes import (
 from superlane_tools.lanes.cost import CostFunction, Histogram, kernels, ray_points
 from superlane_tools.lanes.errors import LaneFitError
 from superlane_tools.lanes.fit_lookahead import effective_lookahead, refit_sqrt_weights
+from superlane_tools.lanes.kernel_cache import one_cpu_for, start_compiling
 from superlane_tools.lanes.params import FitParams
 from superlane_tools.lanes.peaks import assign, find_offsets, merge_close
 from superlane_tools.lanes.result import Lane, LaneFit
@@ -291,6 +293,7 @@ def _road_only(
 
 _WARM_BACKENDS: set[str] = set()
 _READY_BACKENDS: set[str] = set()
+_LOADING_BACKENDS: set[str] = set()
 _WARM_LOCK = threading.RLock()  # re-entered by the warm-up's own fit_frame call
 
 
@@ -303,23 +306,45 @@ def kernels_ready(backend: str = "numba") -> bool:
     return backend != "numba" or backend in _READY_BACKENDS
 
 
-def _compile_in_child() -> None:
-    """Compile the kernels into the cache in a child process (no GIL shared with this one).
+def kernels_loading(backend: str = "numba") -> bool:
+    """Return whether a :func:`warm_up_in_background` of ``backend`` is still running."""
+    return backend in _LOADING_BACKENDS
 
-    Its one ``note:`` line goes to this process's stderr; any failure is left to the in-process
-    warm-up that follows, which compiles (or raises) as before.
+
+def warm_up_in_background(
+    backend: str = "numba", compiler: subprocess.Popen[bytes] | None = None
+) -> None:
+    """Load the kernels on a side thread (compiling them first in a child on a cold cache).
+
+    The first run after an install compiles them (seconds, with a ``note:`` line) in a child
+    process (``compiler`` when the caller started it, else started here); the side thread
+    waits for it and loads the result while the caller's image stages run ahead. Nothing
+    happens when ``backend`` needs no kernels or a warm-up already ran or runs; a failure is
+    left to the fit itself to report.
     """
-    import subprocess
-    import sys
+    if backend != "numba" or backend in _READY_BACKENDS or backend in _LOADING_BACKENDS:
+        if compiler is not None and backend != "numba":
+            compiler.terminate()  # the numpy reference needs no kernels
+        return
+    _LOADING_BACKENDS.add(backend)
+    compiler = compiler if compiler is not None else start_compiling()
 
-    code = "from superlane_tools.lanes.multilane_fit import warm_up; warm_up('numba')"
-    with contextlib.suppress(OSError, subprocess.SubprocessError):
-        subprocess.run(
-            [sys.executable, "-c", code], stdout=subprocess.DEVNULL, timeout=900, check=False
-        )
+    def warm() -> None:
+        try:
+            with contextlib.suppress(Exception):  # the fit raises the same error, with context
+                warm_up(backend, compiler=compiler)
+        finally:
+            _LOADING_BACKENDS.discard(backend)
+
+    threading.Thread(target=warm, name="slt-kernel-warm-up", daemon=True).start()
 
 
-def warm_up(backend: str = "numba", *, separate_process: bool = False) -> float:
+def warm_up(
+    backend: str = "numba",
+    *,
+    separate_process: bool = False,
+    compiler: subprocess.Popen[bytes] | None = None,
+) -> float:
     """Load (or compile) the fit's kernels once per process by fitting a small synthetic frame.
 
     :func:`fit_frame` calls this before it starts its clock, so ``fit_time_s`` (and the
@@ -333,6 +358,9 @@ def warm_up(backend: str = "numba", *, separate_process: bool = False) -> float:
         separate_process: On a cold kernel cache, compile in a child process and load its
             result: numba's compiler is Python holding the GIL, so compiling on a side thread
             slows every other stage of the first run; a child compiles on the other core.
+        compiler: A child already compiling the kernels into the cache
+            (:func:`superlane_tools.lanes.kernel_cache.start_compiling`): waited for, then
+            its result is loaded.
 
     Returns:
         Seconds spent, 0 when the backend was already warm.
@@ -341,11 +369,14 @@ def warm_up(backend: str = "numba", *, separate_process: bool = False) -> float:
         if backend in _WARM_BACKENDS:
             return 0.0
         t0 = time.perf_counter()
-        if separate_process and backend == "numba":
-            from superlane_tools.lanes._kernels import cache_is_cold
-
-            if cache_is_cold():
-                _compile_in_child()
+        if separate_process and compiler is None and backend == "numba":
+            compiler = start_compiling()
+        if compiler is not None:
+            with one_cpu_for(compiler):
+                try:
+                    compiler.wait(timeout=900)
+                except subprocess.TimeoutExpired:
+                    compiler.kill()  # and compile here instead
         _WARM_BACKENDS.add(backend)
         cam = CameraModel(Intrinsics(640, 360, 500.0, 500.0, 319.5, 179.5), Extrinsics(1.5, 0.05))
         x = np.linspace(5.0, 40.0, 120)

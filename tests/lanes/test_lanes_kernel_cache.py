@@ -85,3 +85,43 @@ def test_unwritable_cache_compiles_in_memory(tmp_path: Path) -> None:
     assert res.returncode == 0, res.stderr
     assert res.stdout.split() == ["False", "0.1"]
     assert res.stderr.count(COMPILE_NOTE) == 1
+
+
+AFTER_COMPILE_ALL = """
+import numpy as np
+from numba.core import event
+from superlane_tools.camera.model import CameraModel, Extrinsics, Intrinsics
+from superlane_tools.lanes import FitParams, fit_frame
+cam = CameraModel(Intrinsics(1280, 720, 1000.0, 1000.0, 639.5, 359.5), Extrinsics(1.5, 0.06))
+x = np.linspace(6.0, 50.0, 300)
+def pixels(offsets, z=0.0):
+    return np.concatenate([
+        cam.project(np.stack([x, np.full_like(x, o) + 2e-4 * x**2, np.full_like(x, z)], 1))[0]
+        for o in offsets
+    ])
+lane, road = pixels((-1.8, 1.8, 5.4)), pixels(np.linspace(-3.0, 3.0, 7))
+codes = np.zeros(len(lane), dtype=np.intp)
+with event.install_recorder("numba:compile") as compiled:
+    first = fit_frame(lane, road, cam, FitParams(road_term="always"), attributes=codes)
+    again = fit_frame(lane, None, cam, FitParams(order=1, slope=False), init=first)
+print(len(first.lanes), len(again.lanes), len(compiled.buffer))
+"""
+
+
+def test_compile_all_covers_every_kernel_the_fit_calls(tmp_path: Path) -> None:
+    """What the compiler process caches is all a fit needs: the fit then compiles nothing."""
+    env = {**os.environ, "SLT_CACHE_DIR": str(tmp_path)}
+    compile_all = "from superlane_tools.lanes._kernels import compile_all; compile_all()"
+    done = subprocess.run(
+        [sys.executable, "-c", compile_all], env=env, capture_output=True, text=True, check=True
+    )
+    assert done.stderr.count(COMPILE_NOTE) == 1
+    fitted = subprocess.run(
+        [sys.executable, "-c", AFTER_COMPILE_ALL],
+        env=env,
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    assert fitted.stdout.split() == ["3", "3", "0"], fitted.stdout + fitted.stderr
+    assert COMPILE_NOTE not in fitted.stderr

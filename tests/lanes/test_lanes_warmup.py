@@ -49,7 +49,8 @@ def test_kernels_ready_after_a_warm_up_on_another_thread():
 
 
 SEPARATE = """
-from superlane_tools.lanes._kernels import _CompileNote, cache_is_cold
+from superlane_tools.lanes._kernels import _CompileNote
+from superlane_tools.lanes.kernel_cache import cache_is_cold
 from superlane_tools.lanes.multilane_fit import kernels_ready, warm_up
 cold = cache_is_cold()
 warm_up("numba", separate_process=True)
@@ -74,3 +75,42 @@ def test_cold_cache_compiles_in_a_child_process(tmp_path):
     # the child printed the one note (stderr is shared); the parent loaded without compiling
     assert done.stderr.count("note: compiling lane-fit kernels (first run only)") == 1
     assert list((tmp_path / "numba").rglob("*.nbi"))
+
+
+BACKGROUND = """
+import subprocess, sys, time
+from superlane_tools.lanes._kernels import _CompileNote
+from superlane_tools.lanes.kernel_cache import cache_is_cold, start_compiling
+from superlane_tools.lanes.multilane_fit import (
+    kernels_loading, kernels_ready, warm_up_in_background,
+)
+cold = cache_is_cold()
+warm_up_in_background("numba")
+loading = kernels_loading("numba")
+warm_up_in_background("numba")  # a second call while loading starts nothing more
+while kernels_loading("numba"):
+    time.sleep(0.05)
+print(cold, loading, kernels_ready("numba"), cache_is_cold(), _CompileNote.printed)
+idle = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+warm_up_in_background("numpy", idle)  # the numpy reference needs no kernels: stopped
+print(idle.wait(timeout=10) != 0, kernels_loading("numpy"), start_compiling() is None)
+"""
+
+
+def test_background_warm_up_compiles_in_a_child_and_loads_here(tmp_path):
+    import os
+
+    env = {**os.environ, "SLT_CACHE_DIR": str(tmp_path)}
+    done = subprocess.run(
+        [sys.executable, "-c", BACKGROUND],
+        capture_output=True,
+        text=True,
+        check=True,
+        timeout=600,
+        env=env,
+    )
+    lines = [line.split() for line in done.stdout.splitlines()]
+    # cold, loading at once, then loaded from the cache the child wrote, compiled once (there)
+    assert lines[0] == ["True", "True", "True", "False", "False"]
+    assert lines[1] == ["True", "False", "True"]  # a warm cache starts no compiler
+    assert done.stderr.count("note: compiling lane-fit kernels (first run only)") == 1

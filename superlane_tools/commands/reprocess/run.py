@@ -147,8 +147,8 @@ def reprocess(
                 if msg.topic == streams.frames:
                     pending.append(pool.submit(stages.prepare, index, msg))
                     index += 1
-                    while len(pending) > stages.look_ahead(cfg.workers):
-                        handle(pending.popleft().result())
+                    for prep in stages.due(pending, cfg.workers):
+                        handle(prep)
                 elif msg.topic in can_topics:
                     can.add(msg)
                 elif msg.topic in imu_topics:

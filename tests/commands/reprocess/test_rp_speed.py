@@ -161,11 +161,11 @@ def test_look_ahead_while_kernels_load_leaves_results_unchanged(
     reprocess(rec, tmp_path / "plain", cfg)
     asked: list[bool] = []
 
-    def never_ready(backend: str) -> bool:
+    def always_loading(backend: str) -> bool:
         asked.append(backend == "numba")
-        return False  # as on a first run: the whole drive may wait for the kernels
+        return True  # as on a first run: the whole drive may wait for the kernels
 
-    monkeypatch.setattr(stages, "kernels_ready", never_ready)
+    monkeypatch.setattr(stages, "kernels_loading", always_loading)
     reprocess(rec, tmp_path / "ahead", cfg)
     assert asked
     assert all(asked)
@@ -177,16 +177,40 @@ def test_look_ahead_while_kernels_load_leaves_results_unchanged(
 
 
 def test_look_ahead_is_bounded_while_the_kernels_load(monkeypatch: pytest.MonkeyPatch) -> None:
+    """While compiling: up to WARM_UP_LOOK_AHEAD wait, newest awaited; then a gradual catch-up."""
+    import threading
+    from collections import deque
+    from concurrent.futures import Future
+
     from superlane_tools.drive import stages
 
     cfg = ReprocessConfig().with_overrides({"segmentation.backend": "classical"})
     frame_stages = stages.FrameStages(cfg, load_camera("sim_default"))
-    ready = {"numba": True}
-    monkeypatch.setattr(stages, "kernels_ready", lambda backend: ready[backend])
-    assert frame_stages.look_ahead(2) == 4
-    ready["numba"] = False
-    assert frame_stages.look_ahead(2) == stages.WARM_UP_LOOK_AHEAD
-    assert frame_stages.look_ahead(100) == 200
+    loading = {"numba": True}
+    monkeypatch.setattr(stages, "kernels_loading", lambda backend: loading[backend])
+
+    def prepared(index: int) -> Future[stages.Prepared]:
+        future: Future[stages.Prepared] = Future()
+        future.set_result(stages.Prepared(index, index, None))
+        return future
+
+    n = stages.WARM_UP_LOOK_AHEAD + 40
+    pending = deque(prepared(i) for i in range(n - 1))
+    newest: Future[stages.Prepared] = Future()
+    pending.append(newest)
+    threading.Timer(0.2, newest.set_result, [stages.Prepared(n - 1, n - 1, None)]).start()
+    taken = [p.index for p in frame_stages.due(pending, 2)]
+    assert newest.done()  # one core prepares while the compiler has the other
+    assert taken == list(range(40))
+    assert len(pending) == stages.WARM_UP_LOOK_AHEAD
+    loading["numba"] = False
+    assert [p.index for p in frame_stages.due(pending, 2)] == [40, 41]  # CATCH_UP per call
+    while len(pending) > 4:
+        assert len(list(frame_stages.due(pending, 2))) == stages.CATCH_UP
+    assert list(frame_stages.due(pending, 2)) == []
+    assert [f.result().index for f in pending] == list(range(n - 4, n))
+    pending.extend(prepared(n + i) for i in range(300))
+    assert len(list(frame_stages.due(pending, 100))) == stages.CATCH_UP
 
 
 def test_blas_pool_held_to_one_and_restored() -> None:
