@@ -106,31 +106,36 @@ def reprocess_cmd(
             raise UsageError("missing argument RECORDING (or use --print-config)")
         # First: on a cold kernel cache the compiler is this run's critical path.
         compiler = start_compiling()
-        from superlane_tools.commands.reprocess import ReprocessConfig, load_config
+        try:
+            from superlane_tools.commands.reprocess import ReprocessConfig, load_config
 
-        cfg = load_config(config) if config is not None else ReprocessConfig()
-        overrides: dict[str, Any] = {}
-        if camera is not None:
-            overrides["camera"] = camera
-        if dbc:
-            overrides["can.dbcs"] = [str(p) for p in dbc]
-        if backend is not None:
-            overrides["segmentation.backend"] = backend.lower()
-        if model is not None:
-            overrides["segmentation.model"] = model
-        if oracle_labels is not None:
-            overrides["segmentation.oracle_labels"] = str(oracle_labels)
-        if category is not None:
-            overrides["kpi.category"] = category
-        if video:
-            overrides["output.video"] = True
-        if no_plots:
-            overrides["output.plots"] = False
-        if workers is not None:
-            overrides["workers"] = workers
-        cfg = cfg.with_overrides(overrides)
-        target = out if out is not None else Path("runs") / _recording_name(recording)
-        result, added = _run(recording, target, cfg, with_signals, compiler)
+            cfg = load_config(config) if config is not None else ReprocessConfig()
+            overrides: dict[str, Any] = {}
+            if camera is not None:
+                overrides["camera"] = camera
+            if dbc:
+                overrides["can.dbcs"] = [str(p) for p in dbc]
+            if backend is not None:
+                overrides["segmentation.backend"] = backend.lower()
+            if model is not None:
+                overrides["segmentation.model"] = model
+            if oracle_labels is not None:
+                overrides["segmentation.oracle_labels"] = str(oracle_labels)
+            if category is not None:
+                overrides["kpi.category"] = category
+            if video:
+                overrides["output.video"] = True
+            if no_plots:
+                overrides["output.plots"] = False
+            if workers is not None:
+                overrides["workers"] = workers
+            cfg = cfg.with_overrides(overrides)
+            target = out if out is not None else Path("runs") / _recording_name(recording)
+            result, added = _run(recording, target, cfg, with_signals, compiler)
+        finally:
+            if compiler is not None and compiler.poll() is None:
+                compiler.terminate()  # the run failed, or fitted nothing: no work left behind
+                compiler.wait()
         if added is not None:
             console.print(
                 f"annotations.mcap: added {len(added)} signal channels "

@@ -31,6 +31,7 @@ from numba.core import event
 from superlane_tools.lanes.kernel_cache import (
     COMPILE_NOTE,
     kernel_cache_dir,
+    mark_complete,
     writable,
 )
 
@@ -712,3 +713,4 @@ def compile_all() -> None:
     }
     for kernel, signature in signatures.items():
         kernel.compile(signature)
+    mark_complete()

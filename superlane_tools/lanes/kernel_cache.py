@@ -8,6 +8,7 @@ which is that run's critical path, starts before the command's own imports inste
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import os
 import subprocess
 import sys
@@ -53,14 +54,32 @@ def writable(folder: Path) -> bool:
     return True
 
 
-def cache_is_cold() -> bool:
-    """Return True when the kernels would compile here: a writable cache holding no index yet.
+def _complete_marker() -> Path:
+    """The file that says the cache holds every kernel of this source, numba and Python."""
+    from importlib.metadata import version
 
-    False also where no cache folder is writable (a separate process could not hand its
-    compiled kernels over).
+    source = Path(__file__).with_name("_kernels.py").read_bytes()
+    tag = f"{version('numba')} {sys.version_info[:2]}".encode()
+    digest = hashlib.blake2b(source + tag, digest_size=8).hexdigest()
+    return kernel_cache_dir() / f"complete-{digest}"
+
+
+def mark_complete() -> None:
+    """Record that the cache holds every kernel (``_kernels.compile_all`` ends with this).
+
+    A changed ``_kernels.py`` (an upgrade), numba or Python makes the cache cold again.
     """
-    folder = kernel_cache_dir()
-    return writable(folder) and not any(folder.rglob("*.nbi"))
+    with contextlib.suppress(OSError):
+        _complete_marker().touch()
+
+
+def cache_is_cold() -> bool:
+    """Return True when the kernels would compile here: a writable cache not marked complete.
+
+    False where no cache folder is writable (a separate process could not hand its compiled
+    kernels over).
+    """
+    return writable(kernel_cache_dir()) and not _complete_marker().exists()
 
 
 def start_compiling() -> subprocess.Popen[bytes] | None:

@@ -325,6 +325,7 @@ def warm_up_in_background(
     if backend != "numba" or backend in _READY_BACKENDS or backend in _LOADING_BACKENDS:
         if compiler is not None and backend != "numba":
             compiler.terminate()  # the numpy reference needs no kernels
+            compiler.wait()
         return
     _LOADING_BACKENDS.add(backend)
     compiler = compiler if compiler is not None else start_compiling()
@@ -377,6 +378,7 @@ def warm_up(
                     compiler.wait(timeout=900)
                 except subprocess.TimeoutExpired:
                     compiler.kill()  # and compile here instead
+                    compiler.wait()
         _WARM_BACKENDS.add(backend)
         cam = CameraModel(Intrinsics(640, 360, 500.0, 500.0, 319.5, 179.5), Extrinsics(1.5, 0.05))
         x = np.linspace(5.0, 40.0, 120)

@@ -75,7 +75,7 @@ def _pyplot() -> Any:
 
 def _save(fig: Any, path: Path) -> Path:
     with atomic_path(path, suffix=".png") as tmp:
-        fig.savefig(tmp, format="png", dpi=110, bbox_inches="tight")
+        fig.savefig(tmp, format="png", dpi=110)
     _pyplot().close(fig)
     return path
 

@@ -41,8 +41,8 @@ def _warm(site: Path, cache: Path) -> subprocess.CompletedProcess[str]:
         "PYTHONDONTWRITEBYTECODE": "1",
         "SLT_CACHE_DIR": str(cache),
     }
-    return subprocess.run(
-        [sys.executable, "-c", WARM], env=env, capture_output=True, text=True, check=False
+    return subprocess.run(  # cwd: not the source tree, which would shadow the copy
+        [sys.executable, "-c", WARM], env=env, cwd=site, capture_output=True, text=True, check=False
     )
 
 
@@ -125,3 +125,58 @@ def test_compile_all_covers_every_kernel_the_fit_calls(tmp_path: Path) -> None:
     )
     assert fitted.stdout.split() == ["3", "3", "0"], fitted.stdout + fitted.stderr
     assert COMPILE_NOTE not in fitted.stderr
+    # The cache is marked complete for this kernel source: an identical copy of the package
+    # finds it warm; an upgrade (a changed _kernels.py) finds it cold again.
+    site = tmp_path / "site"
+    shutil.copytree(PACKAGE, site / "superlane_tools", ignore=shutil.ignore_patterns("__pycache__"))
+    cold = "from superlane_tools.lanes.kernel_cache import cache_is_cold; print(cache_is_cold())"
+
+    def is_cold() -> str:
+        done = subprocess.run(
+            [sys.executable, "-c", cold],
+            env={**env, "PYTHONPATH": str(site), "PYTHONDONTWRITEBYTECODE": "1"},
+            cwd=site,  # not the source tree, which would shadow the copy
+            capture_output=True,
+            text=True,
+            check=True,
+        )
+        return done.stdout.strip()
+
+    assert is_cold() == "False"
+    kernels = site / "superlane_tools" / "lanes" / "_kernels.py"
+    kernels.write_text(kernels.read_text() + "\n# a new release\n")
+    assert is_cold() == "True"
+
+
+@pytest.mark.skipif(not Path("/proc/self/environ").exists(), reason="reads /proc")
+def test_failed_reprocess_leaves_no_compiler_behind(tmp_path: Path) -> None:
+    """A cold cache starts the compiler first thing; a run that fails stops it again."""
+    not_a_recording = tmp_path / "drive.mcap"
+    not_a_recording.write_text("not a recording")
+    cache = tmp_path / "cache"
+    env = {**os.environ, "SLT_CACHE_DIR": str(cache)}
+    done = subprocess.run(
+        [
+            str(Path(sys.executable).with_name("slt")),
+            "reprocess",
+            str(not_a_recording),
+            "-o",
+            str(tmp_path / "run"),
+        ],
+        env=env,
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert done.returncode == 1, done.stderr  # bad input: a one-line error, not a crash
+    assert "Traceback" not in done.stderr
+    marker = f"SLT_CACHE_DIR={cache}".encode()
+    left = []
+    for proc in Path("/proc").iterdir():
+        try:
+            if proc.name.isdigit() and marker in (proc / "environ").read_bytes().split(b"\0"):
+                left.append(proc.name)
+        except OSError:
+            continue
+    assert left == []
+    assert not any(cache.rglob("complete-*"))
