@@ -45,8 +45,8 @@ WARM_UP_LOOK_AHEAD = 256
 
 The first run after an install compiles the lane fit's kernels (about 10 s of one core, in a
 child process); the fit is sequential, so without this the pool would idle behind the first
-frame's fit. Each frame waiting holds its image and labels at processing size (about 1.8 MB at
-640 x 360), so the buffer is bounded (about 0.5 GB, on that first run only); results do not
+frame's fit. Each frame waiting holds its image and labels at processing size (about 1.6 MB at
+640 x 360), so the buffer is bounded (about 0.4 GB, on that first run only); results do not
 depend on it (the same kernels fit the same frames in order).
 """
 CATCH_UP = 2
