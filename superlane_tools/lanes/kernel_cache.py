@@ -54,12 +54,19 @@ def writable(folder: Path) -> bool:
     return True
 
 
-def _complete_marker() -> Path:
-    """The file that says the cache holds every kernel of this source, numba and Python."""
-    from importlib.metadata import version
+def _complete_marker() -> Path | None:
+    """The file that says the cache holds every kernel of this source, numba and Python.
 
-    source = Path(__file__).with_name("_kernels.py").read_bytes()
-    tag = f"{version('numba')} {sys.version_info[:2]}".encode()
+    None where the kernels' source or numba's version cannot be read (then numba's own checks
+    decide, in process).
+    """
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        source = Path(__file__).with_name("_kernels.py").read_bytes()
+        tag = f"{version('numba')} {sys.version_info[:2]}".encode()
+    except (OSError, PackageNotFoundError):
+        return None
     digest = hashlib.blake2b(source + tag, digest_size=8).hexdigest()
     return kernel_cache_dir() / f"complete-{digest}"
 
@@ -69,17 +76,20 @@ def mark_complete() -> None:
 
     A changed ``_kernels.py`` (an upgrade), numba or Python makes the cache cold again.
     """
-    with contextlib.suppress(OSError):
-        _complete_marker().touch()
+    marker = _complete_marker()
+    if marker is not None:
+        with contextlib.suppress(OSError):
+            marker.touch()
 
 
 def cache_is_cold() -> bool:
     """Return True when the kernels would compile here: a writable cache not marked complete.
 
     False where no cache folder is writable (a separate process could not hand its compiled
-    kernels over).
+    kernels over) or the marker cannot be named.
     """
-    return writable(kernel_cache_dir()) and not _complete_marker().exists()
+    marker = _complete_marker()
+    return marker is not None and writable(kernel_cache_dir()) and not marker.exists()
 
 
 def start_compiling() -> subprocess.Popen[bytes] | None:

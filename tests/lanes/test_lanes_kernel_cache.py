@@ -180,3 +180,24 @@ def test_failed_reprocess_leaves_no_compiler_behind(tmp_path: Path) -> None:
             continue
     assert left == []
     assert not any(cache.rglob("complete-*"))
+
+
+def test_unnamed_marker_leaves_the_kernels_to_numba(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    """Without numba's version the marker cannot be named: no child, numba decides in process."""
+    import importlib.metadata
+
+    from superlane_tools.lanes import kernel_cache
+
+    monkeypatch.setenv("SLT_CACHE_DIR", str(tmp_path))
+    assert kernel_cache.cache_is_cold()
+
+    def unknown(name: str) -> str:
+        raise importlib.metadata.PackageNotFoundError(name)
+
+    monkeypatch.setattr(importlib.metadata, "version", unknown)
+    assert not kernel_cache.cache_is_cold()
+    assert kernel_cache.start_compiling() is None
+    kernel_cache.mark_complete()  # nothing to write, and no error
+    assert list(tmp_path.rglob("complete-*")) == []
