@@ -300,8 +300,8 @@ _WARM_LOCK = threading.RLock()  # re-entered by the warm-up's own fit_frame call
 def kernels_ready(backend: str = "numba") -> bool:
     """Return whether :func:`fit_frame` can run on ``backend`` now, without loading kernels.
 
-    True for the numpy reference and once :func:`warm_up` has finished (on any thread); a
-    pipeline asks this to keep its other stages busy instead of waiting on a compilation.
+    True for the numpy reference and once :func:`warm_up` has finished (on any thread). A
+    pipeline asks :func:`kernels_loading` instead, to keep its other stages busy meanwhile.
     """
     return backend != "numba" or backend in _READY_BACKENDS
 
@@ -343,7 +343,6 @@ def warm_up_in_background(
 def warm_up(
     backend: str = "numba",
     *,
-    separate_process: bool = False,
     compiler: subprocess.Popen[bytes] | None = None,
 ) -> float:
     """Load (or compile) the fit's kernels once per process by fitting a small synthetic frame.
@@ -356,9 +355,6 @@ def warm_up(
 
     Args:
         backend: ``numba`` or ``numpy``.
-        separate_process: On a cold kernel cache, compile in a child process and load its
-            result: numba's compiler is Python holding the GIL, so compiling on a side thread
-            slows every other stage of the first run; a child compiles on the other core.
         compiler: A child already compiling the kernels into the cache
             (:func:`superlane_tools.lanes.kernel_cache.start_compiling`): waited for, then
             its result is loaded.
@@ -370,8 +366,6 @@ def warm_up(
         if backend in _WARM_BACKENDS:
             return 0.0
         t0 = time.perf_counter()
-        if separate_process and compiler is None and backend == "numba":
-            compiler = start_compiling()
         if compiler is not None:
             with one_cpu_for(compiler):
                 try:

@@ -46,7 +46,6 @@ def _warm(site: Path, cache: Path) -> subprocess.CompletedProcess[str]:
     )
 
 
-@pytest.mark.slow
 def test_second_process_loads_kernels_from_a_read_only_install(tmp_path: Path) -> None:
     """A copy of the package with no write permission: compile once, then load from the cache."""
     site = tmp_path / "site"

@@ -5,6 +5,19 @@ from __future__ import annotations
 import subprocess
 import sys
 
+
+def _python(code: str, env: dict[str, str] | None = None) -> subprocess.CompletedProcess[str]:
+    """Run ``code`` in a fresh interpreter (kernel state is per process)."""
+    return subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        check=True,
+        timeout=600,
+        env=env,
+    )
+
+
 CODE = """
 import numpy as np
 from superlane_tools.camera.model import CameraModel, Extrinsics, Intrinsics
@@ -21,9 +34,7 @@ print(len(fit.lanes), fit.fit_time_s)
 
 
 def test_first_fit_time_excludes_kernel_loading():
-    out = subprocess.run(
-        [sys.executable, "-c", CODE], capture_output=True, text=True, check=True, timeout=300
-    ).stdout.split()
+    out = _python(CODE).stdout.split()
     n_lanes, fit_time_s = int(out[0]), float(out[1])
     assert n_lanes == 3
     assert fit_time_s < 0.2  # kernel loading alone takes 0.4 s or more
@@ -41,40 +52,7 @@ print(before, kernels_ready("numba"), kernels_ready("numpy"))
 
 
 def test_kernels_ready_after_a_warm_up_on_another_thread():
-    # reprocess lets its image stages run ahead while this is False (see run._look_ahead)
-    out = subprocess.run(
-        [sys.executable, "-c", READY], capture_output=True, text=True, check=True, timeout=300
-    ).stdout.split()
-    assert out == ["False", "True", "True"]
-
-
-SEPARATE = """
-from superlane_tools.lanes._kernels import _CompileNote
-from superlane_tools.lanes.kernel_cache import cache_is_cold
-from superlane_tools.lanes.multilane_fit import kernels_ready, warm_up
-cold = cache_is_cold()
-warm_up("numba", separate_process=True)
-print(cold, cache_is_cold(), kernels_ready("numba"), _CompileNote.printed)
-"""
-
-
-def test_cold_cache_compiles_in_a_child_process(tmp_path):
-    """On a cold cache the kernels compile in a child; this process only loads them."""
-    import os
-
-    env = {**os.environ, "SLT_CACHE_DIR": str(tmp_path)}
-    done = subprocess.run(
-        [sys.executable, "-c", SEPARATE],
-        capture_output=True,
-        text=True,
-        check=True,
-        timeout=600,
-        env=env,
-    )
-    assert done.stdout.split() == ["True", "False", "True", "False"]  # no compile here
-    # the child printed the one note (stderr is shared); the parent loaded without compiling
-    assert done.stderr.count("note: compiling lane-fit kernels (first run only)") == 1
-    assert list((tmp_path / "numba").rglob("*.nbi"))
+    assert _python(READY).stdout.split() == ["False", "True", "True"]
 
 
 BACKGROUND = """
@@ -98,19 +76,13 @@ print(idle.wait(timeout=10) != 0, kernels_loading("numpy"), start_compiling() is
 
 
 def test_background_warm_up_compiles_in_a_child_and_loads_here(tmp_path):
+    """On a cold cache the kernels compile in a child; this process only loads them."""
     import os
 
-    env = {**os.environ, "SLT_CACHE_DIR": str(tmp_path)}
-    done = subprocess.run(
-        [sys.executable, "-c", BACKGROUND],
-        capture_output=True,
-        text=True,
-        check=True,
-        timeout=600,
-        env=env,
-    )
+    done = _python(BACKGROUND, {**os.environ, "SLT_CACHE_DIR": str(tmp_path)})
     lines = [line.split() for line in done.stdout.splitlines()]
     # cold, loading at once, then loaded from the cache the child wrote, compiled once (there)
     assert lines[0] == ["True", "True", "True", "False", "False"]
     assert lines[1] == ["True", "False", "True"]  # a warm cache starts no compiler
     assert done.stderr.count("note: compiling lane-fit kernels (first run only)") == 1
+    assert list((tmp_path / "numba").rglob("*.nbi"))
