@@ -8,6 +8,11 @@ feature map). The ratio model / baseline is comparable across machines.
 
 Usage:
     python benchmarks/bench_models.py [--threads 1 2] [--repeats 30] [--out FILE.json]
+        [--compare-segmentation OTHER.onnx]
+
+``--compare-segmentation`` times another segmentation graph of the same input size in the same
+run, e.g. the shipped one before ``pipelines/strip_output_resize.py``
+(``git show 6d1a287:superlane_tools/models/super_seg_v2.onnx > before.onnx``).
 
 On a shared machine, several threads can be slower than one (they wait for each other); both
 are measured and reported, with the load average at the start.
@@ -39,14 +44,25 @@ def _session(path: Path, threads: int) -> Any:
     return ort.InferenceSession(str(path), options, providers=["CPUExecutionProvider"])
 
 
-def _median_ms(session: Any, tensor: np.ndarray, repeats: int) -> float:
+def _median_ms(session: Any, tensor: np.ndarray, repeats: int, upsample: bool = False) -> float:
+    """Median ms of one run; ``upsample``: plus the segmentation logits' upsampling."""
+    from superlane_tools.scene.model_card import InputSpec
+    from superlane_tools.scene.onnx_backend import upsample_scores
+
     name = session.get_inputs()[0].name
+    spec = InputSpec(name, tensor.shape[3], tensor.shape[2])
+
+    def run() -> None:
+        outputs = session.run(None, {name: tensor})
+        if upsample:
+            upsample_scores(outputs, spec)
+
     for _ in range(3):
-        session.run(None, {name: tensor})
+        run()
     times = []
     for _ in range(repeats):
         start = time.perf_counter()
-        session.run(None, {name: tensor})
+        run()
         times.append(1000.0 * (time.perf_counter() - start))
     return statistics.median(times)
 
@@ -78,11 +94,11 @@ def _model_file(task: str, scratch: Path) -> tuple[Path, str, tuple[int, ...]]:
         return shipped, f"shipped {name}", card.input.shape
     from superlane_tools.scene.adapters.heads import HEADS
     from superlane_tools.training.corridor_net import EgoCorridorNet
-    from superlane_tools.training.seg_net import HierarchicalSegNet
+    from superlane_tools.training.seg_net import HalfResolutionHeads, HierarchicalSegNet
 
     if task == "segmentation":
         shape: tuple[int, ...] = (1, 3, 288, 512)
-        net: Any = HierarchicalSegNet()
+        net: Any = HalfResolutionHeads(HierarchicalSegNet())
         outputs = [h.name for h in HEADS]
     else:
         shape, net, outputs = (1, 1, 360, 652), EgoCorridorNet(), ["corridor"]
@@ -96,17 +112,23 @@ def main() -> None:
     ap.add_argument("--threads", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--repeats", type=int, default=30)
     ap.add_argument("--out", type=Path, default=Path("benchmarks/results/models.json"))
+    ap.add_argument("--compare-segmentation", type=Path, default=None, metavar="ONNX")
     args = ap.parse_args()
     results: dict[str, Any] = {
         "machine": f"{platform.machine()} {os.cpu_count()} cpus",
         "load_average_1min": round(os.getloadavg()[0], 2),
-        "runtime": "onnxruntime CPUExecutionProvider, network only, batch 1",
+        "runtime": "onnxruntime CPUExecutionProvider, batch 1, network only (segmentation: "
+        "plus the upsampling of its logits to the input size, which its graph leaves to the "
+        "runtime)",
         "models": {},
     }
     with tempfile.TemporaryDirectory() as tmp:
         scratch = Path(tmp)
-        for task in ("segmentation", "corridor"):
-            path, what, shape = _model_file(task, scratch)
+        jobs = [(task, task, *_model_file(task, scratch)) for task in ("segmentation", "corridor")]
+        if args.compare_segmentation is not None:
+            other = args.compare_segmentation
+            jobs.insert(1, ("segmentation_compared", "segmentation", other, str(other), jobs[0][4]))
+        for key, task, path, what, shape in jobs:
             tensor = np.random.default_rng(0).normal(size=shape).astype(np.float32)
             _baseline(shape, scratch / f"{task}_baseline.onnx")
             entry: dict[str, Any] = {
@@ -115,7 +137,9 @@ def main() -> None:
                 "target_ms": TARGET_MS[task],
             }
             for threads in args.threads:
-                model_ms = _median_ms(_session(path, threads), tensor, args.repeats)
+                model_ms = _median_ms(
+                    _session(path, threads), tensor, args.repeats, task == "segmentation"
+                )
                 base_ms = _median_ms(
                     _session(scratch / f"{task}_baseline.onnx", threads), tensor, args.repeats
                 )
@@ -126,7 +150,7 @@ def main() -> None:
                     "meets_target": model_ms <= TARGET_MS[task],
                 }
                 print(f"{task} {threads}t: {model_ms:.1f} ms (baseline {base_ms:.1f} ms) {what}")
-            results["models"][task] = entry
+            results["models"][key] = entry
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(results, indent=2) + "\n", encoding="utf-8")
     print(f"wrote {args.out}")

@@ -49,10 +49,11 @@ def _session(path: Path) -> Any:
 
 def _leaf(session: Any, tensor: np.ndarray, card: Any) -> np.ndarray:
     from superlane_tools.scene.adapters.heads import decode_heads
+    from superlane_tools.scene.onnx_backend import upsample_scores
 
     heads = card.heads()
     outputs = session.run([h.name for h in heads], {card.input.name: tensor})
-    return decode_heads([o[0] for o in outputs], heads)
+    return decode_heads(upsample_scores(outputs, card.input), heads)
 
 
 def main() -> None:

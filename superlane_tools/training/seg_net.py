@@ -2,8 +2,9 @@
 
 The encoder downsamples to 1/32 with depthwise-separable blocks (context from depth rather than
 dilation: dilated depthwise convolutions train very slowly on CPU), the decoder joins skips at
-1/16, 1/8, 1/4 and 1/2, and a 1x1 convolution produces the logits
-of every head at once, split per head and upsampled bilinearly to the input size. Heads follow
+1/16, 1/8, 1/4 and 1/2, and a 1x1 convolution produces the logits of every head at once, split
+per head and upsampled bilinearly to the input size. The exported graph
+(:class:`HalfResolutionHeads`) stops before the upsampling, which the runtime does. Heads follow
 :data:`superlane_tools.scene.adapters.heads.HEADS` (SUPER Fig. 3): one softmax per parent node.
 """
 
@@ -58,13 +59,40 @@ class HierarchicalSegNet(nn.Module):
 
     def forward(self, image: torch.Tensor) -> tuple[torch.Tensor, ...]:
         """Return the per-head logits at the input resolution."""
+        logits = F.interpolate(
+            self.classifier_logits(image),
+            size=image.shape[-2:],
+            mode="bilinear",
+            align_corners=False,
+        )
+        return tuple(torch.split(logits, list(self.head_sizes), dim=1))
+
+    def classifier_logits(self, image: torch.Tensor) -> torch.Tensor:
+        """Return every head's logits at once, at half the input resolution (before upsampling)."""
         s1 = self.stem(image)
         s2 = self.enc2(s1)
         s3 = self.enc3(s2)
         s4 = self.enc4(s3)
         s5 = self.enc5(s4)
         x = self.up1(self.up2(self.up3(self.up4(s5, s4), s3), s2), s1)
-        logits = F.interpolate(
-            self.classifier(x), size=image.shape[-2:], mode="bilinear", align_corners=False
-        )
-        return tuple(torch.split(logits, list(self.head_sizes), dim=1))
+        out: torch.Tensor = self.classifier(x)
+        return out
+
+
+class HalfResolutionHeads(nn.Module):
+    """What is exported to ONNX: the per-head logits at half resolution, not upsampled.
+
+    The runtime upsamples them bilinearly to the input size
+    (:func:`superlane_tools.scene.onnx_backend.upsample_scores`), the same interpolation as
+    :meth:`HierarchicalSegNet.forward`, several times cheaper than onnxruntime's ``Resize`` on
+    one CPU thread (docs/models.md, "Output resolution").
+    """
+
+    def __init__(self, net: HierarchicalSegNet) -> None:
+        super().__init__()
+        self.net = net
+
+    def forward(self, image: torch.Tensor) -> tuple[torch.Tensor, ...]:
+        """Return the per-head logits at half the input resolution."""
+        logits = self.net.classifier_logits(image)
+        return tuple(torch.split(logits, list(self.net.head_sizes), dim=1))

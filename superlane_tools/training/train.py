@@ -38,7 +38,7 @@ from superlane_tools.training.datasets import DatasetSpec, LoadedSet, load_set
 from superlane_tools.training.errors import TrainingError
 from superlane_tools.training.export import OPSET, export_onnx
 from superlane_tools.training.losses import corridor_loss, segmentation_loss
-from superlane_tools.training.seg_net import HierarchicalSegNet
+from superlane_tools.training.seg_net import HalfResolutionHeads, HierarchicalSegNet
 from superlane_tools.training.tusimple_targets import CORRIDOR_IGNORE
 
 TASKS = ("segmentation", "corridor")
@@ -296,8 +296,9 @@ def train(params: TrainParams, progress: Progress | None = None) -> TrainResult:
         model = model.cpu()
         spec = _input_spec(params.task, (width, height))
         outputs = _outputs(params.task)
+        exported = HalfResolutionHeads(model) if isinstance(model, HierarchicalSegNet) else model
         max_diff = export_onnx(
-            model, spec.shape, params.out, spec.name, [o.name for o in outputs], params.seed
+            exported, spec.shape, params.out, spec.name, [o.name for o in outputs], params.seed
         )
     folders = [s.spec.folder for s in sets]
     card = ModelCard(

@@ -20,6 +20,7 @@ from superlane_tools.scene.onnx_backend import (
     OnnxSegmentationBackend,
     preprocess,
     resolve_model,
+    upsample_scores,
 )
 from superlane_tools.training.toy_dataset import toy_frame, write_toy_dataset
 from superlane_tools.training.train import TrainParams, train
@@ -126,6 +127,37 @@ def test_shipped_models_match_their_cards() -> None:
     assert runtime.card.input.shape == (1, 1, 360, 652)
     assert runtime.card.parameters < 1_000_000
     assert runtime.probability(image).shape == (180, 320)
+
+
+@pytest.mark.parametrize("model", ["super_seg_v1", "super_seg_v2", "super_seg_v3"])
+def test_shipped_segmentation_graphs_stop_at_half_resolution(model: str) -> None:
+    backend = OnnxSegmentationBackend(model)
+    outputs = backend.model.session.get_outputs()
+    heads = backend.card.heads()
+    assert [o.name for o in outputs] == [h.name for h in heads]
+    assert [o.shape[1] for o in outputs] == [len(h.classes) for h in heads]
+    image, _, _ = toy_frame(np.random.default_rng(2), 640, 360)
+    raw = backend.model.session.run(None, {"image": preprocess(image, backend.card.input)})
+    assert {r.shape[2:] for r in raw} == {(144, 256)}  # the runtime upsamples them
+    assert {s.shape[1:] for s in backend.scores(image)} == {(288, 512)}
+
+
+def test_upsample_scores_is_torch_bilinear_interpolation() -> None:
+    import torch
+    import torch.nn.functional as F  # noqa: N812
+
+    rng = np.random.default_rng(4)
+    outputs = [rng.normal(size=(1, c, 18, 32)).astype(np.float32) for c in (3, 5)]
+    spec = InputSpec("image", 64, 36)
+    got = upsample_scores(outputs, spec)
+    for out, head in zip(outputs, got, strict=True):
+        ref = F.interpolate(
+            torch.from_numpy(out), size=(36, 64), mode="bilinear", align_corners=False
+        )
+        assert head.shape == (out.shape[1], 36, 64)
+        assert np.abs(head - ref[0].numpy()).max() < 1e-5
+    full = [rng.normal(size=(1, 3, 36, 64)).astype(np.float32)]
+    assert np.array_equal(upsample_scores(full, spec)[0], full[0][0])  # already at input size
 
 
 def test_shipped_segmentation_on_a_real_frame(realdata: Path) -> None:

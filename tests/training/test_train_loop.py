@@ -95,3 +95,22 @@ def test_missing_torch_names_the_extra(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setitem(sys.modules, "torch", None)
     with pytest.raises(TrainingError, match=r"superlane-tools\[train\]"):
         require_torch()
+
+
+def test_exported_half_resolution_heads_upsample_to_the_training_forward(tmp_path: Path) -> None:
+    from superlane_tools.scene.model_card import InputSpec
+    from superlane_tools.scene.onnx_backend import upsample_scores
+    from superlane_tools.training.seg_net import HalfResolutionHeads
+
+    torch.manual_seed(0)
+    net = HierarchicalSegNet().eval()
+    names = [f"out{i}" for i in range(5)]
+    export_onnx(HalfResolutionHeads(net), (1, 3, 96, 160), tmp_path / "m.onnx", "image", names)
+    x = torch.randn(1, 3, 96, 160, generator=torch.Generator().manual_seed(1))
+    with torch.no_grad():
+        ref = net(x)  # what training optimises: logits at the input size
+    session = ort.InferenceSession(str(tmp_path / "m.onnx"), providers=["CPUExecutionProvider"])
+    got = upsample_scores(session.run(names, {"image": x.numpy()}), InputSpec("image", 160, 96))
+    for a, b in zip(got, ref, strict=True):
+        assert a.shape == tuple(b.shape[1:])
+        assert np.abs(a - b[0].numpy()).max() < 1e-4

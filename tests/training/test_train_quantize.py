@@ -10,7 +10,7 @@ import pytest
 
 from superlane_tools.scene.adapters.heads import decode_heads
 from superlane_tools.scene.model_card import load_card
-from superlane_tools.scene.onnx_backend import resolve_model
+from superlane_tools.scene.onnx_backend import resolve_model, upsample_scores
 from superlane_tools.training.errors import TrainingError
 from superlane_tools.training.quantize import network_input, quantize_model, tusimple_split
 from superlane_tools.training.toy_dataset import toy_frame
@@ -24,7 +24,8 @@ def _leaf(path: Path, tensor: np.ndarray, card: object) -> np.ndarray:
     heads = card.heads()  # type: ignore[attr-defined]
     session = ort.InferenceSession(str(path), providers=["CPUExecutionProvider"])
     outputs = session.run([h.name for h in heads], {"image": tensor})
-    return decode_heads([o[0] for o in outputs], heads)
+    spec = card.input  # type: ignore[attr-defined]
+    return decode_heads(upsample_scores(outputs, spec), heads)
 
 
 def test_quantized_segmentation_stays_close_to_float(tmp_path: Path) -> None:
