@@ -1,25 +1,27 @@
 """Benchmark `slt batch`: 1 vs 2 local workers, Ray vs local, corrupt inputs, kill and resume.
 
 Run: ``python benchmarks/bench_batch.py [--recordings 8] [--frames 20] [--repeats 3]
-[--compression zstd|lz4|none] [--ram] [--skip-kill]``.
+[--compression zstd|lz4|none] [--ram] [--synthetic] [--skip-kill]``.
 
 Job: ``extract`` with ``frame_format: png`` on 1280x720 JPEG recordings written with the
-project's writers: every frame is JPEG-decoded and PNG-encoded in the job's thread (the frame
-writer's threads only write files), a CPU-bound, single-threaded per-frame load like
-reprocess's decode and image stages. Throughput is recordings per second of wall time, median
-of ``--repeats`` interleaved runs, each into a fresh output root, pools started inside the
-timed region; the Ray instance is started once (``ray.init(num_cpus=2)``) and its start-up is
-reported apart, as a running cluster is what ``--ray-address auto`` joins. Both engines keep
-warm processes between the batches of one driver (the local engine its fork server, which has
-imported the package; Ray its worker processes, which have loaded the job kind), so only the
-first repeat of each pays for imports and model loading; ``wall_s`` lists every repeat.
-``--compression`` sets the recordings' MCAP chunk compression (default zstd). Each batch writes
-about 330 MB of PNG files per recording (2.6 GB for 8); ``--ram`` puts the output roots in
+project's writers from real camera frames (the TuSimple frames of ``$SLT_REALDATA``, as
+``bench_extract.py``; ``--synthetic``: the earlier gradient-plus-noise frames, which PNG cannot
+compress, so each PNG is 2.7 MB instead of about 0.8 MB and the disk dominates): every frame is
+JPEG-decoded and PNG-encoded in the job's thread (the frame writer's threads only write files),
+a CPU-bound, single-threaded per-frame load like reprocess's decode and image stages.
+Throughput is recordings per second of wall time, median of ``--repeats`` interleaved runs,
+each into a fresh output root, pools started inside the timed region; the Ray instance is
+started once (``ray.init(num_cpus=2)``) and its start-up is reported apart, as a running
+cluster is what ``--ray-address auto`` joins. Both engines keep warm processes between the
+batches of one driver (the local engine its fork server, which has imported the package; Ray
+its worker processes, which have loaded the job kind), so only the first repeat of each pays
+for imports and model loading; ``wall_s`` lists every repeat. ``--compression`` sets the
+recordings' MCAP chunk compression (default zstd). With ``--synthetic`` each batch writes about
+330 MB of PNG files per recording (2.6 GB for 8); ``--ram`` puts the output roots in
 ``/dev/shm`` (each removed after its batch), which takes this VM's disk out of the comparison
 and leaves the engines' own scaling. Other than the defaults, results go to
-``batch_<compression>[_ram].json``. Then a
-20-recording batch with 2 corrupt recordings runs in a subprocess that is SIGKILLed halfway
-and started again. Writes
+``batch_<compression>[_ram][_synthetic].json``. Then a 20-recording batch with 2 corrupt
+recordings runs in a subprocess that is SIGKILLed halfway and started again. Writes
 ``benchmarks/results/batch.json``.
 """
 
@@ -51,7 +53,15 @@ SLT = (
 )
 
 
+def real_jpeg_pool() -> list[bytes]:
+    """Real 1280x720 camera JPEGs (TuSimple frames, as in bench_extract): real PNG sizes."""
+    from bench_extract import jpeg_pool as tusimple_pool  # the sibling script
+
+    return tusimple_pool()
+
+
 def jpeg_pool(width: int, height: int, count: int = 8) -> list[bytes]:
+    """Synthetic frames: gradients plus pixel noise, which PNG cannot compress (2.7 MB each)."""
     import cv2
 
     rng = np.random.default_rng(0)
@@ -104,11 +114,17 @@ def timed_batch(recs: Path, root: Path, engine: str, workers: int, remove: bool 
 
 
 def throughput(
-    tmp: Path, recordings: int, frames: int, repeats: int, compression: str, out: Path | None
+    tmp: Path,
+    recordings: int,
+    frames: int,
+    repeats: int,
+    compression: str,
+    out: Path | None,
+    synthetic: bool = False,
 ) -> dict[str, object]:
     recs = tmp / "recs"
     recs.mkdir()
-    pool = jpeg_pool(1280, 720)
+    pool = jpeg_pool(1280, 720) if synthetic else real_jpeg_pool()
     for k in range(recordings):
         make_recording(recs / f"drive_{k:02d}.mcap", k, frames, pool, compression)
     runs: dict[str, list[float]] = {"local_1": [], "local_2": [], "ray_2": []}
@@ -140,6 +156,9 @@ def throughput(
         "recordings": recordings,
         "frames_per_recording": frames,
         "frame_size": "1280x720",
+        "frames_from": "synthetic (gradients + noise, 8 JPEGs)"
+        if synthetic
+        else f"real TuSimple frames ({len(pool)} JPEGs, quality 90)",
         "mcap_chunk_compression": compression,
         "output_roots": "RAM (/dev/shm)" if out is not None else "disk (temporary folder)",
         "job": "extract, frame_format png (JPEG decode + PNG encode per frame)",
@@ -251,6 +270,11 @@ def main() -> None:
     ap.add_argument("--ram", action="store_true", help="output roots in /dev/shm")
     ap.add_argument("--skip-kill", action="store_true", help="only the throughput part")
     ap.add_argument("--results", help="file name in benchmarks/results (e.g. on a loaded box)")
+    ap.add_argument(
+        "--synthetic",
+        action="store_true",
+        help="synthetic noisy frames (PNG-incompressible, as before) instead of real ones",
+    )
     args = ap.parse_args()
     uptime = [_uptime()]
     ram = Path(tempfile.mkdtemp(prefix="bench_batch_", dir="/dev/shm")) if args.ram else None
@@ -260,15 +284,22 @@ def main() -> None:
             "machine": f"{platform.machine()} {platform.python_version()}",
             "command": "python benchmarks/bench_batch.py " + " ".join(sys.argv[1:]),
             "throughput": throughput(
-                tmp, args.recordings, args.frames, args.repeats, args.compression, ram
+                tmp,
+                args.recordings,
+                args.frames,
+                args.repeats,
+                args.compression,
+                ram,
+                args.synthetic,
             ),
         }
         if not args.skip_kill:
             result["kill_and_resume"] = kill_and_resume(tmp)
     if ram is not None:
         shutil.rmtree(ram, ignore_errors=True)
-    default = args.compression == "zstd" and not args.ram
+    default = args.compression == "zstd" and not args.ram and not args.synthetic
     suffix = f"_{args.compression}" + ("_ram" if args.ram else "")
+    suffix += "_synthetic" if args.synthetic else ""
     out = RESULTS if default else RESULTS.with_name(f"batch{suffix}.json")
     if args.results:
         out = RESULTS.with_name(args.results)

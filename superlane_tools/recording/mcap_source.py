@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import heapq
 import io
+import queue
 import struct
 import zlib
 from collections import deque
@@ -43,8 +44,26 @@ _RECORD_PREFIX = 9  # opcode (1 byte) + record length (8 bytes)
 _FOOTER_SIZE = _RECORD_PREFIX + 8 + 8 + 4  # summary start, summary offset start, summary CRC
 _FOOTER_OPCODE = 0x02
 _CHUNK_OPCODE = 0x06
-PREFETCH_CHUNKS = 2
-"""Chunks loaded ahead of the consumer by the background reader thread."""
+PREFETCH_CHUNKS = 3
+"""Chunks loaded ahead of the consumer by the background loader threads."""
+LOADER_THREADS = 2
+"""Threads loading chunks by default: each one's read, decompression and CRC check release the
+GIL. A batch worker sets its share of the cores instead (:func:`set_loader_threads`)."""
+_loader_threads = [LOADER_THREADS]
+
+
+def set_loader_threads(count: int) -> None:
+    """Set the number of threads that load chunks ahead of every later read in this process.
+
+    ``slt batch`` workers set their share of the cores (cores // workers, at least 1): with a
+    worker per core, more loaders per recording only contend with the other workers.
+    """
+    _loader_threads[0] = max(1, int(count))
+
+
+def loader_threads() -> int:
+    """Return the number of threads loading chunks ahead of a read (:func:`set_loader_threads`)."""
+    return _loader_threads[0]
 
 
 class _ChunkRef(NamedTuple):
@@ -516,28 +535,43 @@ def _load_chunk(handle: BinaryIO, ref: _ChunkRef) -> list[McapMessage] | Excepti
 
 
 class _ChunkPrefetcher:
-    """Loads chunks in a background thread, a few ahead of the consumer, in a given order.
+    """Loads chunks in background threads, a few ahead of the consumer, in a given order.
 
     Reading, zstd/lz4 decompression and the CRC check release the GIL, so they overlap with
-    decoding and writing in the consuming thread. The thread reads through its own file handle;
-    at most :data:`PREFETCH_CHUNKS` loaded chunks wait in memory.
+    each other and with decoding and writing in the consuming thread (two loaders: the reader
+    was the bottleneck of ``slt extract --frames none`` with one). Each thread reads through a
+    file handle of its own; at most :data:`PREFETCH_CHUNKS` loaded chunks wait in memory.
     """
 
     def __init__(self, path: Path, order: list[_ChunkRef]) -> None:
+        self._handles: queue.SimpleQueue[BinaryIO] = queue.SimpleQueue()
+        self._opened: list[BinaryIO] = []
+        threads = loader_threads()
         try:
-            self._handle = path.open("rb")
+            for _ in range(threads):  # a handle per loader: seek + read are not shared
+                self._opened.append(path.open("rb"))
+                self._handles.put(self._opened[-1])
         except OSError as err:
+            for handle in self._opened:
+                handle.close()
             raise RecordingError(f"cannot open {path}: {err.strerror}") from err
-        self._pool = ThreadPoolExecutor(1, thread_name_prefix="slt-mcap-chunks")
+        self._pool = ThreadPoolExecutor(threads, thread_name_prefix="slt-mcap-chunks")
         self._order = iter(order)
         self._queue: deque[Future[list[McapMessage] | Exception]] = deque()
         for _ in range(PREFETCH_CHUNKS):
             self._submit()
 
+    def _load(self, ref: _ChunkRef) -> list[McapMessage] | Exception:
+        handle = self._handles.get()
+        try:
+            return _load_chunk(handle, ref)
+        finally:
+            self._handles.put(handle)
+
     def _submit(self) -> None:
         ref = next(self._order, None)
         if ref is not None:
-            self._queue.append(self._pool.submit(_load_chunk, self._handle, ref))
+            self._queue.append(self._pool.submit(self._load, ref))
 
     def next(self) -> list[McapMessage] | Exception:
         """Return the next chunk of the order (its messages or its loading error)."""
@@ -546,6 +580,7 @@ class _ChunkPrefetcher:
         return loaded
 
     def close(self) -> None:
-        """Stop the thread (finishing at most the chunk in progress) and close the handle."""
+        """Stop the threads (finishing the chunks in progress) and close the handles."""
         self._pool.shutdown(wait=True, cancel_futures=True)
-        self._handle.close()
+        for handle in self._opened:
+            handle.close()

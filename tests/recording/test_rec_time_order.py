@@ -10,6 +10,7 @@ from mcap.reader import make_reader
 from mcap.writer import CompressionType, Writer
 
 from superlane_tools.recording import open_recording
+from superlane_tools.recording.mcap_source import LOADER_THREADS, set_loader_threads
 
 CHUNK_BYTES = 4096
 """Chunk size of the test files; the last message of each group is padded past it, which
@@ -40,12 +41,17 @@ def _write_chunked(path: Path, chunks: list[list[int]]) -> None:
         [[40, 50], [0, 5], [45]],  # a later chunk holds earlier messages
     ],
 )
-def test_messages_in_log_time_order(tmp_path: Path, chunks: list[list[int]]) -> None:
+@pytest.mark.parametrize("loaders", [1, LOADER_THREADS, 3])
+def test_messages_in_log_time_order(tmp_path: Path, chunks: list[list[int]], loaders: int) -> None:
     path = tmp_path / "ticks.mcap"
     _write_chunked(path, chunks)
-    with open_recording(path) as rec:
-        got = [(m.log_time_ns, m.data.t) for m in rec.messages()]
-        windowed = [m.log_time_ns for m in rec.messages(start_ns=10, stop_ns=40)]
+    set_loader_threads(loaders)  # chunks loaded by 1 to 3 threads: the same order
+    try:
+        with open_recording(path) as rec:
+            got = [(m.log_time_ns, m.data.t) for m in rec.messages()]
+            windowed = [m.log_time_ns for m in rec.messages(start_ns=10, stop_ns=40)]
+    finally:
+        set_loader_threads(LOADER_THREADS)
     expected = sorted(t for times in chunks for t in times)
     assert [t for t, _ in got] == expected
     assert all(t == payload for t, payload in got)
