@@ -47,23 +47,7 @@ _CHUNK_OPCODE = 0x06
 PREFETCH_CHUNKS = 3
 """Chunks loaded ahead of the consumer by the background loader threads."""
 LOADER_THREADS = 2
-"""Threads loading chunks by default: each one's read, decompression and CRC check release the
-GIL. A batch worker sets its share of the cores instead (:func:`set_loader_threads`)."""
-_loader_threads = [LOADER_THREADS]
-
-
-def set_loader_threads(count: int) -> None:
-    """Set the number of threads that load chunks ahead of every later read in this process.
-
-    ``slt batch`` workers set their share of the cores (cores // workers, at least 1): with a
-    worker per core, more loaders per recording only contend with the other workers.
-    """
-    _loader_threads[0] = max(1, int(count))
-
-
-def loader_threads() -> int:
-    """Return the number of threads loading chunks ahead of a read (:func:`set_loader_threads`)."""
-    return _loader_threads[0]
+"""Threads loading chunks: each one's read, decompression and CRC check release the GIL."""
 
 
 class _ChunkRef(NamedTuple):
@@ -546,16 +530,15 @@ class _ChunkPrefetcher:
     def __init__(self, path: Path, order: list[_ChunkRef]) -> None:
         self._handles: queue.SimpleQueue[BinaryIO] = queue.SimpleQueue()
         self._opened: list[BinaryIO] = []
-        threads = loader_threads()
         try:
-            for _ in range(threads):  # a handle per loader: seek + read are not shared
+            for _ in range(LOADER_THREADS):  # a handle per loader: seek + read are not shared
                 self._opened.append(path.open("rb"))
                 self._handles.put(self._opened[-1])
         except OSError as err:
             for handle in self._opened:
                 handle.close()
             raise RecordingError(f"cannot open {path}: {err.strerror}") from err
-        self._pool = ThreadPoolExecutor(threads, thread_name_prefix="slt-mcap-chunks")
+        self._pool = ThreadPoolExecutor(LOADER_THREADS, thread_name_prefix="slt-mcap-chunks")
         self._order = iter(order)
         self._queue: deque[Future[list[McapMessage] | Exception]] = deque()
         for _ in range(PREFETCH_CHUNKS):

@@ -9,8 +9,7 @@ import pytest
 from mcap.reader import make_reader
 from mcap.writer import CompressionType, Writer
 
-from superlane_tools.recording import open_recording
-from superlane_tools.recording.mcap_source import LOADER_THREADS, set_loader_threads
+from superlane_tools.recording import mcap_source, open_recording
 
 CHUNK_BYTES = 4096
 """Chunk size of the test files; the last message of each group is padded past it, which
@@ -41,17 +40,16 @@ def _write_chunked(path: Path, chunks: list[list[int]]) -> None:
         [[40, 50], [0, 5], [45]],  # a later chunk holds earlier messages
     ],
 )
-@pytest.mark.parametrize("loaders", [1, LOADER_THREADS, 3])
-def test_messages_in_log_time_order(tmp_path: Path, chunks: list[list[int]], loaders: int) -> None:
+@pytest.mark.parametrize("loaders", [1, 2, 3])
+def test_messages_in_log_time_order(
+    tmp_path: Path, chunks: list[list[int]], loaders: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
     path = tmp_path / "ticks.mcap"
     _write_chunked(path, chunks)
-    set_loader_threads(loaders)  # chunks loaded by 1 to 3 threads: the same order
-    try:
-        with open_recording(path) as rec:
-            got = [(m.log_time_ns, m.data.t) for m in rec.messages()]
-            windowed = [m.log_time_ns for m in rec.messages(start_ns=10, stop_ns=40)]
-    finally:
-        set_loader_threads(LOADER_THREADS)
+    monkeypatch.setattr(mcap_source, "LOADER_THREADS", loaders)  # 1 to 3: the same order
+    with open_recording(path) as rec:
+        got = [(m.log_time_ns, m.data.t) for m in rec.messages()]
+        windowed = [m.log_time_ns for m in rec.messages(start_ns=10, stop_ns=40)]
     expected = sorted(t for times in chunks for t in times)
     assert [t for t, _ in got] == expected
     assert all(t == payload for t, payload in got)

@@ -31,7 +31,6 @@ from superlane_tools.commands.batch.engine import (
     one_line,
 )
 from superlane_tools.commands.batch.kinds import job_kind
-from superlane_tools.recording.mcap_source import set_loader_threads
 
 MARKER = ".slt_batch.json"
 """Marker file inside a finalised recording folder: key, status, timings (JSON)."""
@@ -56,8 +55,7 @@ def init_worker(
     Args:
         kind: Job kind name.
         config: The batch configuration (without per-recording windows).
-        threads: Threads each native library (cv2, BLAS) and the MCAP chunk loader may use
-            in this worker.
+        threads: Threads each native library (cv2, BLAS) may use in this worker.
         driver_pid: The batch driver's process; when given, this worker exits within
             :data:`ORPHAN_CHECK_S` once the driver is gone (a killed ``slt batch`` must not leave
             idle workers holding models in memory; their unfinished folders are then stale and
@@ -71,7 +69,6 @@ def init_worker(
         import cv2
 
         cv2.setNumThreads(max(1, threads))
-    set_loader_threads(threads)
     key = _cache_key(kind, config)
     if key not in _LOADED:
         _LOADED[key] = job_kind(kind).load(config)

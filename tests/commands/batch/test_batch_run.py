@@ -255,18 +255,3 @@ def test_status_rows_with_sha256_identities_are_not_reused(tmp_path: Path) -> No
     # A row of the current algorithm is reused while size and mtime are unchanged.
     table.update(row("drive-x", content_hash), write=False)
     assert table.known_hash(str(rec), stat.st_size, stat.st_mtime_ns) == content_hash
-
-
-@pytest.mark.parametrize("threads", [1, 2])
-def test_a_worker_reads_with_its_share_of_the_cores(threads: int) -> None:
-    import subprocess
-    import sys
-
-    code = (  # in a child: init_worker sets OpenCV's pool, which must not happen in pytest's
-        "from superlane_tools.commands.batch.worker import init_worker\n"
-        "from superlane_tools.recording.mcap_source import loader_threads\n"
-        f"init_worker('extract', {{}}, threads={threads})\n"
-        "print(loader_threads())\n"
-    )
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert done.stdout.split() == [str(threads)]
