@@ -43,6 +43,10 @@ class JobKind(NamedTuple):
     split_sequences: bool = True
     """True: one job per manifest sequence (config keys ``start_s``/``end_s``). False: one job
     per recording, its sequences passed as ``segments`` and its ``category`` in the config."""
+    preload: tuple[str, ...] = ()
+    """Modules the local engine's fork server imports once, so that each worker process starts
+    with them instead of importing them for its first recording (imports only: they must not
+    start threads before the fork)."""
 
 
 def load_config_file(path: str | Path) -> dict[str, Any]:

@@ -18,6 +18,7 @@ from superlane_tools.commands.batch.engine import (
     error_line,
     failed_outcome,
 )
+from superlane_tools.commands.batch.kinds import job_kind
 from superlane_tools.commands.batch.worker import execute, init_worker
 from superlane_tools.errors import UsageError
 
@@ -83,7 +84,7 @@ class LocalEngine:
     def _start(self) -> ProcessPoolExecutor:
         context = multiprocessing.get_context(self._method)
         if self._method == "forkserver":
-            context.set_forkserver_preload([WORKER_MODULE])
+            context.set_forkserver_preload([WORKER_MODULE, *job_kind(self._kind).preload])
         return ProcessPoolExecutor(
             max_workers=self._workers,
             mp_context=context,

@@ -255,3 +255,16 @@ def test_status_rows_with_sha256_identities_are_not_reused(tmp_path: Path) -> No
     # A row of the current algorithm is reused while size and mtime are unchanged.
     table.update(row("drive-x", content_hash), write=False)
     assert table.known_hash(str(rec), stat.st_size, stat.st_mtime_ns) == content_hash
+
+
+@pytest.mark.parametrize("kind", ["extract", "reprocess"])
+def test_preloaded_modules_exist(kind: str) -> None:
+    """The fork server ignores a preload module it cannot import: a typo would cost silently."""
+    import importlib
+
+    from superlane_tools.commands.batch.kinds import job_kind
+
+    preload = job_kind(kind).preload
+    assert preload
+    for name in preload:
+        importlib.import_module(name)

@@ -89,4 +89,12 @@ def _extract_run(
     )
 
 
-EXTRACT = JobKind("extract", _extract_check, _extract_identities, _extract_load, _extract_run, True)
+EXTRACT = JobKind(
+    "extract",
+    _extract_check,
+    _extract_identities,
+    _extract_load,
+    _extract_run,
+    True,
+    preload=("superlane_tools.commands.extract.run", "cv2", "mcap_ros2.decoder"),
+)

@@ -124,4 +124,12 @@ def _run(recording: Path, out_dir: Path, config: Mapping[str, Any], loaded: Any)
     )
 
 
-REPROCESS = JobKind("reprocess", _check, _identities, _load, _run, split_sequences=False)
+REPROCESS = JobKind(
+    "reprocess",
+    _check,
+    _identities,
+    _load,
+    _run,
+    split_sequences=False,
+    preload=("superlane_tools.commands.reprocess.run", "cv2", "onnxruntime", "matplotlib"),
+)
