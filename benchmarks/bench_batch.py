@@ -92,7 +92,21 @@ def make_recording(
             w.write("/fix", t, navsatfix(t, "gps", 48 + i * 1e-5, 11.0, 500.0, status=2))
 
 
-def timed_batch(recs: Path, root: Path, engine: str, workers: int, remove: bool = False) -> float:
+CONFIGURATIONS = (("local_1", "local", 1), ("local_2", "local", 2), ("ray_2", "ray", 2))
+"""Name, engine and workers of the batches each repeat runs, in this order."""
+
+
+def timed_batch(
+    recs: Path, root: Path, engine: str, workers: int, remove: bool = False
+) -> tuple[float, float]:
+    """Run one batch; return its wall seconds and the sum of its jobs' own seconds.
+
+    The jobs' seconds (``total_s`` of the status table, each measured in its worker) show what
+    running two at once costs each job: on a machine whose cores slow each other down, the sum
+    grows with the workers and bounds the speedup at ``workers x alone / together``.
+    """
+    import pyarrow.parquet as pq
+
     from superlane_tools.commands.batch import BatchParams, expand_inputs, run_batch
 
     params = BatchParams(
@@ -108,9 +122,12 @@ def timed_batch(recs: Path, root: Path, engine: str, workers: int, remove: bool 
     report = run_batch(entries, params)
     wall = time.perf_counter() - t0
     assert report.counts["ok"] == len(entries), report.failures
+    job_s = float(
+        sum(pq.read_table(report.status_path, columns=["total_s"])["total_s"].to_pylist())
+    )
     if remove:
         shutil.rmtree(root)
-    return wall
+    return wall, job_s
 
 
 def throughput(
@@ -127,7 +144,9 @@ def throughput(
     pool = jpeg_pool(1280, 720) if synthetic else real_jpeg_pool()
     for k in range(recordings):
         make_recording(recs / f"drive_{k:02d}.mcap", k, frames, pool, compression)
+    contention = core_contention(pool[0])
     runs: dict[str, list[float]] = {"local_1": [], "local_2": [], "ray_2": []}
+    job_seconds: dict[str, list[float]] = {key: [] for key in runs}
     import ray
 
     t0 = time.perf_counter()
@@ -138,11 +157,10 @@ def throughput(
         # interleaved, so that the three configurations see the same background load
         for r in range(repeats):
             base, remove = (out, True) if out is not None else (tmp, False)
-            for workers in (1, 2):
-                runs[f"local_{workers}"].append(
-                    timed_batch(recs, base / f"l{workers}_{r}", "local", workers, remove)
-                )
-            runs["ray_2"].append(timed_batch(recs, base / f"r_{r}", "ray", 2, remove))
+            for key, engine, workers in CONFIGURATIONS:
+                wall, job_s = timed_batch(recs, base / f"{key}_{r}", engine, workers, remove)
+                runs[key].append(wall)
+                job_seconds[key].append(job_s)
             print(
                 f"repeat {r}: local 1 worker {runs['local_1'][-1]:.2f} s, "
                 f"2 workers {runs['local_2'][-1]:.2f} s, ray 2 {runs['ray_2'][-1]:.2f} s"
@@ -164,12 +182,54 @@ def throughput(
         "job": "extract, frame_format png (JPEG decode + PNG encode per frame)",
         "wall_s": runs,
         "median_wall_s": med,
+        "job_seconds_sum": job_seconds,
+        "median_job_seconds_sum": {k: statistics.median(v) for k, v in job_seconds.items()},
+        "core_contention": contention,
+        "speedup_bound_2_workers": 2
+        * statistics.median(job_seconds["local_1"])
+        / statistics.median(job_seconds["local_2"]),
         "recordings_per_s": rate,
         "speedup_2_vs_1_local": rate["local_2"] / rate["local_1"],
         "ray_vs_local_2": rate["ray_2"] / rate["local_2"],
         "ray_init_s": ray_start,
         "load_average_before_after": [load_before, load_after],
         "cpus": os.cpu_count(),
+    }
+
+
+def _encode_loop(jpeg: bytes, seconds: float) -> float:
+    """PNG-encode one decoded frame for about ``seconds`` on one thread; return ms per encode."""
+    import cv2
+
+    cv2.setNumThreads(1)  # a fresh (spawned) process: its OpenCV pool never ran
+    image = cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_COLOR)
+    count, t0 = 0, time.perf_counter()
+    while time.perf_counter() - t0 < seconds:
+        cv2.imencode(".png", image)
+        count += 1
+    return 1e3 * (time.perf_counter() - t0) / count
+
+
+def core_contention(jpeg: bytes, seconds: float = 5.0) -> dict[str, object]:
+    """How much slower the job's core loop runs when two processes run it at once.
+
+    The same single-threaded PNG encode, alone, then in two processes together (no I/O, no
+    shared state): on ideal cores both run as fast as one alone. Their slowdown bounds what
+    two workers can gain on this machine: ``2 x alone / together``.
+    """
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    context = multiprocessing.get_context("spawn")
+    with ProcessPoolExecutor(2, mp_context=context) as pool:
+        list(pool.map(_encode_loop, [jpeg, jpeg], [0.5, 0.5]))  # both workers started
+        alone = pool.submit(_encode_loop, jpeg, seconds).result()
+        pair = [pool.submit(_encode_loop, jpeg, seconds) for _ in range(2)]
+        together = statistics.mean(f.result() for f in pair)
+    return {
+        "png_encode_ms_alone": round(alone, 2),
+        "png_encode_ms_two_at_once": round(together, 2),
+        "speedup_bound_2_processes": round(2 * alone / together, 3),
     }
 
 
