@@ -2,9 +2,9 @@
 
 The segmentation networks end with a 1x1 classifier at half the input resolution, a bilinear
 ``Resize`` (``half_pixel``) to the input size and a ``Split`` into the heads. onnxruntime runs
-that tail in 4.1 ms of the 18.7 ms per frame on one thread (the Resize on padded NCHWc blocks,
-then a layout reorder and a copy per head); :func:`superlane_tools.scene.onnx_backend.
-upsample_scores` does the same upsampling with OpenCV in 1.3 ms. This script rewires the
+that tail in about 4 ms of the 18.7 ms per frame on one thread (the Resize on padded NCHWc
+blocks, then a layout reorder and a copy per head); :func:`superlane_tools.scene.onnx_backend.
+upsample_scores` does the same upsampling with OpenCV in 0.6-1.3 ms. This script rewires the
 ``Split`` to the ``Resize``'s input, removes the nodes left unused, and checks on real frames that
 the decoded leaf ids are the same as the original graph's; then it writes the model and the
 new sha256 into its card (both atomically). The weights are untouched.

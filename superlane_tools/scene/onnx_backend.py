@@ -153,9 +153,9 @@ def upsample_scores(
     (docs/models.md, "Output resolution"); the bilinear upsampling that training applies runs
     here, one plane at a time with OpenCV: ``cv2.INTER_LINEAR`` samples at half-pixel centres,
     as ``F.interpolate(..., align_corners=False)`` and ONNX ``Resize`` (``half_pixel``) do, and
-    agrees with them to float rounding (about 1e-7). On one thread that is 1.3 ms for the 23
-    planes at 512x288, against 4.1 ms for onnxruntime's own Resize, layout reorder and Split at
-    the full size. Outputs already at the input size are returned as they are.
+    agrees with them to float rounding (about 1e-7). On one thread that is 0.6-1.3 ms for the 23
+    planes at 512x288, against about 4 ms for onnxruntime's own Resize, layout reorder and Split
+    at the full size. Outputs already at the input size are returned as they are.
     """
     import cv2  # late: heavy import
 
