@@ -78,7 +78,7 @@ def first_call_seconds() -> dict[str, float]:
     """Return the first ``fit_frame`` time in fresh processes: empty, then filled numba cache."""
     out = {}
     with tempfile.TemporaryDirectory() as cache:
-        env = {**os.environ, "NUMBA_CACHE_DIR": cache}
+        env = {**os.environ, "SLT_CACHE_DIR": cache}  # the kernel cache (lanes/kernel_cache.py)
         for name in ("first_call_empty_cache_s", "first_call_filled_cache_s"):
             run = subprocess.run(
                 [sys.executable, "-c", FIRST_CALL],
