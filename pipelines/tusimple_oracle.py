@@ -177,11 +177,11 @@ def main(argv: list[str] | None = None) -> int:
     if args.json:
         args.json.write_text(json.dumps(results, indent=2), encoding="utf-8")
     if args.report:
-        args.report.write_text(_report(results, len(gts), sys.argv), encoding="utf-8")
+        args.report.write_text(_report(results, len(gts), sys.argv, args.workers), encoding="utf-8")
     return 0
 
 
-def _report(results: dict[str, dict[str, float]], n: int, argv: list[str]) -> str:
+def _report(results: dict[str, dict[str, float]], n: int, argv: list[str], workers: int) -> str:
     lines = [
         "| variant | accuracy | FP | FN | F1 | accuracy / FP / FN, as-is GT | median ms | p95 ms |",
         "|---|---|---|---|---|---|---|---|",
@@ -211,9 +211,9 @@ def _report(results: dict[str, dict[str, float]], n: int, argv: list[str]) -> st
             "",
             *lines,
             "",
-            "Fit times are per frame inside worker processes (2 workers on a 2-core machine shared "
-            "with other jobs), so they are higher than the single-thread benchmark "
-            "(`benchmarks/bench_lanes.py`).",
+            f"Fit times are per frame inside worker processes ({workers} at once on the run's "
+            "machine, which may run other jobs), so they can be higher than the single-thread "
+            "benchmark (`benchmarks/bench_lanes.py`).",
             "",
             "Paper (Table 2, full pipeline on the test split): 93.56 % without and 95.90 % with "
             "slope compensation.",

@@ -53,7 +53,9 @@ CFG_LAMBDA = 6
 """Weight of J1 in Eq. 3 (0: no road term)."""
 CFG_INV_SIGMA = 7
 """``1 / sigma_d`` of Eq. 1 (1/m)."""
-CFG_SIZE = 8
+CFG_JACOBIAN = 8
+"""Weight of the mean log inverse distance of the binned points (1: entropy per pixel, 0: off)."""
+CFG_SIZE = 9
 
 
 _CACHE_DIR = kernel_cache_dir()
@@ -121,7 +123,9 @@ def lane_cost(
 
     ``cv`` is the vertical curvature term ``c`` (1/m) of the road ``z = b x + c x^2``.
     ``hist`` is scratch space of ``n_bins + 3`` floats (slot 0 and slots above ``n_bins``
-    collect the out-of-range residuals).
+    collect the out-of-range residuals). With ``cfg[CFG_JACOBIAN] = 1`` the entropy is that of
+    the residuals per image pixel: the binned points' mean ``log(1 / x)`` is added (see
+    :class:`superlane_tools.lanes.cost.CostFunction`).
     """
     n_bins = int(cfg[CFG_N_BINS])
     penalty: float = cfg[CFG_KAPPA] * iq.size
@@ -130,9 +134,11 @@ def lane_cost(
     min_den = cfg[CFG_MIN_DEN]
     scale = cfg[CFG_POS_SCALE]
     shift = cfg[CFG_POS_SHIFT]
+    jacobian: float = cfg[CFG_JACOBIAN]
     top = n_bins + 1.0
     for k in range(n_bins + 3):
         hist[k] = 0.0
+    log_den = 0.0
     for i in range(iq.size):
         den = road_den(iq[i], c, c_h)
         if den < min_den:
@@ -148,6 +154,9 @@ def lane_cost(
         frac = pos - k
         hist[k] += 1.0 - frac
         hist[k + 1] += frac
+        if jacobian != 0.0 and 0.0 < pos < top:
+            binned = (1.0 - frac if k >= 1 else 0.0) + (frac if k < n_bins else 0.0)
+            log_den += binned * math.log(den)
     n_in = 0.0
     for k in range(1, n_bins + 1):
         n_in += hist[k]
@@ -159,7 +168,7 @@ def lane_cost(
         if hist[k] > 0.0:
             p = hist[k] * inv_n
             h -= p * math.log(p)
-    return h + penalty / n_in
+    return h + jacobian * log_den * inv_n + penalty / n_in
 
 
 @_jit

@@ -455,6 +455,7 @@ def fit_frame(
         p.lambda_road if use_road else 0.0,
         p.sigma_d_m,
         p.backend,
+        p.pixel_entropy,
     )
     free = [0]
     if p.order == 2:
@@ -482,6 +483,7 @@ def fit_frame(
             p.lambda_road if use_road else 0.0,
             p.sigma_d_m,
             p.backend,
+            p.pixel_entropy,
         )
         theta0 = _initial_guess(scan, p, free)
         cost.evaluations += scan.evaluations

@@ -62,6 +62,10 @@ class FitParams:
         xatol: Nelder-Mead parameter tolerance in units of its initial step (0.01 rad heading,
             0.0005 1/m half curvature, 0.01 slope, 0.5 m road-centre offset).
         fatol: Nelder-Mead cost tolerance (nats).
+        pixel_entropy: Measure Eq. 2's entropy per image pixel rather than per metre: add the
+            binned points' mean ``log(1 / x)`` (see ``lanes.cost.CostFunction``). Otherwise a
+            slope that shrinks the far field lowers the entropy of segmentation noise by
+            itself, and real masks drive ``b`` to ``slope_bound``.
         refit: After assigning points to lines, refit shared ``a1, a2, b`` and per-line offsets
             by weighted least squares (a step beyond the paper).
         local_correction: Allow each line a bounded quadratic correction of its own (the
@@ -105,6 +109,7 @@ class FitParams:
     max_iterations: int = 400
     xatol: float = 0.05
     fatol: float = 1e-3
+    pixel_entropy: bool = True
     refit: bool = True
     local_correction: bool = True
     local_bound_m: float = 0.5

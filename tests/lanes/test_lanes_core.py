@@ -50,16 +50,40 @@ def test_batch_cost_equals_single_evaluations() -> None:
     np.testing.assert_allclose(cost.batch(thetas), [cost(t) for t in thetas], rtol=1e-9)
 
 
-def test_entropy_is_lowest_at_true_parameters(camera_factory, renderer) -> None:
+@pytest.mark.parametrize("jacobian", [False, True])
+def test_entropy_is_lowest_at_true_parameters(camera_factory, renderer, jacobian: bool) -> None:
     cam = camera_factory()
     lane_uv, _ = renderer(cam, [-1.8, 1.9, 5.6], 0.02, 0.001, 0.02)
     from superlane_tools.lanes.multilane_fit import _Points
 
     pts = _Points(cam, lane_uv, FitParams())
-    cost = CostFunction(pts.iq, pts.r, 1.5, 200.0, Histogram.symmetric(15, 0.1), 2.0)
+    cost = CostFunction(
+        pts.iq, pts.r, 1.5, 200.0, Histogram.symmetric(15, 0.1), 2.0, jacobian=jacobian
+    )
     best = cost(np.array([0.02, 0.001, 0.02, 0.0]))
     for delta in ([0.01, 0, 0, 0], [0, 0.0005, 0, 0], [0, 0, 0.01, 0]):
         assert cost(np.array([0.02, 0.001, 0.02, 0.0]) + np.array(delta)) > best
+
+
+def test_pixel_entropy_is_blind_to_a_shrinking_far_field() -> None:
+    """Noise 60 m ahead: a slope shrinks it and its entropy per metre, not its entropy per pixel."""
+    rng = np.random.default_rng(4)
+    iq = np.full(2000, 1 / 60.0)
+    r = rng.normal(0.0, 0.02, 2000)
+    slopes = (0.0, 0.02, 0.04)
+    per_m, per_px = (
+        np.array(
+            [
+                CostFunction(iq, r, 1.5, 200.0, Histogram.symmetric(15, 0.1), 2.0, jacobian=j)(
+                    np.array([0.0, 0.0, b, 0.0])
+                )
+                for b in slopes
+            ]
+        )
+        for j in (False, True)
+    )
+    assert np.all(np.diff(per_m) < -0.3)  # 60 m -> 33 m: log(60 / 33) = 0.6 nats less
+    assert np.ptp(per_px) < 0.05
 
 
 def test_ray_form_matches_paper_eq10() -> None:

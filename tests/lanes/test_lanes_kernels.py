@@ -21,7 +21,7 @@ from superlane_tools.lanes.multilane_fit import _nelder_mead
 REPO = Path(__file__).resolve().parents[2]
 
 
-def _cost(seed: int, n_lane: int = 600, n_road: int = 0) -> CostFunction:
+def _cost(seed: int, n_lane: int = 600, n_road: int = 0, jacobian: bool = False) -> CostFunction:
     rng = np.random.default_rng(seed)
     # Rays from beyond the flat horizon (iq < 0) to 1 m ahead; lines spread over +-8 m.
     iq = rng.uniform(-0.01, 0.5, n_lane)
@@ -38,6 +38,7 @@ def _cost(seed: int, n_lane: int = 600, n_road: int = 0) -> CostFunction:
         road_iq if n_road else None,
         road_r if n_road else None,
         lambda_road=0.001,
+        jacobian=jacobian,
     )
 
 
@@ -54,9 +55,10 @@ def _thetas(seed: int, n: int) -> np.ndarray:
     )
 
 
+@pytest.mark.parametrize("jacobian", [False, True])
 @pytest.mark.parametrize("n_road", [0, 300])
-def test_kernel_cost_matches_numpy_reference(n_road: int) -> None:
-    cost = _cost(1, n_road=n_road)
+def test_kernel_cost_matches_numpy_reference(n_road: int, jacobian: bool) -> None:
+    cost = _cost(1, n_road=n_road, jacobian=jacobian)
     thetas = _thetas(2, 64)
     reference = np.array([cost.reference(t) for t in thetas])
     single = np.array([cost(t) for t in thetas])
@@ -77,12 +79,13 @@ def test_kernel_cost_with_no_point_in_range() -> None:
     assert cost(theta) == pytest.approx(np.log(5) + 2.0 * 10)
 
 
-def test_kernel_nelder_mead_follows_scipy() -> None:
+@pytest.mark.parametrize("jacobian", [False, True])
+def test_kernel_nelder_mead_follows_scipy(jacobian: bool) -> None:
     params = FitParams()
     free = [0, 1, 2]
     start = np.array([0.02, 0.0005, 0.01, 0.0])
-    compiled = _cost(5)
-    reference = _cost(5)
+    compiled = _cost(5, jacobian=jacobian)
+    reference = _cost(5, jacobian=jacobian)
     reference.backend = "numpy"
     theta_c, nit_c, ok_c = _nelder_mead(compiled, start, free, params)
     theta_r, nit_r, ok_r = _nelder_mead(reference, start, free, params)
