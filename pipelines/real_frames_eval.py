@@ -27,6 +27,10 @@ precision = predicted marking pixels within 10 px of a labelled lane polyline.
 Usage:
     python pipelines/real_frames_eval.py [--data ../shared/data] [--work DIR]
         [--backends classical,onnx] [--report reports/real_frames.md] [--json out.json]
+        [--update-cards]
+
+``--update-cards`` writes each ONNX model's end-to-end numbers (and the classical backend's from
+the same run) into its model card, where ``--backend auto`` reads them.
 """
 
 from __future__ import annotations
@@ -376,6 +380,61 @@ def render_report(results: dict[str, Any], data: Path, work: Path) -> str:
     return text.replace(f"{work}/", "WORK/").replace(f"{data}/", "DATA/")
 
 
+SPLIT_TEXT = (
+    "last 30 frames of tusimple/train_frames (never trained on) + the 6 frames of tusimple/frames"
+)
+CHAIN_TEXT = (
+    "python pipelines/real_frames_eval.py (slt segment -> slt lanes fit --camera tusimple -> "
+    "slt lanes export-tusimple -> slt eval tusimple)"
+)
+
+
+def card_metrics(result: dict[str, Any], classical: dict[str, Any]) -> dict[str, Any]:
+    """Return one ONNX backend's end-to-end card metrics, with the classical backend's beside.
+
+    ``auto`` (``scene/backends.py``) compares ``laneeval_accuracy`` with
+    ``classical_laneeval_accuracy``: both must come from the same run of the same code.
+    """
+    tus, cls = result["tusimple"], classical["tusimple"]["official"]
+    off, kit = tus["official"], result["kitti"]["score"]
+    return {
+        "tusimple_val_end_to_end": {
+            "laneeval_accuracy": round(off["accuracy"], 4),
+            "fp": round(off["fp"], 4),
+            "fn": round(off["fn"], 4),
+            "f1": round(off["f1"], 4),
+            "frames": len(tus["frames"]),
+            "accuracy_without_run_time_gate": round(tus["ungated"]["accuracy"], 4),
+            "marking_recall_3px": round(tus["marking_recall_3px"], 4),
+            "marking_precision_10px": round(tus["marking_precision_10px"], 4),
+            "classical_laneeval_accuracy": round(cls["accuracy"], 4),
+            "classical_fp": round(cls["fp"], 4),
+            "classical_fn": round(cls["fn"], 4),
+            "split": SPLIT_TEXT,
+            "chain": CHAIN_TEXT,
+        },
+        "kitti_um_000000_fitted_ego_lane": {
+            key: round(kit[key], 4) for key in ("f_measure", "precision", "recall", "iou")
+        },
+    }
+
+
+def update_cards(results: dict[str, Any], specs: list[str]) -> list[str]:
+    """Write each ONNX backend's end-to-end metrics into its model card; return the cards."""
+    from superlane_tools.scene.onnx_backend import DEFAULT_SEGMENTATION_MODEL, resolve_model
+    from superlane_tools.training.evaluate import update_card
+
+    written = []
+    for spec in specs:
+        name, _, model = spec.partition("=")
+        if name != "onnx":
+            continue
+        path = resolve_model(model or DEFAULT_SEGMENTATION_MODEL)[0]
+        metrics = card_metrics(results[backend_args(spec)[0]], results["classical"])
+        written.append(update_card(path, metrics, {}).name)
+    return written
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the evaluation; write the report, overlays and optional JSON."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
@@ -385,7 +444,16 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--report", type=Path, default=None, help="Markdown report to write")
     ap.add_argument("--overlays", type=Path, default=None, help="folder for overlay PNGs")
     ap.add_argument("--json", type=Path, default=None)
+    ap.add_argument(
+        "--update-cards",
+        action="store_true",
+        help="write each ONNX model's end-to-end metrics into its card (needs classical too)",
+    )
     args = ap.parse_args(argv)
+    specs = args.backends.split(",")
+    if args.update_cards and "classical" not in specs:
+        print("--update-cards needs the classical backend in --backends", file=sys.stderr)
+        return 2
     frames_src = args.data / "tusimple" / "frames"
     if not (frames_src / "labels.json").is_file():
         print(f"no real data at {args.data}", file=sys.stderr)
@@ -395,7 +463,7 @@ def main(argv: list[str] | None = None) -> int:
         work.mkdir(parents=True, exist_ok=True)
         groups, labels, frame_paths = validation_frames(args.data, work)
         results: dict[str, Any] = {}
-        for spec in args.backends.split(","):
+        for spec in specs:
             backend = backend_args(spec)[0]
             tus = tusimple_chain(spec, groups, labels, work)
             kit = kitti_chain(spec, args.data, work)
@@ -428,6 +496,8 @@ def main(argv: list[str] | None = None) -> int:
             kit.pop("mask")
         if args.report is not None:
             write_text_atomic(args.report, render_report(results, args.data, work))
+        if args.update_cards:
+            print(f"cards updated: {', '.join(update_cards(results, specs))}")
     if args.json is not None:
         write_text_atomic(args.json, json.dumps(results, indent=1, default=float))
     return 0

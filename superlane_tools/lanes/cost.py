@@ -195,8 +195,9 @@ class CostFunction:
     alone drives ``b`` to its bound. Adding the binned points' mean ``log(1 / x)`` -- the
     log-Jacobian from image pixels to metres, a pixel at distance ``x`` spanning ``x`` times
     the lateral metres of one at 1 m -- makes J2 the entropy of the residuals per pixel, which
-    a shrinkage does not change. Parallel lines still sharpen the histogram only at the right
-    slope, so clean masks fit as before.
+    shrinking the points at one distance does not change (points at many distances keep a
+    smaller bias, as their mixture narrows). Parallel lines still sharpen the histogram only
+    at the right slope: on rendered TuSimple labels the fit is as accurate as before.
 
     Attributes:
         n_lane: Number of lane points ``N_l``.

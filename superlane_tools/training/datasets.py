@@ -54,6 +54,8 @@ class DatasetSpec:
         weight: Relative sampling weight of the dataset (per step, not per frame).
         split: ``train``, ``val`` or ``all`` frames of the folder.
         levels: Hierarchy levels (1-4) this dataset trains; None = every level it labels.
+        expand_m: ``tusimple`` only: label a band this wide (metres) on each side of every
+            marking as road (SUPER II-B, "expand the lane marking to its vicinity").
     """
 
     reader: str
@@ -61,6 +63,7 @@ class DatasetSpec:
     weight: float = 1.0
     split: str = "train"
     levels: tuple[int, ...] | None = None
+    expand_m: float = 0.0
 
     def text(self) -> str:
         """Return the entry as ``--data`` text."""
@@ -88,7 +91,7 @@ def parse_data_arg(text: str) -> DatasetSpec:
 
 
 def load_dataset_list(path: str | os.PathLike[str]) -> tuple[DatasetSpec, ...]:
-    """Read a YAML dataset list: ``datasets: [{reader, folder, weight?, split?, levels?}, ...]``.
+    """Read a YAML list: ``datasets: [{reader, folder, weight?, split?, levels?, expand_m?}]``.
 
     Relative folders are relative to the YAML file.
 
@@ -116,6 +119,7 @@ def load_dataset_list(path: str | os.PathLike[str]) -> tuple[DatasetSpec, ...]:
                 float(entry.get("weight", 1.0)),
                 str(entry.get("split", "train")),
                 None if levels is None else tuple(int(v) for v in levels),
+                float(entry.get("expand_m", 0.0)),
             )
         except (TypeError, ValueError) as err:
             raise TrainingError(f"{source}: entry {i}: {err}") from err
@@ -135,6 +139,10 @@ def validate_spec(spec: DatasetSpec) -> DatasetSpec:
         raise TrainingError(f"{spec.text()}: the weight must be > 0")
     if spec.levels is not None and not set(spec.levels) <= {1, 2, 3, 4}:
         raise TrainingError(f"{spec.text()}: levels must lie in 1..4, got {spec.levels}")
+    if spec.expand_m < 0 or (spec.expand_m > 0 and spec.reader != "tusimple"):
+        raise TrainingError(
+            f"{spec.text()}: expand_m must be >= 0 and applies to the tusimple reader only"
+        )
     return spec
 
 
@@ -219,7 +227,7 @@ def read_tusimple(
         image = _imread(spec.folder / str(label["raw_file"]))
         lines = label_polylines(label, width / image.shape[1], height / image.shape[0])
         images.append(_resize(image, size, nearest=False))
-        codes.append(road_and_marking_codes(lines, width, height))
+        codes.append(road_and_marking_codes(lines, width, height, spec.expand_m))
         corridors.append(corridor_target(lines, width, height))
         names.append(str(label["raw_file"]))
     return np.stack(images), np.stack(codes), np.stack(corridors), tuple(names)

@@ -260,6 +260,7 @@ def _dataset_rows(sets: Sequence[LoadedSet]) -> list[dict[str, Any]]:
                 "frames": len(loaded.names),
                 "heads": trained,
                 "licence": LICENCES.get(spec.reader, "see the dataset's own terms"),
+                **({"expand_m": spec.expand_m} if spec.expand_m > 0 else {}),
             }
         )
     return rows

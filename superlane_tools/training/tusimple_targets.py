@@ -74,13 +74,20 @@ def gap_model(lines: Sequence[Polyline], height: int) -> tuple[float, float]:
 
 
 def draw_markings(
-    canvas: NDArray[np.uint8], lines: Sequence[Polyline], value: int, gap: tuple[float, float]
+    canvas: NDArray[np.uint8],
+    lines: Sequence[Polyline],
+    value: int,
+    gap: tuple[float, float],
+    width_m: float = MARKING_WIDTH_M,
 ) -> None:
-    """Draw every polyline into ``canvas`` with paint width ``MARKING_WIDTH_M / LANE_WIDTH_M``."""
+    """Draw every polyline into ``canvas``, ``width_m`` wide: ``width_m / LANE_WIDTH_M`` of the gap.
+
+    The default is the paint's width; at least :data:`MIN_MARKING_PX` at any row.
+    """
     import cv2
 
     a, b = gap
-    ratio = MARKING_WIDTH_M / LANE_WIDTH_M
+    ratio = width_m / LANE_WIDTH_M
     for line in lines:
         half = np.maximum(MIN_MARKING_PX, ratio * (a * line[:, 1] + b)) / 2.0
         for (x0, y0), (x1, y1), h0, h1 in zip(
@@ -97,13 +104,23 @@ def _between(
     return np.round(np.array(pts) * 16).astype(np.int32)
 
 
-def road_and_marking_codes(lines: Sequence[Polyline], width: int, height: int) -> NDArray[np.uint8]:
-    """Return ``(H, W)`` node codes: road between the outer lines, markings on top, else void."""
+def road_and_marking_codes(
+    lines: Sequence[Polyline], width: int, height: int, expand_m: float = 0.0
+) -> NDArray[np.uint8]:
+    """Return ``(H, W)`` node codes: road between the outer lines, markings on top, else void.
+
+    ``expand_m > 0`` also labels a band ``expand_m`` wide on each side of every marking as road
+    (SUPER II-B's preprocessing of Apollo's marking labels: the ground next to a marking is
+    often mistaken for it), which reaches beyond the outer lines onto the shoulder.
+    """
     import cv2
 
     codes = np.zeros((height, width), np.uint8)
     if not lines:
         return codes
+    gap = gap_model(lines, height)
+    if expand_m > 0:
+        draw_markings(codes, lines, NODE_CODES["road"], gap, MARKING_WIDTH_M + 2.0 * expand_m)
     left: list[tuple[float, float]] = []
     right: list[tuple[float, float]] = []
     for y in np.unique(np.concatenate([line[:, 1] for line in lines])):
@@ -113,7 +130,7 @@ def road_and_marking_codes(lines: Sequence[Polyline], width: int, height: int) -
             right.append((max(xs), float(y)))
     if len(left) >= 2:
         cv2.fillPoly(codes, [_between(left, right)], NODE_CODES["road"], cv2.LINE_8, 4)
-    draw_markings(codes, lines, NODE_CODES["lane_marking"], gap_model(lines, height))
+    draw_markings(codes, lines, NODE_CODES["lane_marking"], gap)
     return codes
 
 

@@ -234,3 +234,41 @@ def test_auto_backend_follows_the_real_frame_accuracy_in_the_card() -> None:
     assert (note == "") == (expected == "onnx")
     assert auto_backend("my.onnx")[0] == "onnx"
     assert backend_from_name("auto").name.split(":")[0] == expected
+
+
+def _chain_result(accuracy: float) -> dict[str, object]:
+    official = {"accuracy": accuracy, "fp": 0.3, "fn": 0.2, "f1": 0.7}
+    return {
+        "tusimple": {
+            "official": official,
+            "ungated": official,
+            "frames": [{}] * 36,
+            "marking_recall_3px": 0.6,
+            "marking_precision_10px": 0.4,
+        },
+        "kitti": {"score": {"f_measure": 0.8, "precision": 0.9, "recall": 0.7, "iou": 0.66}},
+    }
+
+
+def test_real_frames_eval_writes_end_to_end_metrics_into_the_card(tmp_path: Path) -> None:
+    """The numbers `auto` compares come from one run: the model's and the classical backend's."""
+    import shutil
+
+    from superlane_tools.scene.backends import REAL_METRIC
+    from superlane_tools.scene.model_card import load_card
+    from superlane_tools.scene.onnx_backend import resolve_model
+
+    pipeline = _load_pipeline()
+    model, card = resolve_model("super_seg_v3")
+    shutil.copy(model, tmp_path / "m.onnx")
+    shutil.copy(card, tmp_path / "m.card.yaml")
+    spec = f"onnx={tmp_path / 'm.onnx'}"
+    results = {"classical": _chain_result(0.7), pipeline.backend_args(spec)[0]: _chain_result(0.8)}
+    assert pipeline.update_cards(results, ["classical", spec]) == ["super_seg_v3"]
+    metrics = load_card(tmp_path / "m.card.yaml").metrics
+    real = metrics[REAL_METRIC]
+    assert (real["laneeval_accuracy"], real["classical_laneeval_accuracy"]) == (0.8, 0.7)
+    assert real["frames"] == 36
+    assert metrics["kitti_um_000000_fitted_ego_lane"]["f_measure"] == 0.8
+    # Without the classical backend in the same run there is nothing to compare against.
+    assert pipeline.main(["--backends", "onnx", "--update-cards"]) == 2

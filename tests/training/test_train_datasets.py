@@ -77,6 +77,11 @@ def test_parse_data_arg_and_yaml_list(tmp_path: Path) -> None:
     listing.write_text("datasets:\n  - {reader: camvid, folder: x, split: test}\n", "utf-8")
     with pytest.raises(TrainingError, match="split"):
         load_dataset_list(listing)
+    listing.write_text("datasets:\n  - {reader: tusimple, folder: t, expand_m: 0.5}\n", "utf-8")
+    assert load_dataset_list(listing)[0].expand_m == 0.5
+    listing.write_text("datasets:\n  - {reader: camvid, folder: c, expand_m: 0.5}\n", "utf-8")
+    with pytest.raises(TrainingError, match="expand_m"):
+        load_dataset_list(listing)
 
 
 def test_tusimple_reader_on_real_frames(realdata: Path) -> None:
@@ -101,6 +106,26 @@ def test_tusimple_reader_on_real_frames(realdata: Path) -> None:
     assert set(np.unique(corridor)) == {0, 1, CORRIDOR_IGNORE}
     assert (corridor[-1] == 1).any()
     assert (corridor[0] == CORRIDOR_IGNORE).all()
+
+
+def test_tusimple_expansion_labels_the_shoulder_next_to_the_outer_lines(realdata: Path) -> None:
+    folder = realdata / "tusimple" / "train_frames"
+    size = (512, 288)
+    plain = load_set(DatasetSpec("tusimple", folder, split="val"), "segmentation", size, 4)
+    wide = load_set(
+        DatasetSpec("tusimple", folder, split="val", expand_m=0.6), "segmentation", size, 4
+    )
+    assert plain.codes is not None
+    assert wide.codes is not None
+    road, marking = NODE_CODES["road"], NODE_CODES["lane_marking"]
+    # The markings are the same; void next to the outer lines becomes road, nothing else changes.
+    np.testing.assert_array_equal(wide.codes == marking, plain.codes == marking)
+    changed = wide.codes != plain.codes
+    assert changed.any()
+    assert (plain.codes[changed] == 0).all()
+    assert (wide.codes[changed] == road).all()
+    # The band is narrow: a small share of the void becomes road.
+    assert changed.sum() < 0.2 * (plain.codes == 0).sum()
 
 
 def test_camvid_reader_trains_levels_one_and_two_only(realdata: Path) -> None:
