@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Regenerate the structure of the SUPER paper's Table 2 (TuSimple) and Table 4 (KITTI ego lane,
 # BEV) plus the Fig. 9 ego/3-lane modes on the real frames of ../shared/data, with the shipped
-# segmentation model (onnx:super_seg_v2) and the SUPER lane fit. Writes reports/paper_tables/.
+# simulator-trained segmentation model (onnx:super_seg_v2: the default super_seg_v4 trained on 99 of
+# these 129 TuSimple frames) and the SUPER lane fit. Writes reports/paper_tables/.
 #
 # Usage: pipelines/paper_tables_real.sh [DATA] [WORK] [OUT]
 #   DATA defaults to $SLT_REALDATA or ../shared/data; WORK to a fresh temporary folder; OUT to
@@ -20,7 +21,7 @@ N=$(grep -c raw_file "$LABELS")  # labelled frames
 run() { echo "+ $*" >&2; "$@"; }
 
 # TuSimple: 129 real frames (each the labelled 20th frame of a different 0313 clip)
-run slt segment "$DATA/tusimple/train_frames" --out "$WORK/seg" --backend onnx --camera tusimple
+run slt segment "$DATA/tusimple/train_frames" --out "$WORK/seg" --backend onnx --model super_seg_v2 --camera tusimple
 for sc in sc "no sc"; do
   for sq in "no sq" sq; do
     tag="${sc// /}_${sq// /}"
@@ -45,7 +46,7 @@ done
 
 # KITTI um_000000: ego lane in the bird's-eye view
 ln -sf "$DATA/kitti_road/image_um_000000.png" "$WORK/kitti_frames/um_000000.png"
-run slt segment "$WORK/kitti_frames" --out "$WORK/kseg" --backend onnx --camera kitti
+run slt segment "$WORK/kitti_frames" --out "$WORK/kseg" --backend onnx --model super_seg_v2 --camera kitti
 for sc in sc "no sc"; do
   tag="${sc// /}"
   fit=(slt lanes fit "$WORK/kseg" --camera kitti --out "$WORK/klanes_$tag.parquet")

@@ -1,4 +1,4 @@
-"""Rebuild, evaluate and (optionally) ship the v3 scene models: segmentation and ego corridor.
+"""Rebuild, evaluate and (optionally) ship the scene models: super_seg_v4 and ego_corridor_v3.
 
 Steps, all seeded:
 
@@ -7,11 +7,13 @@ Steps, all seeded:
 2. Train both networks with ``slt train`` (run as subprocesses, at the same time, one torch
    thread each) on the heterogeneous recipe:
 
-   * segmentation: TuSimple ``train_frames`` (all but the last 30 frames, weight 0.45), CamVid
-     ``train`` (weight 0.2, levels 1-2 only: its road includes the markings) and the simulator
-     (weight 0.35); 600 steps of 8 random 320x192 windows of 512x288 frames (scale, roll, pitch,
-     flip, photometric, shadow, blur, JPEG, noise); cross-entropy per head + lane-marking Dice
-     in 3 row bands;
+   * segmentation, two stages: TuSimple ``train_frames`` (all but the last 30 frames, weight
+     0.45), CamVid ``train`` (weight 0.2, levels 1-2 only: its road includes the markings) and
+     the simulator (weight 0.35); 3600 steps of 8 random 320x192 windows of 512x288 frames
+     (scale, roll, pitch, flip, photometric, shadow, blur, JPEG, noise), cross-entropy per head
+     + lane-marking Dice in 3 row bands; then 1000 steps from those weights (lr 0.0015, seed 1)
+     with the TuSimple markings' vicinity labelled road (``expand_m: 0.6``, SUPER II-B), from a
+     dataset list written into ``--work``. Without real data: the first stage on the simulator;
    * corridor: TuSimple ego lanes (weight 0.5) and the simulator (0.5), 900 steps of 8 full
      652x360 frames, BCE + Dice, unknown far-field rows masked.
 
@@ -19,7 +21,8 @@ Steps, all seeded:
    of TuSimple ``train_frames`` and the 6 of ``tusimple/frames``): lane-marking support of the
    segmentation and corridor IoU against the labelled ego lane; CamVid ``val`` level-1 / level-2
    mIoU; KITTI ``um_000000`` ego-lane IoU; onnxruntime ms per frame on one thread. The numbers go
-   into the model cards. The end-to-end LaneEval chain is ``pipelines/real_frames_eval.py``.
+   into the model cards. The end-to-end LaneEval chain is ``pipelines/real_frames_eval.py``
+   (``--update-cards`` writes its numbers into the cards).
 4. ``--ship``: copy models and cards into ``superlane_tools/models/``.
 
 ``--quick`` runs the same steps on a few frames and steps (CI). ``--device cuda`` trains on a GPU.
@@ -39,6 +42,7 @@ import shlex
 import shutil
 import subprocess
 import sys
+import threading
 import time
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -47,7 +51,9 @@ from typing import Any
 REPO = Path(__file__).resolve().parents[1]
 SLT = str(Path(sys.executable).with_name("slt"))
 TEST_SEED, TRAIN_SEED, MODEL_SEED = 99, 11, 0
-SEG_NAME, COR_NAME = "super_seg_v3", "ego_corridor_v3"
+SEG_NAME, COR_NAME = "super_seg_v4", "ego_corridor_v3"
+EXPAND_M = 0.6
+"""Road band on each side of a TuSimple marking in the second segmentation stage, metres."""
 
 
 @dataclass(frozen=True)
@@ -58,13 +64,14 @@ class Plan:
     test_frames: int
     image_size: tuple[int, int]
     seg_steps: int
+    seg_expand_steps: int
     cor_steps: int
     batch: int
     max_frames: int | None
 
 
-FULL = Plan(400, 40, (640, 360), 600, 900, 8, None)
-QUICK = Plan(4, 2, (256, 144), 2, 2, 2, 2)
+FULL = Plan(400, 40, (640, 360), 3600, 1000, 900, 8, None)
+QUICK = Plan(4, 2, (256, 144), 2, 2, 2, 2, 2)
 
 
 def _size(size: tuple[int, int]) -> str:
@@ -82,45 +89,81 @@ def make_dataset(folder: Path, frames: int, seed: int, size: tuple[int, int]) ->
     return shlex.join(["slt", *command])
 
 
+def expand_list(realdata: Path, sim: Path, work: Path) -> Path:
+    """Write the second segmentation stage's dataset list (TuSimple with ``expand_m``)."""
+    path = work / "datasets_expand.yaml"
+    rows = [
+        f"  - {{reader: tusimple, folder: {realdata / 'tusimple' / 'train_frames'}, "
+        f"weight: 0.45, expand_m: {EXPAND_M}}}",
+        f"  - {{reader: camvid, folder: {realdata / 'camvid'}, weight: 0.2}}",
+        f"  - {{reader: sim, folder: {sim}, weight: 0.35}}",
+    ]
+    path.write_text("datasets:\n" + "\n".join(rows) + "\n", encoding="utf-8")
+    return path
+
+
 def train_commands(
-    sim: Path, realdata: Path | None, out: Path, plan: Plan, device: str
-) -> dict[str, list[str]]:
-    """Return the ``slt train`` argument lists of both models."""
+    sim: Path, realdata: Path | None, out: Path, work: Path, plan: Plan, device: str
+) -> dict[str, list[list[str]]]:
+    """Return each model's ``slt train`` argument lists, run one after another."""
     seg_data = [f"sim:0.35={sim}"]
     cor_data = [f"sim:0.5={sim}"]
     if realdata is not None:
         tusimple = realdata / "tusimple" / "train_frames"
         seg_data = [f"tusimple:0.45={tusimple}", f"camvid:0.2={realdata / 'camvid'}", *seg_data]
         cor_data = [f"tusimple:0.5={tusimple}", *cor_data]
-    common = ["--batch", str(plan.batch), "--seed", str(MODEL_SEED), "--threads", "1"]
-    common += ["--device", device]
+    common = ["--batch", str(plan.batch), "--threads", "1", "--device", device]
     if plan.max_frames is not None:
         common += ["--max-frames", str(plan.max_frames)]
+    seg_model = out / f"{SEG_NAME}.onnx"
+    stage1 = work / f"{SEG_NAME}_stage1.onnx" if realdata is not None else seg_model
+    shape = ["--size", "512x288", "--crop", "320x192", "--dice-bands", "3"]
     seg = ["train", "segmentation", *(a for d in seg_data for a in ("--data", d))]
-    seg += ["--out", str(out / f"{SEG_NAME}.onnx"), "--steps", str(plan.seg_steps), "--lr", "0.003"]
-    seg += ["--size", "512x288", "--crop", "320x192", "--dice-bands", "3", *common]
+    seg += ["--out", str(stage1), "--steps", str(plan.seg_steps), "--lr", "0.003", *shape]
+    seg += ["--seed", str(MODEL_SEED), *common]
+    seg_stages = [seg]
+    if realdata is not None:
+        listing = expand_list(realdata, sim, work)
+        init = stage1.with_name(stage1.name.removesuffix(".onnx") + ".ckpt.pt")
+        expand = ["train", "segmentation", "--datasets", str(listing), "--out", str(seg_model)]
+        expand += ["--steps", str(plan.seg_expand_steps), "--lr", "0.0015", *shape]
+        expand += ["--seed", str(MODEL_SEED + 1), "--init", str(init), *common]
+        seg_stages.append(expand)
     cor = ["train", "corridor", *(a for d in cor_data for a in ("--data", d))]
     cor += ["--out", str(out / f"{COR_NAME}.onnx"), "--steps", str(plan.cor_steps), "--lr", "0.002"]
-    cor += ["--size", "652x360", *common]
-    return {"segmentation": seg, "corridor": cor}
+    cor += ["--size", "652x360", "--seed", str(MODEL_SEED), *common]
+    return {"segmentation": seg_stages, "corridor": [cor]}
 
 
-def run_training(commands: dict[str, list[str]], work: Path) -> dict[str, Any]:
-    """Run the training commands at once (one process each); return wall times."""
+def _run_stages(task: str, stages: list[list[str]], work: Path, env: dict[str, str]) -> int:
+    """Run one model's training commands in order into ``work/train_<task>.log``."""
+    with (work / f"train_{task}.log").open("w", encoding="utf-8") as log:
+        for args in stages:
+            code = subprocess.run([SLT, *args], stdout=log, stderr=log, env=env, check=False)
+            if code.returncode != 0:
+                return code.returncode
+    return 0
+
+
+def run_training(commands: dict[str, list[list[str]]], work: Path) -> dict[str, Any]:
+    """Train the models at once (one process chain each); return wall times."""
     env = {**os.environ, "OMP_NUM_THREADS": "1"}
-    procs = {}
     start = time.perf_counter()
-    for task, args in commands.items():
-        log = (work / f"train_{task}.log").open("w", encoding="utf-8")
-        procs[task] = (subprocess.Popen([SLT, *args], stdout=log, stderr=log, env=env), log)
     timings: dict[str, Any] = {}
-    for task, (proc, log) in procs.items():
-        code = proc.wait()
-        log.close()
+
+    def run(task: str) -> None:
+        code = _run_stages(task, commands[task], work, env)
         timings[task] = {"wall_seconds": round(time.perf_counter() - start, 1), "exit": code}
-        if code != 0:
+
+    threads = [threading.Thread(target=run, args=(task,)) for task in commands]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    for task, timing in timings.items():
+        if timing["exit"] != 0:
             tail = (work / f"train_{task}.log").read_text(encoding="utf-8")[-2000:]
-            raise RuntimeError(f"slt train {task} failed ({code}):\n{tail}")
+            raise RuntimeError(f"slt train {task} failed ({timing['exit']}):\n{tail}")
     return timings
 
 
@@ -156,7 +199,8 @@ def evaluate(seg: Path, cor: Path, test: Path, realdata: Path | None) -> dict[st
     return {k: {"metrics": v.metrics, "ms_per_frame": v.ms_per_frame} for k, v in results.items()}
 
 
-def _record_pipeline(model: Path, timing: dict[str, Any]) -> None:
+def record_pipeline(model: Path, timing: dict[str, Any], first_stage: Path | None = None) -> None:
+    """Add the pipeline command, its wall time and any first training stage to a model's card."""
     from superlane_tools.scene.model_card import card_path_for, load_card, write_card
 
     card_path = card_path_for(model)
@@ -167,6 +211,11 @@ def _record_pipeline(model: Path, timing: dict[str, Any]) -> None:
         "pipeline_command": f"python pipelines/train_models.py {argv}".strip(),
         "pipeline_wall_seconds": timing.get("wall_seconds"),
     }
+    if first_stage is not None and card_path_for(first_stage).is_file():
+        first = load_card(card_path_for(first_stage)).training
+        training["first_stage"] = {
+            key: first.get(key) for key in ("training_command", "steps", "train_seconds")
+        }
     write_card(replace(card, training=training), card_path)
 
 
@@ -210,15 +259,20 @@ def main(argv: list[str] | None = None) -> int:
         }
     }
     realdata = args.realdata if (args.realdata / "tusimple" / "train_frames").is_dir() else None
-    commands = train_commands(sim, realdata, args.out, plan, args.device)
+    commands = train_commands(sim, realdata, args.out, args.work, plan, args.device)
     commands = {t: c for t, c in commands.items() if args.task in (t, "both")}
-    results["commands"].update({t: shlex.join(["slt", *c]) for t, c in commands.items()})
+    results["commands"].update(
+        {t: " && ".join(shlex.join(["slt", *c]) for c in stages) for t, stages in commands.items()}
+    )
     seg, cor = args.out / f"{SEG_NAME}.onnx", args.out / f"{COR_NAME}.onnx"
     if not args.no_train:
         print("training: " + " ; ".join(results["commands"][t] for t in commands), flush=True)
         timings = run_training(commands, args.work)
         for task, timing in timings.items():
-            _record_pipeline(seg if task == "segmentation" else cor, timing)
+            if task == "segmentation":
+                record_pipeline(seg, timing, args.work / f"{SEG_NAME}_stage1.onnx")
+            else:
+                record_pipeline(cor, timing)
         results["training"] = timings
     if not args.no_eval:
         results.update(evaluate(seg, cor, test, realdata))

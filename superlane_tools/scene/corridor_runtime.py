@@ -25,7 +25,7 @@ class OnnxCorridorModel:
     """Run a carded ego-corridor ONNX model.
 
     Args:
-        model: Model file path or bundled model name (default ``ego_corridor_v2``).
+        model: Model file path or bundled model name (default ``ego_corridor_v3``).
         threads: onnxruntime intra-op threads.
 
     Raises:

@@ -118,18 +118,18 @@ def test_card_rejects_heads_off_the_hierarchy(models: dict[str, Path], tmp_path:
 
 def test_shipped_models_match_their_cards() -> None:
     backend = OnnxSegmentationBackend()  # the default model, verified against its card
-    assert backend.card.name == DEFAULT_SEGMENTATION_MODEL == "super_seg_v2"
+    assert backend.card.name == DEFAULT_SEGMENTATION_MODEL == "super_seg_v4"
     assert backend.card.input.shape == (1, 3, 288, 512)
     image, _, _ = toy_frame(np.random.default_rng(5), 320, 180)
     assert backend.segment(image).shape == (180, 320)
     runtime = OnnxCorridorModel()  # the default corridor model
-    assert runtime.card.name == DEFAULT_CORRIDOR_MODEL == "ego_corridor_v2"
+    assert runtime.card.name == DEFAULT_CORRIDOR_MODEL == "ego_corridor_v3"
     assert runtime.card.input.shape == (1, 1, 360, 652)
     assert runtime.card.parameters < 1_000_000
     assert runtime.probability(image).shape == (180, 320)
 
 
-@pytest.mark.parametrize("model", ["super_seg_v1", "super_seg_v2", "super_seg_v3"])
+@pytest.mark.parametrize("model", ["super_seg_v1", "super_seg_v2", "super_seg_v3", "super_seg_v4"])
 def test_shipped_segmentation_graphs_stop_at_half_resolution(model: str) -> None:
     backend = OnnxSegmentationBackend(model)
     outputs = backend.model.session.get_outputs()
