@@ -12,7 +12,10 @@ point). Rasterised here, at any target size:
   at the bottom, from the highest row both are labelled down to the bottom; rows above it are
   unknown (``CORRIDOR_IGNORE``).
 
-Pixels outside the road stay void: TuSimple does not say what they are.
+Pixels outside the road stay void: TuSimple does not say what they are. Optionally
+(``expand_m``) a band on each side of every marking becomes road too, as the SUPER paper does for
+Apollo's marking labels (II-B); TuSimple has no occluder labels, so unlike the paper's Apollo
+preprocessing a vehicle beside a marking is not cut out of that band.
 """
 
 from __future__ import annotations
