@@ -139,9 +139,9 @@ def _run_stages(task: str, stages: list[list[str]], work: Path, env: dict[str, s
     """Run one model's training commands in order into ``work/train_<task>.log``."""
     with (work / f"train_{task}.log").open("w", encoding="utf-8") as log:
         for args in stages:
-            code = subprocess.run([SLT, *args], stdout=log, stderr=log, env=env, check=False)
-            if code.returncode != 0:
-                return code.returncode
+            proc = subprocess.run([SLT, *args], stdout=log, stderr=log, env=env, check=False)
+            if proc.returncode != 0:
+                return proc.returncode
     return 0
 
 
