@@ -13,7 +13,7 @@ from superlane_tools.cli._common import (
     camera_option,
     cli_errors,
     command_line,
-    err_console,
+    note,
     progress,
     report_skipped,
 )
@@ -132,9 +132,7 @@ def _run(
         models={runtime.card.name: runtime.sha256},
     )
     write_table(pd.DataFrame(rows), out / "corridor.parquet", provenance)
-    err_console.print(
-        f"slt: wrote {len(rows)} corridor maps with {runtime.name} into {out}", markup=False
-    )
+    note(f"wrote {len(rows)} corridor maps with {runtime.name} into {out}")
     return report_skipped(skipped)
 
 

@@ -17,6 +17,7 @@ from superlane_tools.cli._common import (
     command_line,
     console,
     exit_with,
+    note,
     progress,
     report_skipped,
 )
@@ -142,8 +143,8 @@ def reprocess_cmd(
                 f"({sum(added.values())} messages)",
                 markup=False,
             )
-    for note in result.notes:
-        console.print(f"note: {note}", markup=False, soft_wrap=True)
+    for line in result.notes:
+        note(line)
     t = result.timings
     stages = ", ".join(f"{k} {v:.1f} s" for k, v in t.items() if k != "total")
     console.print(

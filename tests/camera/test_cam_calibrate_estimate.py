@@ -32,7 +32,7 @@ def test_udacity_chessboards_calibrate_into_a_profile(realdata: Path, tmp_path: 
     result = runner.invoke(
         app, ["camera", "calibrate", str(folder), "--board", "9x6", "-o", str(out)]
     )
-    assert result.exit_code == 0, result.output
+    assert result.exit_code == 3, result.output  # a profile, but some photos were not used
     data = yaml.safe_load(out.read_text(encoding="utf-8"))
     cal = data["calibration"]
     assert 0.1 < cal["reprojection_rms_px"] < 1.5
@@ -44,7 +44,13 @@ def test_udacity_chessboards_calibrate_into_a_profile(realdata: Path, tmp_path: 
     assert abs(k.fx - k.fy) / k.fx < 0.02
     assert k.dist[0] < -0.1  # a dashcam's barrel distortion
     assert "reprojection error" in result.stderr
-    assert "skipped: calibration1.jpg" in result.stderr  # a corner is cut off in that photo
+    skipped = [line for line in result.stderr.splitlines() if line.startswith("slt: skipped:")]
+    assert len(skipped) == 2, result.stderr  # one line per kind, with a count
+    no_board = "slt: skipped: photos, no complete 9x6 board found (3): "
+    assert skipped[0].startswith(no_board), skipped  # a corner is cut off in these photos
+    assert "calibration1.jpg" in skipped[0]
+    assert "(2): " in skipped[1]  # 1281x721 photos among 1280x720
+    assert cal["views_used"] == 20 - 5
 
 
 def test_calibration_needs_boards(tmp_path: Path) -> None:
