@@ -167,19 +167,18 @@ def _run(
     from superlane_tools.lanes import FitParams
     from superlane_tools.lanes.multilane_fit import warm_up_in_background
     from superlane_tools.reporting.run_folder import staged_run
+    from superlane_tools.reporting.run_layout import RunLayout
 
     warm_up_in_background(FitParams.from_dict(dict(getattr(cfg, "fit", {}))).backend, compiler)
     added: dict[str, int] | None = None
     with staged_run(target) as stage:  # the whole run appears at once, or not at all
         with progress("reprocess", unit="frames") as bar:
             result = reprocess(recording, stage, cfg, progress=bar.update, command=command_line())
-        annotations = stage / "annotations.mcap"
-        if with_signals and annotations.is_file():
+        layout = RunLayout(stage)
+        if with_signals and layout.annotations.is_file():
             from superlane_tools.reporting.annotations import add_signals
 
-            added = add_signals(
-                annotations, stage / "can_signals.parquet", stage / "curvature.parquet"
-            )
+            added = add_signals(layout.annotations, layout.can_signals, layout.curvature)
     return result, added
 
 

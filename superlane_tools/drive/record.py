@@ -22,7 +22,7 @@ from superlane_tools.drive.stages import Finished
 from superlane_tools.lanes.table import fit_row
 from superlane_tools.lanes.tracker import COV_INDEX
 from superlane_tools.reporting import ParquetStreamWriter, Provenance
-from superlane_tools.reporting import drive_tables as tables
+from superlane_tools.reporting.run_layout import STAGES, STREAMED_SCHEMAS
 
 FloatArray = NDArray[np.float64]
 FLUSH_ROWS = 256
@@ -77,7 +77,7 @@ class Corridors:
     hough_length_m: FloatArray
 
     def by_method(self) -> dict[str, tuple[FloatArray, FloatArray]]:
-        """Return method -> (width, length), in :data:`drive_tables.METHODS` order."""
+        """Return method -> (width, length), in ``reporting.drive_tables.METHODS`` order."""
         return {
             "super": (self.super_width_m, self.super_length_m),
             "corridor_net": (self.net_width_m, self.net_length_m),
@@ -127,7 +127,7 @@ class DriveFrames:
         decoded: Whether each frame's image could be decoded.
         corridors: Corridor geometry of each method.
         fit: The SUPER fit series.
-        stage_s: ``(n, len(STAGES))`` wall seconds per stage (:data:`drive_tables.STAGES`).
+        stage_s: ``(n, len(STAGES))`` wall seconds per stage (``run_layout.STAGES``).
         stage_cpu_s: The same in thread CPU seconds.
     """
 
@@ -149,8 +149,8 @@ class DriveFrames:
     def stage_totals(self) -> dict[str, float]:
         """Return seconds per stage summed over frames: ``<stage>`` wall, ``cpu_<stage>`` CPU."""
         wall, cpu = self.stage_s.sum(axis=0), self.stage_cpu_s.sum(axis=0)
-        out = {s: float(wall[k]) for k, s in enumerate(tables.STAGES)}
-        out.update({f"cpu_{s}": float(cpu[k]) for k, s in enumerate(tables.STAGES)})
+        out = {s: float(wall[k]) for k, s in enumerate(STAGES)}
+        out.update({f"cpu_{s}": float(cpu[k]) for k, s in enumerate(STAGES)})
         return out
 
 
@@ -180,8 +180,8 @@ def no_camera_frames(t_ns: np.ndarray) -> DriveFrames:
             trackable=np.zeros(n, dtype=bool),
             cov=np.full((n, 3, 3), np.nan),
         ),
-        stage_s=np.zeros((n, len(tables.STAGES))),
-        stage_cpu_s=np.zeros((n, len(tables.STAGES))),
+        stage_s=np.zeros((n, len(STAGES))),
+        stage_cpu_s=np.zeros((n, len(STAGES))),
     )
 
 
@@ -200,8 +200,8 @@ def frame_rows(done: Finished, corridor_status: str, mean_frames: int) -> dict[s
         "process_height": ph,
         "ok": not prep.error,
         "error": prep.error,
-        **{f"{s}_ms": prep.seconds.get(s, 0.0) * 1e3 for s in tables.STAGES},
-        **{f"{s}_cpu_ms": prep.cpu_seconds.get(s, 0.0) * 1e3 for s in tables.STAGES},
+        **{f"{s}_ms": prep.seconds.get(s, 0.0) * 1e3 for s in STAGES},
+        **{f"{s}_cpu_ms": prep.cpu_seconds.get(s, 0.0) * 1e3 for s in STAGES},
     }
     lanes = {
         "frame_index": prep.index,
@@ -274,12 +274,7 @@ class DriveRecorder:
         mean_frames: int,
         max_slope: float,
     ) -> None:
-        specs = {
-            "frames": tables.FRAMES_SCHEMA,
-            "lanes": tables.LANES_SCHEMA,
-            "corridor": tables.CORRIDOR_SCHEMA,
-            "baseline": tables.BASELINE_SCHEMA,
-        }
+        specs = STREAMED_SCHEMAS
         self.writers = {
             name: stack.enter_context(ParquetStreamWriter(files[name], schema, provenance))
             for name, schema in specs.items()
@@ -291,8 +286,8 @@ class DriveRecorder:
         self._flags = _Rows(2, np.bool_)  # decoded, trackable
         self._values = _Rows(len(_COLUMNS))
         self._cov = _Rows(len(COV_INDEX))
-        self._stage = _Rows(len(tables.STAGES))
-        self._stage_cpu = _Rows(len(tables.STAGES))
+        self._stage = _Rows(len(STAGES))
+        self._stage_cpu = _Rows(len(STAGES))
 
     @property
     def paths(self) -> list[Path]:
@@ -337,8 +332,8 @@ class DriveRecorder:
         self._cov.append(
             tuple(float(cov[i, j]) if cov is not None else math.nan for i, j in COV_INDEX)
         )
-        self._stage.append(tuple(prep.seconds.get(s, 0.0) for s in tables.STAGES))
-        self._stage_cpu.append(tuple(prep.cpu_seconds.get(s, 0.0) for s in tables.STAGES))
+        self._stage.append(tuple(prep.seconds.get(s, 0.0) for s in STAGES))
+        self._stage_cpu.append(tuple(prep.cpu_seconds.get(s, 0.0) for s in STAGES))
 
     def flush(self) -> None:
         """Write the buffered rows."""

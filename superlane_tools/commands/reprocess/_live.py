@@ -10,6 +10,7 @@ import numpy as np
 from superlane_tools.drive.config import ReprocessConfig
 from superlane_tools.drive.examples import lane_drawings, lane_parameters
 from superlane_tools.drive.stages import Finished
+from superlane_tools.reporting.run_layout import RunLayout
 
 
 class LiveOutputs:
@@ -27,12 +28,12 @@ class LiveOutputs:
 
         self.paths: list[Path] = []
         self._ann = (
-            AnnotationWriter(out / "annotations.mcap", camera_topic)
+            AnnotationWriter(RunLayout(out).annotations, camera_topic)
             if config.output.annotations
             else None
         )
         self._video = (
-            OverlayVideo(out / "overlay.mp4", config.output.video_fps or 15.0)
+            OverlayVideo(RunLayout(out).overlay, config.output.video_fps or 15.0)
             if config.output.video
             else None
         )

@@ -1,4 +1,4 @@
-"""The writer of ``slt reprocess``: the derived tables, the plots and the report, by file name."""
+"""The writer of ``slt reprocess``: the derived tables, the plots and the report."""
 
 from __future__ import annotations
 
@@ -11,35 +11,15 @@ from superlane_tools.drive.finalize import DriveTables, ReportFacts, report_sect
 from superlane_tools.reporting import Provenance, write_table
 from superlane_tools.reporting.plots import ExampleFrame
 from superlane_tools.reporting.report import write_report
+from superlane_tools.reporting.run_layout import RunLayout
 
 if TYPE_CHECKING:
     import pandas as pd
 
-STREAMED_FILES = {
-    "frames": "frames.parquet",
-    "lanes": "lanes.parquet",
-    "corridor": "corridor.parquet",
-    "baseline": "baseline.parquet",
-}
-"""Table -> file name of the tables written while the frames stream."""
 
-
-def streamed_files(out: Path) -> dict[str, Path]:
-    """Return the paths of the streamed tables under ``out``."""
-    return {table: out / name for table, name in STREAMED_FILES.items()}
-
-
-def table_files(result: DriveTables) -> dict[str, pd.DataFrame]:
-    """Return output file name -> table."""
-    return {
-        "can_signals.parquet": result.can_signals,
-        "mobileye.parquet": result.mobileye,
-        "rtk.parquet": result.rtk,
-        "curvature.parquet": result.curvature,
-        "curvature_summary.parquet": result.curvature_summary,
-        "availability_frames.parquet": result.availability_frames,
-        "availability_sequences.parquet": result.availability_sequences,
-    }
+def table_files(out: Path, result: DriveTables) -> dict[Path, pd.DataFrame]:
+    """Return output path -> table of the derived tables (named by :class:`RunLayout`)."""
+    return {path: getattr(result, name) for name, path in RunLayout(out).derived().items()}
 
 
 def write_outputs(
@@ -56,17 +36,18 @@ def write_outputs(
     ``rendered``: example plots already written (during the pass), listed after the plots
     drawn here, as :func:`~superlane_tools.reporting.plots.plot_all` orders its own examples.
     """
-    written = [write_table(t, out / name, provenance) for name, t in table_files(result).items()]
+    layout = RunLayout(out)
+    written = [write_table(t, path, provenance) for path, t in table_files(out, result).items()]
     images: list[str] = []
     if config.output.plots:
         from superlane_tools.reporting.plots import plot_all
 
-        pngs = plot_all(result.curvature, result.availability_frames, examples, out / "plots")
+        pngs = plot_all(result.curvature, result.availability_frames, examples, layout.plots)
         pngs += rendered
         written += pngs
         images = [p.relative_to(out).as_posix() for p in pngs]
     written += write_report(
-        out / "report.md",
+        layout.report,
         f"slt reprocess: {report.recording.name}",
         report_sections(config, report, result, images),
     )

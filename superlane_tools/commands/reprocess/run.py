@@ -22,7 +22,7 @@ from superlane_tools.can import load_dbcs
 from superlane_tools.can.collect import CanFrames
 from superlane_tools.commands.reprocess._live import LiveOutputs
 from superlane_tools.commands.reprocess._threads import single_native_threads
-from superlane_tools.commands.reprocess.outputs import streamed_files, write_outputs
+from superlane_tools.commands.reprocess.outputs import write_outputs
 from superlane_tools.commands.reprocess.result import Progress, ReprocessResult
 from superlane_tools.corridor import TimeSegment
 from superlane_tools.drive.config import ReprocessConfig
@@ -39,6 +39,7 @@ from superlane_tools.records import Skipped
 from superlane_tools.reporting import Provenance, input_identity
 from superlane_tools.reporting.gnss_sink import GnssSink
 from superlane_tools.reporting.plots import example_plot
+from superlane_tools.reporting.run_layout import RunLayout
 
 CAN_TYPE, IMU_TYPE = "can_msgs/msg/Frame", "sensor_msgs/msg/Imu"
 """Every topic of these types is read unless ``topics.can`` / ``topics.imu`` names one."""
@@ -107,14 +108,13 @@ def reprocess(
             models=stages.models,
         )
         # 2. One streaming pass: frames through the stages, CAN and GNSS collected.
-        can, imu = CanFrames(), ImuSamples()
-        gnss = GnssSink(None, None, provenance)
+        can, imu, gnss = CanFrames(), ImuSamples(), GnssSink(None, None, provenance)
         example_pngs: list[Future[Path]] = []  # drawn on their own thread during the pass
         failed: list[str] = []
         out.mkdir(parents=True, exist_ok=True)
         with ExitStack() as stack:
             recorder = DriveRecorder(
-                streamed_files(out),
+                RunLayout(out).streamed(),
                 provenance,
                 stack,
                 stages.corridor_unavailable,
@@ -136,7 +136,7 @@ def reprocess(
                     failed.append(f"frame {prep.index}: {prep.error}")
                 if prep.index in wanted_examples and prep.image is not None:
                     example = example_frame(done)
-                    example_pngs.append(plotter.submit(example_plot, example, out / "plots"))
+                    example_pngs.append(plotter.submit(example_plot, example, RunLayout(out).plots))
                 done_count += 1
                 if progress is not None:
                     progress(done_count, total)
