@@ -4,7 +4,7 @@ First level: every top-level unit of the package has a rank; nothing imports a h
 there is no cycle. Second level: inside every package, its modules and subpackages import each
 other without cycles (function-local imports count); the commands rank among themselves (peers
 never import each other); every output file name and schema is written once, in
-``reporting/run_layout.py``.
+``reporting/run_layout.py``; the frame loop lives in ``drive/``; ``cli/`` runs no pipeline.
 ``docs/architecture.md`` lists the same layers (checked here too).
 """
 
@@ -218,6 +218,75 @@ def test_output_schemas_are_defined_once_in_the_run_layout() -> None:
         if path != LAYOUT and (names := _schema_assignments(path))
     }
     assert found == OTHER_SCHEMAS, f"schemas outside reporting/run_layout.py: {found}"
+
+
+def _names_used(path: Path) -> tuple[set[str], set[str]]:
+    """Return the names a file refers to, and the names it calls (``f(...)`` or ``x.f(...)``)."""
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    used: set[str] = set()
+    called: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Name):
+            used.add(node.id)
+        elif isinstance(node, ast.Attribute):
+            used.add(node.attr)
+        elif isinstance(node, ast.alias):
+            used.add(node.name.split(".")[-1])
+        if isinstance(node, ast.Call):
+            func = node.func
+            called.add(func.id if isinstance(func, ast.Name) else getattr(func, "attr", ""))
+    return used, called
+
+
+FRAME_TYPES = {"Prepared", "Finished", "_Loop"}
+"""A frame inside the loop: only ``drive/`` sees one (a new per-frame output is a sink there)."""
+READS = {"messages", "raw_messages", "decode_video"}
+"""Reading a recording's messages: the layers' job (``drive.run_frames``, ``recording``)."""
+
+
+def test_the_frame_loop_lives_in_drive() -> None:
+    loop = (PACKAGE / "drive" / "loop.py").read_text(encoding="utf-8")
+    assert "def run_frames(" in loop
+    assert "class FrameSink(Protocol)" in loop
+    outside = [p for p in PACKAGE.rglob("*.py") if p.relative_to(PACKAGE).parts[0] != "drive"]
+    bad = []
+    for path in outside:
+        used, called = _names_used(path)
+        bad += [f"{path.relative_to(ROOT)}: {n}" for n in sorted(used & FRAME_TYPES)]
+        if path.relative_to(PACKAGE).parts[0] in {"commands", "cli"}:
+            bad += [f"{path.relative_to(ROOT)}: calls {n}" for n in sorted(called & READS)]
+    assert not bad, f"frame-loop work outside drive/: {bad}"
+
+
+CLI_BANNED_MODULES = ("cv2", "numpy", "pandas", "pyarrow")
+CLI_BANNED_NAMES = {
+    "write_table",
+    "ParquetStreamWriter",
+    "staged_run",
+    "add_signals",
+    "warm_up_in_background",
+    "FrameStages",
+    "run_frames",
+    "OnnxCorridorModel",
+    "corridor_from_mask",
+}
+"""What a pipeline is made of: writers, staging, stages. ``cli/`` calls one command instead."""
+
+
+def test_the_cli_runs_no_pipeline() -> None:
+    bad = []
+    for path in sorted((PACKAGE / "cli").glob("*.py")):
+        imported = _imported(path)
+        bad += [
+            f"{path.name}: imports {'.'.join(name)}"
+            for name in imported
+            if name[0] in CLI_BANNED_MODULES
+            or name[:2] == ["superlane_tools", "drive"]
+            or name[-1] in CLI_BANNED_NAMES
+        ]
+        used, _ = _names_used(path)
+        bad += [f"{path.name}: uses {n}" for n in sorted(used & CLI_BANNED_NAMES)]
+    assert not bad, f"pipeline code in cli/ (move it to commands/): {bad}"
 
 
 def test_architecture_page_lists_every_layer() -> None:
