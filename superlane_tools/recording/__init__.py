@@ -4,6 +4,17 @@ from superlane_tools.recording.base import Recording, SupportsStampPeek
 from superlane_tools.recording.convert import ConvertConfig, ConvertInput, convert
 from superlane_tools.recording.errors import RecordingError
 from superlane_tools.recording.open import open_recording
+from superlane_tools.recording.scan import (
+    Loss,
+    RecordingScan,
+    ScanChannel,
+    ScannedMessage,
+    ScanSchema,
+    TopicLoss,
+    scan_mcap,
+    scan_recording,
+    scan_ros1,
+)
 from superlane_tools.recording.summary import RecordingSummary, TopicSummary, summarize
 from superlane_tools.recording.times import TimeSpec, parse_time
 from superlane_tools.recording.typestore import default_typestore
@@ -23,12 +34,18 @@ from superlane_tools.recording.writers import (
 __all__ = [
     "ConvertConfig",
     "ConvertInput",
+    "Loss",
     "Recording",
     "RecordingError",
+    "RecordingScan",
     "RecordingSummary",
     "RecordingWriter",
+    "ScanChannel",
+    "ScanSchema",
+    "ScannedMessage",
     "SupportsStampPeek",
     "TimeSpec",
+    "TopicLoss",
     "TopicSummary",
     "VideoDecoder",
     "VideoEncoder",
@@ -40,6 +57,9 @@ __all__ = [
     "open_writer",
     "parse_time",
     "read_with_video",
+    "scan_mcap",
+    "scan_recording",
+    "scan_ros1",
     "summarize",
     "write_protobuf_mcap",
 ]
