@@ -5,19 +5,13 @@ from __future__ import annotations
 import heapq
 import queue
 from collections import deque
-from collections.abc import Collection, Iterator
+from collections.abc import Collection, Hashable, Iterator, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from itertools import pairwise
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, BinaryIO
+from typing import TYPE_CHECKING, Any, BinaryIO, cast
 
-from superlane_tools.recording._mcap_decode import (
-    DecodeFailureError,
-    Decoder,
-    McapDecoders,
-    header_first,
-    msgtype_name,
-)
+from superlane_tools.recording._mcap_decode import McapDecoders, header_first, msgtype_name
 from superlane_tools.recording._mcap_scan import (
     MCAP_MAGIC,
     RECORD_PREFIX,
@@ -27,17 +21,18 @@ from superlane_tools.recording._mcap_scan import (
     walk_data_section,
 )
 from superlane_tools.recording.base import (
-    ClosingRecording,
     SkipLog,
     in_range,
     raw_header_stamp_ns,
     stamp_ns_of,
     storable_time,
 )
+from superlane_tools.recording.decoding import Decode, RawSource
 from superlane_tools.recording.errors import RecordingError
-from superlane_tools.records import Message, RawMessage, Skipped, TopicInfo
+from superlane_tools.records import RawMessage, Skipped, TopicInfo
 
 if TYPE_CHECKING:
+    from mcap.decoder import DecoderFactory
     from mcap.records import Channel, Schema
     from mcap.records import Message as McapMessage
     from mcap.summary import Summary
@@ -48,7 +43,7 @@ LOADER_THREADS = 2
 """Threads loading chunks: each one's read, decompression and CRC check release the GIL."""
 
 
-class McapRecording(ClosingRecording):
+class McapRecording(RawSource):
     """An MCAP file opened for streaming (see :class:`~superlane_tools.recording.base.Recording`).
 
     Complete files are read through their chunk index. Files without a usable summary (cut
@@ -57,7 +52,17 @@ class McapRecording(ClosingRecording):
     or compression is broken are skipped and reported; reading continues after them.
     """
 
-    def __init__(self, path: str | Path) -> None:
+    def __init__(self, path: str | Path, decoder_factories: Sequence[DecoderFactory] = ()) -> None:
+        """Open the file and read its index (or scan it when the index is unusable).
+
+        Args:
+            path: The MCAP file.
+            decoder_factories: mcap decoder factories tried before the built-in ones
+                (``mcap_ros2``, ``mcap_ros1``, ``mcap_protobuf``, JSON) when messages are decoded.
+
+        Raises:
+            RecordingError: If the file cannot be opened or is not MCAP.
+        """
         self.path = Path(path)
         try:
             self._file = self.path.open("rb")
@@ -70,7 +75,7 @@ class McapRecording(ClosingRecording):
         self._counts: dict[int, int] | None = None
         self._chunks: list[ChunkRef] = []
         self._loose_messages = False
-        self._decoders = McapDecoders()
+        self._decoders = McapDecoders(decoder_factories)
         self._header_first: dict[int, bool] = {}
         self._summary: Summary | None = None
         self.indexed = False
@@ -160,58 +165,32 @@ class McapRecording(ClosingRecording):
                 by_topic[channel.topic] = known._replace(message_count=known.message_count + count)
         return [by_topic[name] for name in sorted(by_topic)]
 
-    def raw_messages(
-        self,
-        topics: Collection[str] | None = None,
-        start_ns: int | None = None,
-        stop_ns: int | None = None,
-    ) -> Iterator[RawMessage]:
-        """Yield undecoded messages in log-time order, ``[start_ns, stop_ns)``."""
-        for channel, msg in self._records(topics, start_ns, stop_ns):
-            schema = self._schemas.get(channel.schema_id)
-            yield RawMessage(
-                channel.topic,
-                msg.log_time,
-                msgtype_name(schema, channel.message_encoding),
-                channel.message_encoding,
-                msg.data,
-            )
+    def _pass_skips(self) -> SkipLog:
+        return self._iter_skips
 
-    def messages(
-        self,
-        topics: Collection[str] | None = None,
-        start_ns: int | None = None,
-        stop_ns: int | None = None,
-    ) -> Iterator[Message]:
-        """Yield decoded messages in log-time order; undecodable ones are counted as skipped."""
-        per_channel: dict[int, tuple[str, Decoder | DecodeFailureError]] = {}
+    def _keyed_raw(
+        self, topics: Collection[str] | None, start_ns: int | None, stop_ns: int | None
+    ) -> Iterator[tuple[Hashable, RawMessage]]:
+        """Yield ``(channel id, raw message)`` in log-time order, ``[start_ns, stop_ns)``."""
+        msgtypes: dict[int, str] = {}
         for channel, msg in self._records(topics, start_ns, stop_ns):
-            known = per_channel.get(channel.id)
-            if known is None:  # look the type and decoder up once per channel, not per message
+            msgtype = msgtypes.get(channel.id)
+            if msgtype is None:
                 schema = self._schemas.get(channel.schema_id)
-                try:
-                    found: Decoder | DecodeFailureError = self._decoders.decoder_for(
-                        channel.message_encoding, schema
-                    )
-                except DecodeFailureError as err:
-                    found = err
-                known = per_channel[channel.id] = (
-                    msgtype_name(schema, channel.message_encoding),
-                    found,
-                )
-            msgtype, decoder = known
-            if isinstance(decoder, DecodeFailureError):
-                self._iter_skips.add("unknown message type", f"{channel.topic}: {decoder}")
-                continue
-            try:
-                data = decoder(msg.data)
-            except Exception as err:  # one bad payload must not end the stream
-                self._iter_skips.add(
-                    "undecodable message",
-                    f"{channel.topic} ({msgtype}): {type(err).__name__}",
-                )
-                continue
-            yield Message(channel.topic, msg.log_time, stamp_ns_of(data), msgtype, data)
+                msgtype = msgtypes[channel.id] = msgtype_name(schema, channel.message_encoding)
+            raw = RawMessage(
+                channel.topic, msg.log_time, msgtype, channel.message_encoding, msg.data
+            )
+            yield channel.id, raw
+
+    def _decoder_for(self, key: Hashable, raw: RawMessage) -> Decode:
+        """Return the decoder of channel ``key`` (mcap decoder factories, then the fallbacks)."""
+        del raw
+        channel = self._channels[cast("int", key)]
+        decode = self._decoders.decoder_for(
+            channel.message_encoding, self._schemas.get(channel.schema_id)
+        )
+        return lambda raw: decode(raw.payload)
 
     def peek_stamp_ns(self, raw: RawMessage) -> int | None:
         """Return the header stamp of ``raw`` (ns) reading as little of it as possible."""
