@@ -178,6 +178,60 @@ class _Parsed(NamedTuple):
     line: str
 
 
+def sentence_fix(kind: str, fields: list[str], t_ns: int) -> NmeaFix:
+    """Build the fix of a GGA or RMC sentence's fields at UTC time ``t_ns``.
+
+    Raises:
+        ValueError: If a field does not parse.
+    """
+    if kind == "RMC":
+        return _fix(t_ns, fields[2:6], 1, float("nan"), -1, "nan", "", gga=False)
+    quality = int(fields[5]) if fields[5] else 0
+    if not 0 <= quality <= 255:
+        raise ValueError(f"fix quality {quality} out of range")
+    sats = int(fields[6]) if fields[6] else -1
+    return _fix(t_ns, fields[1:5], quality, _float(fields[7]), sats, fields[8], fields[10])
+
+
+def decode_nmea_message(raw: RawMessage) -> NmeaFix:
+    """Decode a raw message of an NMEA log: a GGA or RMC sentence whose log time is the fix time.
+
+    Raises:
+        ValueError: If the payload is not a sentence whose fields parse.
+    """
+    match = _SENTENCE.search(raw.payload.decode("ascii"))
+    if match is None:
+        raise ValueError("not an NMEA sentence")
+    return sentence_fix(match[2], match[3].split(","), raw.log_time_ns)
+
+
+def _fix(
+    t_ns: int, coords: list[str], quality: int, hdop: float, sats: int,
+    altitude: str, separation: str, gga: bool = True,
+) -> NmeaFix:  # fmt: skip
+    if quality > 0:
+        lat = _degrees(coords[0], coords[1])
+        lon = _degrees(coords[2], coords[3])
+    else:
+        lat = lon = float("nan")
+    alt = _float(altitude) + (_float(separation) if separation else 0.0)
+    covariance, cov_type = _covariance(hdop, quality)
+    status = _QUALITY.get(quality, (-1, 0.0))[0] if gga else 0
+    stamp = Stamp(t_ns // 1_000_000_000, t_ns % 1_000_000_000)
+    return NmeaFix(
+        header=Header(stamp, "gnss"),
+        status=NavSatStatus(status, SERVICE_GPS),
+        latitude=lat,
+        longitude=lon,
+        altitude=alt,
+        position_covariance=covariance,
+        position_covariance_type=cov_type,
+        gga_quality=quality if gga else -1,
+        hdop=hdop,
+        num_satellites=sats,
+    )
+
+
 class NmeaRecording(RawSource):
     """An NMEA 0183 log as a :class:`~superlane_tools.recording.base.Recording`.
 
@@ -257,7 +311,7 @@ class NmeaRecording(RawSource):
                         last_rmc_tod = tod
                     if self._has_gga or fields[1] != "A":
                         continue
-                    yield self._sentence_fix("RMC", fields, day_start + tod), item.line
+                    yield sentence_fix("RMC", fields, day_start + tod), item.line
                     continue
                 if len(fields) < 11:
                     raise ValueError("short GGA")
@@ -265,58 +319,11 @@ class NmeaRecording(RawSource):
                 start = day_start
                 if last_rmc_tod is not None and tod < last_rmc_tod - _DAY_NS // 2:
                     start += _DAY_NS  # GGA after midnight, before the next RMC
-                yield self._sentence_fix("GGA", fields, start + tod), item.line
+                yield sentence_fix("GGA", fields, start + tod), item.line
             except ValueError as err:
                 self._skips.add(
                     f"unparsable NMEA {item.kind}", f"{self.path.name}: {err}: {item.line[:60]}"
                 )
-
-    def _sentence_fix(self, kind: str, fields: list[str], t_ns: int) -> NmeaFix:
-        """Build the fix of a GGA or RMC sentence's fields at UTC time ``t_ns``.
-
-        Raises:
-            ValueError: If a field does not parse.
-        """
-        if kind == "RMC":
-            return self._fix(t_ns, fields[2:6], 1, float("nan"), -1, "nan", "", gga=False)
-        quality = int(fields[5]) if fields[5] else 0
-        if not 0 <= quality <= 255:
-            raise ValueError(f"fix quality {quality} out of range")
-        sats = int(fields[6]) if fields[6] else -1
-        return self._fix(t_ns, fields[1:5], quality, _float(fields[7]), sats, fields[8], fields[10])
-
-    def _decode_raw(self, raw: RawMessage) -> NmeaFix:
-        """Decode a raw message (a GGA or RMC sentence; its log time is the fix time)."""
-        match = _SENTENCE.search(raw.payload.decode("ascii"))
-        if match is None:
-            raise ValueError("not an NMEA sentence")
-        return self._sentence_fix(match[2], match[3].split(","), raw.log_time_ns)
-
-    def _fix(
-        self, t_ns: int, coords: list[str], quality: int, hdop: float, sats: int,
-        altitude: str, separation: str, gga: bool = True,
-    ) -> NmeaFix:  # fmt: skip
-        if quality > 0:
-            lat = _degrees(coords[0], coords[1])
-            lon = _degrees(coords[2], coords[3])
-        else:
-            lat = lon = float("nan")
-        alt = _float(altitude) + (_float(separation) if separation else 0.0)
-        covariance, cov_type = _covariance(hdop, quality)
-        status = _QUALITY.get(quality, (-1, 0.0))[0] if gga else 0
-        stamp = Stamp(t_ns // 1_000_000_000, t_ns % 1_000_000_000)
-        return NmeaFix(
-            header=Header(stamp, "gnss"),
-            status=NavSatStatus(status, SERVICE_GPS),
-            latitude=lat,
-            longitude=lon,
-            altitude=alt,
-            position_covariance=covariance,
-            position_covariance_type=cov_type,
-            gga_quality=quality if gga else -1,
-            hdop=hdop,
-            num_satellites=sats,
-        )
 
     def topics(self) -> list[TopicInfo]:
         """Return the single ``nmea`` topic (its count is unknown before a pass: None)."""
@@ -342,7 +349,7 @@ class NmeaRecording(RawSource):
     def _decoder_for(self, key: Hashable, raw: RawMessage) -> Decode:
         """Return the sentence parser: messages are :class:`NmeaFix` objects."""
         del key, raw
-        return self._decode_raw
+        return decode_nmea_message
 
     def close(self) -> None:
         """Nothing stays open between iterations; present for the protocol."""
