@@ -174,12 +174,17 @@ def _sentence(body: str) -> str:
     return f"${body}*{checksum:02X}"
 
 
-def test_extract_reports_eleven_bad_checksums_on_one_line(tmp_path: Path) -> None:
+def _bad_checksum_log(tmp_path: Path, n_bad: int = 3) -> Path:
     rmc = "GNRMC,092542.00,A,4846.4008666,N,00854.7249096,E,0.011,,200420,,,R,V"
     gga = "GNGGA,092542.00,4846.4008666,N,00854.7249096,E,4,12,0.47,419.166,M,47.535,M,0.0,0000"
-    bad = [_sentence(gga.replace("092542.00", f"0926{i:02d}.00"))[:-2] + "00" for i in range(11)]
+    bad = [_sentence(gga.replace("092542.00", f"0926{i:02d}.00"))[:-2] + "00" for i in range(n_bad)]
     log = tmp_path / "g.nmea"
     log.write_text("\n".join([_sentence(rmc), _sentence(gga), *bad, ""]))
+    return log
+
+
+def test_extract_reports_eleven_bad_checksums_on_one_line(tmp_path: Path) -> None:
+    log = _bad_checksum_log(tmp_path, 11)
     res = runner.invoke(app, ["extract", str(log), "-o", str(tmp_path / "out")])
     assert res.exit_code == 3, res.output
     skipped = [line for line in res.stderr.splitlines() if line.startswith("slt: skipped:")]
@@ -321,15 +326,6 @@ def _truncated_mcap(tmp_path: Path) -> Path:
     cut = tmp_path / "cut.mcap"
     cut.write_bytes(full.read_bytes()[: full.stat().st_size // 2])
     return cut
-
-
-def _bad_checksum_log(tmp_path: Path) -> Path:
-    rmc = "GNRMC,092542.00,A,4846.4008666,N,00854.7249096,E,0.011,,200420,,,R,V"
-    gga = "GNGGA,092542.00,4846.4008666,N,00854.7249096,E,4,12,0.47,419.166,M,47.535,M,0.0,0000"
-    bad = [_sentence(gga.replace("092542.00", f"0926{i:02d}.00"))[:-2] + "00" for i in range(3)]
-    log = tmp_path / "g.nmea"
-    log.write_text("\n".join([_sentence(rmc), _sentence(gga), *bad, ""]))
-    return log
 
 
 def _images_with_a_broken_one(tmp_path: Path) -> Path:
