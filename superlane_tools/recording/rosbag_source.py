@@ -101,7 +101,7 @@ class RosbagRecording(RawSource):
         for db3 in files:
             try:
                 with contextlib.closing(
-                    sqlite3.connect(f"{db3.resolve().as_uri()}?mode=ro", uri=True)
+                    sqlite3.connect(f"{db3.resolve().as_uri()}?mode=ro&immutable=1", uri=True)
                 ) as db:
                     (orphans,) = db.execute(_ORPHANS).fetchone()
             except sqlite3.Error:
