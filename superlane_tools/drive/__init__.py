@@ -16,9 +16,10 @@ from superlane_tools.drive.config import (
     load_config,
     load_manifest,
 )
-from superlane_tools.drive.finalize import DriveTables, ReportFacts, drive_tables
+from superlane_tools.drive.finalize import DriveTables, drive_tables
 from superlane_tools.drive.record import Corridors, DriveFrames, DriveRecorder, FitSeries
 from superlane_tools.drive.stages import Finished, FrameStages, Prepared
+from superlane_tools.reporting.drive_sections import ReportFacts
 
 __all__ = [
     "BACKENDS",

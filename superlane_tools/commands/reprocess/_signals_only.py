@@ -21,10 +21,11 @@ from superlane_tools.commands.reprocess.outputs import write_outputs
 from superlane_tools.commands.reprocess.result import ReprocessResult
 from superlane_tools.corridor import Segment, windows
 from superlane_tools.drive.config import ReprocessConfig
-from superlane_tools.drive.finalize import ReportFacts, drive_tables
+from superlane_tools.drive.finalize import drive_tables
 from superlane_tools.drive.record import no_camera_frames
 from superlane_tools.drive.signals import ImuSamples
 from superlane_tools.reporting import Provenance, input_identity
+from superlane_tools.reporting.drive_sections import ReportFacts
 from superlane_tools.reporting.gnss_sink import GnssSink
 
 GRID_HZ = 15.0
@@ -90,10 +91,7 @@ def reprocess_signals(
         if first is not None and last is not None
         else np.zeros(0, dtype=np.int64)
     )
-    notes = [
-        f"{NO_CAMERA}: SUPER, the corridor network and Hough not computed; truth, yaw-rate "
-        f"reference and Mobileye evaluated at {t_ns.size} instants ({GRID_HZ:g} Hz)"
-    ]
+    notes: list[str] = []  # the drive's notes (from its facts) say what was not computed
     size = max(1, round(cfg.kpi.window_s * GRID_HZ))
     segments = [Segment(s.start, s.stop, cfg.kpi.category) for s in windows(t_ns.size, size)]
     frames = no_camera_frames(t_ns)

@@ -7,8 +7,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from superlane_tools.drive.config import ReprocessConfig
-from superlane_tools.drive.finalize import DriveTables, ReportFacts, report_sections
+from superlane_tools.drive.finalize import DriveTables, report_sections
 from superlane_tools.reporting import Provenance, write_table
+from superlane_tools.reporting.drive_sections import ReportFacts
 from superlane_tools.reporting.plots import ExampleFrame
 from superlane_tools.reporting.report import write_report
 

@@ -25,9 +25,9 @@ from superlane_tools.commands.reprocess._threads import single_native_threads
 from superlane_tools.commands.reprocess.outputs import streamed_files, write_outputs
 from superlane_tools.commands.reprocess.result import Progress, ReprocessResult
 from superlane_tools.corridor import TimeSegment
-from superlane_tools.drive.config import ReprocessConfig
+from superlane_tools.drive import ReportFacts, ReprocessConfig
 from superlane_tools.drive.examples import example_frame, example_indices
-from superlane_tools.drive.finalize import ReportFacts, drive_tables, kpi_segments
+from superlane_tools.drive.finalize import drive_tables, kpi_segments
 from superlane_tools.drive.record import DriveRecorder
 from superlane_tools.drive.signals import ImuSamples
 from superlane_tools.drive.stages import FrameStages, Prepared
