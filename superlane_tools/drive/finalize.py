@@ -249,6 +249,7 @@ def _truth_facts(rtk: RtkTruth, config: ReprocessConfig) -> dict[str, Any]:
     return {
         "gnss": not rtk.fixes.empty,
         "n_fixes": len(rtk.fixes),
+        "gnss_plain": bool(rtk.degraded),
         "truth": "" if not n_truth else (TRUTH_GNSS if rtk.degraded else TRUTH_RTK),
         "truth_instants": n_truth,
         "n_degraded": rtk.n_degraded,

@@ -61,6 +61,7 @@ class DriveFacts:
         speed: :data:`SPEED_CAN`, :data:`SPEED_GNSS` or "" (unknown).
         gnss: Whether the drive had GNSS fixes.
         n_fixes: GNSS fixes.
+        gnss_plain: Whether the fixes are plain GNSS (no RTK fixed fix).
         truth: :data:`TRUTH_RTK`, :data:`TRUTH_GNSS` (plain fixes, degraded) or "" (none).
         truth_instants: Instants with a valid curvature truth.
         n_degraded: Fixes flagged degraded and excluded.
@@ -94,6 +95,7 @@ class DriveFacts:
     speed: str = ""
     gnss: bool = False
     n_fixes: int = 0
+    gnss_plain: bool = False
     truth: str = ""
     truth_instants: int = 0
     n_degraded: int = 0

@@ -81,7 +81,7 @@ def inputs_line(facts: DriveFacts) -> str:
     had = [f"camera ({facts.n_instants} frames)" if facts.camera else NO_CAMERA]
     had.append("CAN" if facts.can else "no CAN")
     if facts.gnss:
-        had.append("GNSS (RTK)" if facts.truth != TRUTH_GNSS else "GNSS (plain, not RTK)")
+        had.append("GNSS (plain, not RTK)" if facts.gnss_plain else "GNSS (RTK)")
     else:
         had.append("no GNSS")
     if facts.yaw == YAW_IMU:
@@ -89,7 +89,9 @@ def inputs_line(facts: DriveFacts) -> str:
     exists, missing = [], []
     if facts.camera:
         exists.append("corridor widths and lengths of " + ", ".join(_camera_methods(facts)))
-    if facts.speed:
+    if not facts.methods_run():
+        pass  # no method to judge: the missing camera / Mobileye below say why
+    elif facts.speed:
         exists.append(f"availability (speed from {facts.speed})")
     else:
         missing.append(f"availability: unknown on every frame, no speed ({why_no_speed(facts)})")
@@ -141,10 +143,8 @@ def _can_note(facts: DriveFacts) -> str:
 
 def _speed_note(facts: DriveFacts) -> str:
     if not facts.speed:
-        return (
-            f"speed unknown ({why_no_speed(facts)}): availability by corridor length unknown "
-            "on every frame"
-        )
+        effect = ": availability by corridor length unknown on every frame"
+        return f"speed unknown ({why_no_speed(facts)})" + (effect if facts.methods_run() else "")
     if facts.speed == SPEED_GNSS:
         can = NO_CAN if not facts.can else f"no CAN speed signal {facts.speed_signal!r}"
         return f"speed: estimated from the GNSS fixes ({can})"
@@ -215,8 +215,8 @@ def _tracker_note(facts: DriveFacts) -> str:
     if not facts.tracker:
         if not facts.travelled:
             return (
-                "lane tracker: not run (no speed and no GNSS track for the distance "
-                "travelled); curvature from the untracked fit"
+                "lane tracker: not run (no distance travelled: no speed, no GNSS fixes); "
+                "curvature from the untracked fit"
             )
         return ""
     source = "the GNSS track" if facts.travelled == TRAVELLED_TRACK else f"the {facts.speed} speed"
@@ -229,7 +229,7 @@ def _tracker_note(facts: DriveFacts) -> str:
 def availability_gaps(facts: DriveFacts) -> list[str]:
     """What the availability section could not evaluate, and why (bullets)."""
     lines = []
-    if not facts.speed:
+    if not facts.speed and facts.methods_run():
         lines.append(
             f"- NOT EVALUATED: whether the corridor is long enough (length >= speed * gap): no "
             f"speed ({why_no_speed(facts)}). Every frame with a plausible width is `unknown`, "

@@ -151,7 +151,9 @@ def availability_plot(frames: pd.DataFrame, out_dir: Path) -> Path | None:
         ax.scatter(t, np.full(len(t), row), c=colour, marker="|", s=200)
     ax.set_yticks(range(len(methods)), methods)
     ax.set_xlabel("time (s)")
-    ax.set_title("lateral-control availability (green: available, red: not, grey: unknown)")
+    ax.set_title(
+        "lateral-control availability (green: available, red: not, grey: unknown, no speed)"
+    )
     ax.set_ylim(-0.7, len(methods) - 0.3)
     fig.tight_layout()
     return _save(fig, out_dir / "availability_timeline.png")
