@@ -227,37 +227,37 @@ def _tracker_note(facts: DriveFacts) -> str:
 
 
 def availability_gaps(facts: DriveFacts) -> list[str]:
-    """What the availability section could not evaluate, and why (bullets)."""
+    """What the availability section could not evaluate, and why (one paragraph each)."""
     lines = []
     if not facts.speed and facts.methods_run():
         lines.append(
-            f"- NOT EVALUATED: whether the corridor is long enough (length >= speed * gap): no "
+            f"NOT EVALUATED: whether the corridor is long enough (length >= speed * gap): no "
             f"speed ({why_no_speed(facts)}). Every frame with a plausible width is `unknown`, "
             "not unavailable; the widths below are measured."
         )
     if not facts.camera:
-        lines.append(f"- NOT EVALUATED: {IMAGE_METHODS_TEXT} ({NO_CAMERA}).")
+        lines.append(f"NOT EVALUATED: {IMAGE_METHODS_TEXT} ({NO_CAMERA}).")
     elif facts.corridor_unavailable:
-        lines.append(f"- NOT EVALUATED: the corridor network ({facts.corridor_unavailable}).")
+        lines.append(f"NOT EVALUATED: the corridor network ({facts.corridor_unavailable}).")
     if not facts.mobileye:
-        lines.append(f"- NOT EVALUATED: Mobileye ({why_no_mobileye(facts)}).")
+        lines.append(f"NOT EVALUATED: Mobileye ({why_no_mobileye(facts)}).")
     return lines
 
 
 def curvature_gaps(facts: DriveFacts) -> list[str]:
-    """What the curvature section could not evaluate, and why (bullets)."""
+    """What the curvature section could not evaluate, and why (one paragraph each)."""
     lines = []
     if not facts.truth_instants:
         lines.append(
-            f"- NOT EVALUATED: curvature errors, no ground truth ({why_no_truth(facts)}); "
+            f"NOT EVALUATED: curvature errors, no ground truth ({why_no_truth(facts)}); "
             "the estimates are plotted without a reference."
         )
     if not facts.camera:
-        lines.append(f"- NOT EVALUATED: SUPER curvature ({NO_CAMERA}).")
+        lines.append(f"NOT EVALUATED: SUPER curvature ({NO_CAMERA}).")
     if not facts.mobileye:
-        lines.append(f"- NOT EVALUATED: Mobileye curvature ({why_no_mobileye(facts)}).")
+        lines.append(f"NOT EVALUATED: Mobileye curvature ({why_no_mobileye(facts)}).")
     if not facts.dynamics:
-        lines.append(f"- NOT EVALUATED: yaw-rate / speed reference: {why_no_dynamics(facts)}.")
+        lines.append(f"NOT EVALUATED: yaw-rate / speed reference: {why_no_dynamics(facts)}.")
     return lines
 
 

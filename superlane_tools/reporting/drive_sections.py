@@ -138,8 +138,7 @@ def _curvature_section(
 ) -> Section:
     summary, curv = tables.curvature_summary, tables.curvature
     lines = [
-        *curvature_gaps(facts),
-        "",
+        *_paragraphs(curvature_gaps(facts)),
         "Truth: RTK path curvature at the vehicle (Savitzky-Golay over "
         f"{settings.truth_window_m} m of arc length, degraded fixes excluded). "
         "`super` is the fit's raw 2*a2 at the frame time: the curvature of a quadratic over "
@@ -166,8 +165,7 @@ def _availability_section(
     settings: ReportSettings, facts: DriveFacts, av_seqs: pd.DataFrame, images: Sequence[str]
 ) -> Section:
     lines = [
-        *availability_gaps(facts),
-        "",
+        *_paragraphs(availability_gaps(facts)),
         f"Available: corridor width in [{settings.min_width_m}, {settings.max_width_m}] m and "
         f"length >= speed * {settings.time_gap_s} s. Sequences: {settings.window_s} s "
         f"windows (or manifest segments); a sequence is available with no outage longer than "
@@ -208,6 +206,11 @@ def _examples_section(facts: DriveFacts, images: Sequence[str]) -> list[Section]
             [i for i in images if "example" in i],
         )
     ]
+
+
+def _paragraphs(texts: Sequence[str]) -> list[str]:
+    """Markdown lines that keep each text its own paragraph (the HTML writer skips blanks)."""
+    return [line for text in texts for line in (text, "")]
 
 
 def _path_method(settings: ReportSettings) -> str:
