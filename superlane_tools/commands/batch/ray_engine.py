@@ -19,13 +19,14 @@ Ray starts a new one for the next task.
 
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
 from types import TracebackType
 from typing import Any, Self
 
-from superlane_tools.commands.batch._ray_log import RayLog
+from superlane_tools.commands.batch._ray_log import ray_log
 from superlane_tools.commands.batch._ray_watchdog import RayWatchdog
 from superlane_tools.commands.batch.engine import Job, JobOutcome, OnDone, failed_outcome
 from superlane_tools.commands.batch.errors import BatchError, EngineUnavailableError
@@ -98,12 +99,13 @@ class RayEngine:
         self._task: Any = None
         self._config_ref: Any = None
         self._workers = 0
-        self._log = RayLog(log) if log is not None else None
+        self._log = log
+        self._log_stack = contextlib.ExitStack()
 
     @property
     def log(self) -> Path | None:
         """The file Ray's messages go to (None: Ray prints them)."""
-        return self._log.path if self._log is not None else None
+        return self._log
 
     @property
     def workers(self) -> int:
@@ -113,7 +115,7 @@ class RayEngine:
     def __enter__(self) -> Self:
         ray = import_ray()
         if self._log is not None:
-            self._log.__enter__()
+            self._log_stack.enter_context(ray_log(self._log))
         try:
             self._join(ray)
         except BaseException:
@@ -179,8 +181,7 @@ class RayEngine:
             self._close_log()
 
     def _close_log(self) -> None:
-        if self._log is not None:
-            self._log.__exit__(None, None, None)
+        self._log_stack.close()
 
     def _window(self) -> int:
         """Tasks to keep in flight: ``workers`` when given, else the live cluster's CPUs now.

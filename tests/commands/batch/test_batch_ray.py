@@ -13,10 +13,9 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
-import typer
 from typer.testing import CliRunner
 
-from superlane_tools.cli import batch as batch_cli
+from superlane_tools.cli.app import app
 from superlane_tools.commands.batch import (
     MARKER,
     BatchParams,
@@ -71,18 +70,6 @@ def test_ray_engine_outside_context_is_a_bug() -> None:
         engine.run([], lambda outcome: None)
 
 
-def _cli() -> typer.Typer:
-    """Return an app holding only ``slt batch``."""
-    app = typer.Typer()
-
-    @app.callback()
-    def _root() -> None:
-        """Test root."""
-
-    batch_cli.register(app)
-    return app
-
-
 def _kill_workers_on(tmp_root: Path, prefix: str, stop: threading.Event) -> list[int]:
     """SIGKILL every worker seen building a recording whose id starts with ``prefix``.
 
@@ -120,7 +107,7 @@ def test_recording_that_kills_its_worker_fails_alone(
     stop = threading.Event()
     with ThreadPoolExecutor(1) as pool:
         killer = pool.submit(_kill_workers_on, root / ".tmp", "crash", stop)
-        res = CliRunner().invoke(_cli(), ["batch", *args], catch_exceptions=False)
+        res = CliRunner().invoke(app, ["batch", *args], catch_exceptions=False)
         stop.set()
         killed = killer.result()
     assert res.exit_code == 3, res.output
