@@ -62,8 +62,6 @@ class RosbagRecording(ClosingRecording):
         Raises:
             RecordingError: If the bag cannot be opened.
         """
-        from rosbags.rosbag2 import Reader as Reader2
-
         self.path = Path(path)
         self._skips = SkipLog()
         self._iter_skips = SkipLog()
@@ -77,7 +75,7 @@ class RosbagRecording(ClosingRecording):
             elif self.path.is_dir():
                 readers = self._ros2_folder_readers()
             else:
-                readers = [Reader2(self.path)]
+                readers = [self._ros2_file_reader(self.path)]
             for reader in readers:
                 self._stack.enter_context(reader)
         except RecordingError:
@@ -162,7 +160,17 @@ class RosbagRecording(ClosingRecording):
             return [Reader2(self.path)]  # rosbags decompresses; one reader for the folder
         if missing := [f.name for f in files if not f.exists()]:
             raise RecordingError(f"{self.path}: bag files are missing: {', '.join(missing)}")
-        return [Reader2(f) for f in files]
+        return [self._ros2_file_reader(f, info) for f in files]
+
+    def _ros2_file_reader(self, path: Path, info: dict[str, Any] | None = None) -> Any:
+        """Return a reader of one storage file; ``.db3`` files are salvaged around damage."""
+        from rosbags.rosbag2 import Reader as Reader2
+
+        from superlane_tools.recording.sqlite_salvage import Ros2SqliteReader
+
+        if path.suffix == ".db3":
+            return Ros2SqliteReader(path, self._skips, self._iter_skips, info)
+        return Reader2(path)
 
     def _build_typestore(self) -> Typestore:
         from rosbags.interfaces import MessageDefinitionFormat
