@@ -299,6 +299,8 @@ class RosbagRecording(RawSource):
 
     def start_ns(self) -> int | None:
         """Return the earliest log time of the bag (ns) from its index, None when empty."""
+        if not all(hasattr(r, "start_time") for r in self._readers):  # a reindexing scan
+            return next((t for _, t, _ in self._streams(None, None, None)), None)
         times = [int(r.start_time) for r in self._readers if getattr(r, "message_count", 1)]
         return min(times) if times else None
 
