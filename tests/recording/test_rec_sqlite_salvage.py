@@ -202,8 +202,10 @@ def test_cli_reports_one_line_and_exit_3(
     args = [command, str(cut)]
     if command in {"extract", "filter"}:
         args += ["-o", str(tmp_path / "out")]
+    before = sorted((p.name, p.read_bytes()) for p in cut.iterdir())
     result = runner.invoke(app, args)
     assert result.exit_code == 3, result.output
+    assert sorted((p.name, p.read_bytes()) for p in cut.iterdir()) == before  # read-only
     lines = [x for x in result.output.splitlines() if x.startswith("slt: skipped: unreadable")]
     assert len(lines) == 1, result.output
     assert "of 1000 lost" in lines[0]

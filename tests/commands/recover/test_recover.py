@@ -45,6 +45,20 @@ def _zero(src: Path, dst: Path, fraction: float, size: int = 4096) -> Path:
     return dst
 
 
+def _recover_damaged(src: Path, tmp_path: Path, how: str, suffix: str) -> tuple[Path, Path, str]:
+    """Cut ``src`` in half or zero 4 KiB at 40 %, recover it; return (damaged, out, stderr)."""
+    damaged = tmp_path / f"damaged{suffix}"
+    if how == "cut":
+        _cut(src, damaged, 0.5)
+    else:
+        _zero(src, damaged, 0.4)
+    out = tmp_path / f"rec{suffix}"
+    code, _, err = _recover(damaged, out)
+    assert code == 3, err
+    _check_recovered(damaged, out)
+    return damaged, out, err
+
+
 def _check_recovered(damaged: Path, out: Path) -> None:
     """The output is complete (no loss when read again) and equal to the damaged input's read."""
     expected = _cat(damaged)
@@ -65,16 +79,8 @@ def sample() -> Path:
 def test_mcap_sample_drive(sample: Path, tmp_path: Path, how: str) -> None:
     from mcap.reader import make_reader
 
-    damaged = tmp_path / "damaged.mcap"
-    if how == "cut":
-        _cut(sample, damaged, 0.5)
-    else:
-        _zero(sample, damaged, 0.4)
-    out = tmp_path / "rec.mcap"
-    code, _, err = _recover(damaged, out)
-    assert code == 3, err
+    _, out, err = _recover_damaged(sample, tmp_path, how, ".mcap")
     assert err.count("slt: skipped:") == 1
-    _check_recovered(damaged, out)
     with out.open("rb") as handle:
         summary = make_reader(handle).get_summary()
     assert summary is not None
@@ -106,16 +112,7 @@ def test_intact_recording_exits_0(sample: Path, tmp_path: Path) -> None:
 @pytest.mark.realdata
 @pytest.mark.parametrize("how", [pytest.param("cut", marks=pytest.mark.slow), "zeroed"])
 def test_ros1_real_bag(realdata: Path, tmp_path: Path, how: str) -> None:
-    src = realdata / ROS1
-    damaged = tmp_path / "damaged.bag"
-    if how == "cut":
-        _cut(src, damaged, 0.5)
-    else:
-        _zero(src, damaged, 0.6)
-    out = tmp_path / "rec.bag"
-    code, _, err = _recover(damaged, out)
-    assert code == 3, err
-    _check_recovered(damaged, out)
+    _recover_damaged(realdata / ROS1, tmp_path, how, ".bag")
 
 
 @pytest.mark.realdata
