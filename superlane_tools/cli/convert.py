@@ -13,6 +13,8 @@ from superlane_tools.cli._common import (
     cli_errors,
     command_line,
     err_console,
+    exit_with,
+    report_skipped,
 )
 from superlane_tools.errors import UsageError
 
@@ -104,6 +106,7 @@ def convert_cmd(
         err_console.print(f"note: {note}", markup=False)
     err_console.print(f"time alignment: {result.alignment.get('clock', '')}", markup=False)
     err_console.print(f"wrote {result.path}", markup=False)
+    exit_with(report_skipped(result.skipped))
 
 
 def register(app: typer.Typer) -> None:
