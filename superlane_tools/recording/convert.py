@@ -256,24 +256,75 @@ def _fix_items(path: Path, offset_ns: int, result: ConvertResult) -> Iterator[It
             yield m.log_time_ns + offset_ns, FIX_TOPIC, "sensor_msgs/msg/NavSatFix", fix
 
 
-def _gpx_items(path: Path, offset_ns: int) -> Iterator[Item]:
+def _gpx_items(path: Path, offset_ns: int, result: ConvertResult) -> Iterator[Item]:
     import gpxpy
 
     try:
-        with path.open(encoding="utf-8") as handle:
-            gpx = gpxpy.parse(handle)
-    except Exception as err:  # gpxpy raises its own and XML errors
-        raise RecordingError(f"{path.name}: not a readable GPX file: {err}") from err
-    points: list[Any] = [p for track in gpx.tracks for seg in track.segments for p in seg.points]
-    points += list(gpx.waypoints) + [p for route in gpx.routes for p in route.points]
+        text = path.read_text(encoding="utf-8", errors="replace")
+    except OSError as err:
+        raise RecordingError(f"{path.name}: cannot read: {err.strerror}") from err
+    try:
+        gpx = gpxpy.parse(text)
+        points = _gpx_points(gpx)
+    except Exception as err:  # gpxpy raises its own and XML errors: salvage point by point
+        reason = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
+        points, bad = _salvage_gpx_points(text)
+        if not points:
+            raise RecordingError(f"{path.name}: not a readable GPX file: {reason}") from err
+        # one line: how many points were lost, or (junk between points) that the XML was damaged
+        what = "bad GPX point" if bad else "damaged GPX file"
+        result.skipped.append(Skipped(what, f"{path.name}: {reason}", bad))
     timed = sorted((p for p in points if p.time is not None), key=lambda p: p.time)
     if not timed:
         raise RecordingError(f"{path.name}: no GPX point has a time")
+    if len(timed) < len(points):
+        result.skipped.append(
+            Skipped("GPX point without time", path.name, len(points) - len(timed))
+        )
     for p in timed:
         t = parse_time(p.time.isoformat()).ns + offset_ns
         alt = float(p.elevation) if p.elevation is not None else 0.0
         fix = msgs.navsatfix(t, "gnss", p.latitude, p.longitude, alt, 0)
         yield t, FIX_TOPIC, "sensor_msgs/msg/NavSatFix", fix
+
+
+def _gpx_points(gpx: Any) -> list[Any]:
+    points: list[Any] = [p for track in gpx.tracks for seg in track.segments for p in seg.points]
+    return points + list(gpx.waypoints) + [p for route in gpx.routes for p in route.points]
+
+
+_GPX_POINT = re.compile(r"<(trkpt|rtept|wpt)\b.*?</\1\s*>", re.DOTALL)
+_GPX_OPEN = re.compile(r"<(?:trkpt|rtept|wpt)\b")
+_GPX_WRAP = {
+    "trkpt": ("<trk><trkseg>", "</trkseg></trk>"),
+    "rtept": ("<rte>", "</rte>"),
+    "wpt": ("", ""),
+}
+
+
+def _salvage_gpx_points(text: str) -> tuple[list[Any], int]:
+    """Read the points of a GPX file that is not well-formed XML (binary junk, a cut file).
+
+    Every ``<trkpt>``, ``<rtept>`` and ``<wpt>`` element is parsed on its own by gpxpy, in a
+    minimal GPX document; returns the points read and how many elements did not parse (an
+    element opened but never closed, as at a cut, included).
+    """
+    import gpxpy
+
+    points: list[Any] = []
+    elements = list(_GPX_POINT.finditer(text))
+    bad = max(0, len(_GPX_OPEN.findall(text)) - len(elements))
+    for match in elements:
+        head, tail = _GPX_WRAP[match[1]]
+        doc = (
+            '<gpx version="1.1" xmlns="http://www.topografix.com/GPX/1/1">'
+            f"{head}{match[0]}{tail}</gpx>"
+        )
+        try:
+            points += _gpx_points(gpxpy.parse(doc))
+        except Exception:  # gpxpy/XML errors: this point is damaged
+            bad += 1
+    return points, bad
 
 
 def _can_items(path: Path, offset_ns: int, result: ConvertResult) -> Iterator[Item]:
@@ -439,7 +490,7 @@ def convert(
         elif kind == "nmea":
             sources.append(_fix_items(item.path, offset_ns, result))
         elif kind == "gpx":
-            sources.append(_gpx_items(item.path, offset_ns))
+            sources.append(_gpx_items(item.path, offset_ns, result))
         elif kind == "can":
             sources.append(_can_items(item.path, offset_ns, result))
         else:

@@ -214,3 +214,50 @@ def test_csv_convert_junk_is_counted(
     with open_recording(out) as rec:
         got = sum(1 for _ in rec.raw_messages())
     assert got == len(rows) - 1 - lost
+
+
+@pytest.fixture(scope="module")
+def real_gpx(realdata: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The real NMEA log's 120 fixes written as a GPX track by gpxpy."""
+    import datetime
+
+    import gpxpy.gpx
+
+    gpx = gpxpy.gpx.GPX()
+    track = gpxpy.gpx.GPXTrack()
+    segment = gpxpy.gpx.GPXTrackSegment()
+    gpx.tracks.append(track)
+    track.segments.append(segment)
+    with open_recording(realdata / "gnss" / "nmea.log") as rec:
+        for m in rec.messages():
+            when = datetime.datetime.fromtimestamp(m.log_time_ns / 1e9, datetime.UTC)
+            segment.points.append(
+                gpxpy.gpx.GPXTrackPoint(m.data.latitude, m.data.longitude, time=when)
+            )
+    path = tmp_path_factory.mktemp("gpx") / "track.gpx"
+    path.write_text(gpx.to_xml())
+    return path
+
+
+@pytest.mark.parametrize("damage", ["nul-run", "junk", "cut"])
+def test_gpx_convert_junk_is_counted(real_gpx: Path, tmp_path: Path, damage: str) -> None:
+    clean = real_gpx.read_bytes()
+    total = clean.count(b"<trkpt ")
+    at = clean.index(b"<trkpt ", len(clean) // 3) + 20  # inside one point's element
+    if damage == "nul-run":
+        data = clean[:at] + b"\x00" * 4 + clean[at + 4 :]
+    elif damage == "junk":
+        data = clean[:at] + JUNK + clean[at:]
+    else:
+        data = clean[:at]
+    src = tmp_path / "track.gpx"
+    src.write_bytes(data)
+    out = tmp_path / "track.mcap"
+    res = runner.invoke(app, ["convert", str(src), "-o", str(out)])
+    assert res.exit_code == 3, res.output
+    (line,) = _skipped_lines(res.output)
+    assert line.startswith("slt: skipped: bad GPX point (1): track.gpx:")
+    with open_recording(out) as rec:
+        got = sum(1 for _ in rec.raw_messages())
+    # every point before and after the damaged one is kept (a cut file ends at it)
+    assert got == (total - 1 if damage != "cut" else clean[:at].count(b"<trkpt ") - 1)
