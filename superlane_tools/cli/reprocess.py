@@ -16,6 +16,7 @@ from superlane_tools.cli._common import (
     command_line,
     console,
     exit_with,
+    note,
     progress,
     report_skipped,
 )
@@ -151,8 +152,8 @@ def reprocess_cmd(
                 f"({sum(added.values())} messages)",
                 markup=False,
             )
-    for note in result.notes:
-        console.print(f"note: {note}", markup=False, soft_wrap=True)
+    for line in result.notes:
+        note(line)
     from superlane_tools.reporting.drive_notes import timing_line
 
     t = result.timings

@@ -464,7 +464,8 @@ def convert(
         command: Command line for the metadata record.
 
     Returns:
-        Counts per topic, the time alignment and notes.
+        Counts per topic, the time alignment, notes, and what was skipped in the inputs (bad
+        NMEA checksums, unparsable log lines).
 
     Raises:
         RecordingError: For unreadable inputs, two videos, or an existing output.
