@@ -175,6 +175,17 @@ def test_asc_junk_is_counted(real_asc: Path, tmp_path: Path, damage: str) -> Non
     assert len(_skipped_lines(res.output)) == 1
 
 
+def _convert_damaged(src: Path, data: bytes) -> tuple[str, int]:
+    """Write ``data`` to ``src``, ``slt convert`` it (exit 3): its one skipped line, messages."""
+    src.write_bytes(data)
+    out = src.with_suffix(".mcap")
+    res = runner.invoke(app, ["convert", str(src), "-o", str(out)])
+    assert res.exit_code == 3, res.output
+    (line,) = _skipped_lines(res.output)
+    with open_recording(out) as rec:
+        return line, sum(1 for _ in rec.raw_messages())
+
+
 def _speed_csv(realdata: Path) -> bytes:
     folder = realdata / "comma2k19" / "segment" / "processed_log" / "CAN" / "speed"
     t = np.load(folder / "t")
@@ -204,15 +215,8 @@ def test_csv_convert_junk_is_counted(
     else:
         rows[100] = b"\xff\xfe\x00junk," + rows[100].split(b",")[1]
         data = b"".join(rows)
-    src = tmp_path / "speed.csv"
-    src.write_bytes(data)
-    out = tmp_path / "speed.mcap"
-    res = runner.invoke(app, ["convert", str(src), "-o", str(out)])
-    assert res.exit_code == 3, res.output
-    (line,) = _skipped_lines(res.output)
+    line, got = _convert_damaged(tmp_path / "speed.csv", data)
     assert line.startswith(f"slt: skipped: {kind} (1)")
-    with open_recording(out) as rec:
-        got = sum(1 for _ in rec.raw_messages())
     assert got == len(rows) - 1 - lost
 
 
@@ -250,14 +254,7 @@ def test_gpx_convert_junk_is_counted(real_gpx: Path, tmp_path: Path, damage: str
         data = clean[:at] + JUNK + clean[at:]
     else:
         data = clean[:at]
-    src = tmp_path / "track.gpx"
-    src.write_bytes(data)
-    out = tmp_path / "track.mcap"
-    res = runner.invoke(app, ["convert", str(src), "-o", str(out)])
-    assert res.exit_code == 3, res.output
-    (line,) = _skipped_lines(res.output)
+    line, got = _convert_damaged(tmp_path / "track.gpx", data)
     assert line.startswith("slt: skipped: bad GPX point (1): track.gpx:")
-    with open_recording(out) as rec:
-        got = sum(1 for _ in rec.raw_messages())
     # every point before and after the damaged one is kept (a cut file ends at it)
     assert got == (total - 1 if damage != "cut" else clean[:at].count(b"<trkpt ") - 1)
