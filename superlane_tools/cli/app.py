@@ -16,6 +16,7 @@ from superlane_tools.cli import (
     extract,
     info,
     lanes,
+    recover,
     reprocess,
     segment,
     simulate,
@@ -77,6 +78,7 @@ eval_cmd.register(app)
 tables.register(app)
 convert.register(app)
 tools.register(app)
+recover.register(app)
 dbc.register(app)
 
 
