@@ -29,8 +29,12 @@ Usage:
         [--backends classical,onnx] [--report reports/real_frames.md] [--json out.json]
         [--update-cards]
 
-``--update-cards`` writes each ONNX model's end-to-end numbers (and the classical backend's from
-the same run) into its model card, where ``--backend auto`` reads them.
+The same chain runs on the 10 CULane night frames (another, unknown camera, estimated from the
+frames without their labels; ``pipelines/culane_night.py``), scored with ``slt eval culane``
+(F1 at IoU 0.5), and every ONNX model is scored on CamVid ``val`` (level-1 / level-2 mIoU).
+
+``--update-cards`` writes each ONNX model's numbers on every real set (and the classical
+backend's from the same run) into its model card, where ``--backend auto`` reads them.
 """
 
 from __future__ import annotations
@@ -59,6 +63,9 @@ from superlane_tools.hierarchy import leaf_ids_under
 from superlane_tools.lanes.project import columns_at_rows
 from superlane_tools.lanes.table import lanes_from_row
 from superlane_tools.reporting.atomic import write_text_atomic
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from culane_night import culane_chain, estimate_camera
 
 REPO = Path(__file__).resolve().parents[1]
 SLT = str(Path(sys.executable).with_name("slt"))
@@ -334,17 +341,21 @@ def render_report(results: dict[str, Any], data: Path, work: Path, backends: str
         "WORK = the work folder.",
         "",
         "| backend | LaneEval acc | FP | FN | F1 | acc without run-time gate | marking recall 3 px"
-        " | marking precision 10 px | KITTI ego IoU | KITTI F / P / R |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        " | marking precision 10 px | KITTI ego IoU | KITTI F / P / R | CULane night F1@50"
+        " | CamVid val mIoU L1 / L2 |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for name, res in results.items():
         off, ung, k = res["tusimple"]["official"], res["tusimple"]["ungated"], res["kitti"]["score"]
         t = res["tusimple"]
+        camvid = res.get("camvid")
         lines.append(
             f"| {name} | {off['accuracy']:.3f} | {off['fp']:.3f} | {off['fn']:.3f} "
             f"| {off['f1']:.3f} | {ung['accuracy']:.3f} | {t['marking_recall_3px']:.3f} "
             f"| {t['marking_precision_10px']:.3f} | {k['iou']:.3f} "
-            f"| {k['f_measure']:.3f} / {k['precision']:.3f} / {k['recall']:.3f} |"
+            f"| {k['f_measure']:.3f} / {k['precision']:.3f} / {k['recall']:.3f} "
+            f"| {culane_f1(res):.3f} | "
+            + ("- |" if camvid is None else f"{camvid['miou_l1']:.3f} / {camvid['miou_l2']:.3f} |")
         )
     lines += ["", "## Per frame (run-time gate off) and fit run times", ""]
     for name, res in results.items():
@@ -357,7 +368,8 @@ def render_report(results: dict[str, Any], data: Path, work: Path, backends: str
     lines += ["", "## Exact commands", ""]
     for name, res in results.items():
         lines += [f"{name}:", "", "```"]
-        lines += res["tusimple"]["commands"] + res["kitti"]["commands"] + ["```", ""]
+        lines += res["tusimple"]["commands"] + res["kitti"]["commands"]
+        lines += res["culane"]["commands"] + ["```", ""]
     lines += ["", NOTES]
     text = "\n".join(lines)
     return text.replace(f"{work}/", "WORK/").replace(f"{data}/", "DATA/")
@@ -372,15 +384,50 @@ CHAIN_TEXT = (
 )
 
 
+def culane_f1(result: dict[str, Any]) -> float:
+    """Return a backend's CULane night F1 at IoU 0.5."""
+    return float(result["culane"]["score"]["sets"][0]["f1"])
+
+
+def real_sets(result: dict[str, Any], classical: dict[str, Any]) -> dict[str, Any]:
+    """Return the per-real-set scores that ``auto`` compares (``scene/backends.py``).
+
+    Each lane set gives the model's score and the classical backend's from the same run: TuSimple
+    dev end to end (LaneEval accuracy), KITTI ``um_000000`` fitted ego lane (F), CULane night
+    (F1@50). CamVid val (level-2 mIoU) has no classical number (the classical backend finds
+    markings only).
+    """
+    sets = {
+        "tusimple_dev_laneeval": (
+            result["tusimple"]["official"]["accuracy"],
+            classical["tusimple"]["official"]["accuracy"],
+        ),
+        "kitti_um_000000_f": (
+            result["kitti"]["score"]["f_measure"],
+            classical["kitti"]["score"]["f_measure"],
+        ),
+    }
+    if "culane" in result and "culane" in classical:
+        sets["culane_night_f1"] = (culane_f1(result), culane_f1(classical))
+    out: dict[str, Any] = {
+        name: {"model": round(float(m), 4), "classical": round(float(c), 4)}
+        for name, (m, c) in sets.items()
+    }
+    if result.get("camvid") is not None:
+        out["camvid_val_miou_l2"] = {"model": round(float(result["camvid"]["miou_l2"]), 4)}
+    return out
+
+
 def card_metrics(result: dict[str, Any], classical: dict[str, Any]) -> dict[str, Any]:
     """Return one ONNX backend's end-to-end card metrics, with the classical backend's beside.
 
-    ``auto`` (``scene/backends.py``) compares ``laneeval_accuracy`` with
-    ``classical_laneeval_accuracy``: both must come from the same run of the same code.
+    ``auto`` (``scene/backends.py``) compares the worst of ``real_sets`` with the classical
+    backend's worst: both must come from the same run of the same code.
     """
     tus, cls = result["tusimple"], classical["tusimple"]["official"]
     off, kit = tus["official"], result["kitti"]["score"]
     return {
+        "real_sets": real_sets(result, classical),
         "tusimple_val_end_to_end": {
             "laneeval_accuracy": round(off["accuracy"], 4),
             "fp": round(off["fp"], 4),
@@ -399,6 +446,19 @@ def card_metrics(result: dict[str, Any], classical: dict[str, Any]) -> dict[str,
         "kitti_um_000000_fitted_ego_lane": {
             key: round(kit[key], 4) for key in ("f_measure", "precision", "recall", "iou")
         },
+        **({"camvid_val": result["camvid"]} if result.get("camvid") is not None else {}),
+        **(
+            {
+                "culane_night_end_to_end": {
+                    "f1_iou50": round(culane_f1(result), 4),
+                    "classical_f1_iou50": round(culane_f1(classical), 4),
+                    "frames": 10,
+                    "camera": "estimated from the frames, labels unused (culane_night.py)",
+                }
+            }
+            if "culane" in result and "culane" in classical
+            else {}
+        ),
     }
 
 
@@ -416,6 +476,19 @@ def update_cards(results: dict[str, Any], specs: list[str]) -> list[str]:
         metrics = card_metrics(results[backend_args(spec)[0]], results["classical"])
         written.append(update_card(path, metrics, {}).name)
     return written
+
+
+def camvid_val(spec: str, data: Path) -> dict[str, float]:
+    """Return an ONNX backend's CamVid ``val`` level-1 / level-2 mIoU."""
+    from superlane_tools.scene.onnx_backend import (
+        DEFAULT_SEGMENTATION_MODEL,
+        OnnxSegmentationBackend,
+    )
+    from superlane_tools.training.evaluate import camvid_scores
+
+    model = spec.partition("=")[2] or DEFAULT_SEGMENTATION_MODEL
+    scores = camvid_scores(OnnxSegmentationBackend(model, threads=1), data / "camvid", "val")
+    return {"miou_l1": scores["miou_level1"], "miou_l2": scores["miou_level2"]}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -445,17 +518,23 @@ def main(argv: list[str] | None = None) -> int:
         work = args.work or Path(tmp)
         work.mkdir(parents=True, exist_ok=True)
         groups, labels, frame_paths = validation_frames(args.data, work)
+        culane_camera = estimate_camera(args.data, work / "culane_night.yaml")
         results: dict[str, Any] = {}
         for spec in specs:
-            backend = backend_args(spec)[0]
+            backend, options = backend_args(spec)
             tus = tusimple_chain(spec, groups, labels, work)
             kit = kitti_chain(spec, args.data, work)
-            results[backend] = {"tusimple": tus, "kitti": kit}
+            cul = culane_chain(options, backend, args.data, work, culane_camera, slt)
+            results[backend] = {"tusimple": tus, "kitti": kit, "culane": cul}
+            if spec.startswith("onnx"):
+                results[backend]["camvid"] = camvid_val(spec, args.data)
             off = tus["official"]
             print(
                 f"{backend}: LaneEval acc {off['accuracy']:.4f} FP {off['fp']:.4f} "
                 f"FN {off['fn']:.4f} (no run-time gate: {tus['ungated']['accuracy']:.4f}); "
-                f"KITTI ego IoU {kit['score']['iou']:.4f}",
+                f"KITTI ego IoU {kit['score']['iou']:.4f} F {kit['score']['f_measure']:.4f}; "
+                f"CULane night F1 {culane_f1(results[backend]):.4f}; "
+                f"CamVid {results[backend].get('camvid')}",
                 flush=True,
             )
             if args.overlays is not None:
