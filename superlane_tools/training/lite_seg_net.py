@@ -87,10 +87,10 @@ def fold_symmetric_padding(module: nn.Module) -> nn.Module:
                 conv = nn.Conv2d(
                     child.in_channels,
                     child.out_channels,
-                    child.kernel_size,
-                    child.stride,
-                    sides[0],
-                    child.dilation,
+                    (child.kernel_size[0], child.kernel_size[1]),
+                    (child.stride[0], child.stride[1]),
+                    int(sides[0]),
+                    (child.dilation[0], child.dilation[1]),
                     child.groups,
                     bias=child.bias is not None,
                 )
@@ -127,7 +127,7 @@ class LiteHierarchicalSegNet(nn.Module):
         frozen_blocks: int = 3,
     ) -> None:
         super().__init__()
-        encoder = fold_symmetric_padding(pretrained_encoder(pretrained))
+        encoder: Any = fold_symmetric_padding(pretrained_encoder(pretrained))
         self.stem = nn.Sequential(encoder._conv_stem, encoder._bn0, encoder._swish)
         self.blocks = nn.ModuleList(list(encoder._blocks)[: TAPS[-1] + 1])
         frozen = [self.stem, *self.blocks[:frozen_blocks]]

@@ -344,7 +344,7 @@ def train(params: TrainParams, progress: Progress | None = None) -> TrainResult:
         outputs=outputs,
         sha256=file_sha256(params.out),
         parameters=count_parameters(model),
-        description=_DESCRIPTIONS[params.task],
+        description=_DESCRIPTIONS["lite0" if params.architecture == "lite0" else params.task],
         training={
             "data": [str(d) for d in folders],
             "datasets": _dataset_rows(sets),
@@ -412,6 +412,12 @@ _DESCRIPTIONS = {
     "corridor": (
         "Ego-corridor network (corridor paper III): grayscale in, per-pixel probability that "
         "the pixel is in the ego lane up to the preceding vehicle."
+    ),
+    "lite0": (
+        "Hierarchical scene segmentation (SUPER Fig. 3) on an ImageNet-pretrained "
+        "EfficientNet-Lite0 encoder with a multi-scale decoder (1/32 to 1/2): root, vertical "
+        "and support heads from the 1/4 map, drivable and lane-marking heads from the 1/2 map; "
+        "one softmax head per parent node; decode by argmax down the tree."
     ),
 }
 
