@@ -59,6 +59,7 @@ REPO = Path(__file__).resolve().parents[1]
 SLT = str(Path(sys.executable).with_name("slt"))
 TEST_SEED, TRAIN_SEED, MODEL_SEED = 99, 11, 0
 SEG_NAME, COR_NAME = "super_seg_v4", "ego_corridor_v3"
+TASKS = ("segmentation", "corridor")
 LITE_NAME, LITE_NC_NAME = "super_seg_v5", "super_seg_v5_nc"
 """The lite0 recipe's model, and its variant without CamVid (no non-commercial data)."""
 LITE_SIM_FRAMES, LITE_STEPS, LITE_BUDGET_S = 160, 6000, 4500.0
@@ -208,8 +209,10 @@ def run_training(commands: dict[str, list[list[str]]], work: Path) -> dict[str, 
     return timings
 
 
-def evaluate(seg: Path, cor: Path, test: Path, realdata: Path | None) -> dict[str, Any]:
-    """Evaluate both models; write metrics and timings into their cards; return them."""
+def evaluate(
+    seg: Path, cor: Path, test: Path, realdata: Path | None, tasks: tuple[str, ...] = TASKS
+) -> dict[str, Any]:
+    """Evaluate the models of ``tasks``; write metrics and timings into their cards; return them."""
     from superlane_tools.scene.onnx_backend import OnnxSegmentationBackend
     from superlane_tools.training.evaluate import (
         backend_marking_hit_rate,
@@ -222,21 +225,28 @@ def evaluate(seg: Path, cor: Path, test: Path, realdata: Path | None) -> dict[st
         update_card,
     )
 
-    seg_metrics: dict[str, Any] = {"sim_heldout": evaluate_segmentation_on_dataset(seg, test)}
-    cor_metrics: dict[str, Any] = {"sim_heldout": evaluate_corridor_on_dataset(cor, test)}
-    if realdata is not None:
-        backend = OnnxSegmentationBackend(seg)
-        tus = realdata / "tusimple"
-        seg_metrics["tusimple_frames"] = backend_marking_hit_rate(backend, tus / "frames")
-        seg_metrics["camvid_val"] = camvid_scores(backend, realdata / "camvid", "val")
-        cor_metrics["tusimple_val_ego_lane"] = tusimple_corridor_scores(
-            cor, [(tus / "train_frames", "val"), (tus / "frames", "val")]
-        )
-        cor_metrics["kitti_road_um_000000"] = kitti_ego_lane_iou(cor, realdata / "kitti_road")
-    results = {
-        "segmentation": update_card(seg, seg_metrics, time_model(seg, "segmentation", threads=1)),
-        "corridor": update_card(cor, cor_metrics, time_model(cor, "corridor", threads=1)),
-    }
+    seg_metrics: dict[str, Any] = {}
+    cor_metrics: dict[str, Any] = {}
+    tus = None if realdata is None else realdata / "tusimple"
+    if "segmentation" in tasks:
+        seg_metrics["sim_heldout"] = evaluate_segmentation_on_dataset(seg, test)
+        if realdata is not None and tus is not None:
+            backend = OnnxSegmentationBackend(seg)
+            seg_metrics["tusimple_frames"] = backend_marking_hit_rate(backend, tus / "frames")
+            seg_metrics["camvid_val"] = camvid_scores(backend, realdata / "camvid", "val")
+    if "corridor" in tasks:
+        cor_metrics["sim_heldout"] = evaluate_corridor_on_dataset(cor, test)
+        if realdata is not None and tus is not None:
+            cor_metrics["tusimple_val_ego_lane"] = tusimple_corridor_scores(
+                cor, [(tus / "train_frames", "val"), (tus / "frames", "val")]
+            )
+            cor_metrics["kitti_road_um_000000"] = kitti_ego_lane_iou(cor, realdata / "kitti_road")
+    results = {}
+    if "segmentation" in tasks:
+        timing = time_model(seg, "segmentation", threads=1)
+        results["segmentation"] = update_card(seg, seg_metrics, timing)
+    if "corridor" in tasks:
+        results["corridor"] = update_card(cor, cor_metrics, time_model(cor, "corridor", threads=1))
     return {k: {"metrics": v.metrics, "ms_per_frame": v.ms_per_frame} for k, v in results.items()}
 
 
@@ -330,7 +340,8 @@ def main(argv: list[str] | None = None) -> int:
                 record_pipeline(cor, timing)
         results["training"] = timings
     if not args.no_eval:
-        results.update(evaluate(seg, cor, test, realdata))
+        tasks = tuple(t for t in TASKS if args.task in (t, "both"))
+        results.update(evaluate(seg, cor, test, realdata, tasks))
     print(json.dumps(results, indent=2, default=str))
     if args.json:
         args.json.write_text(json.dumps(results, indent=2, default=str), encoding="utf-8")
