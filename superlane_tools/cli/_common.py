@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 import shlex
 import sys
 import time
@@ -63,12 +64,16 @@ def _metavar(param: Any) -> str | None:
 def apply_conventions(command: Command) -> None:
     """Give ``command`` and everything under it the CLI conventions.
 
-    Every parameter without an explicit metavar gets a word (``RECORDING``, ``PATH``,
+    Every command without a short help gets its help's whole first sentence (click would cut it
+    to the terminal's width with "..." in the parent's command list). Every parameter without an
+    explicit metavar gets a word (``RECORDING``, ``PATH``,
     ``PATH...``) instead of a Python type, and every ``--out`` option also answers to ``-o``.
     ``-h`` and shown defaults come from :data:`CONTEXT_SETTINGS`, which click hands down.
     Applied once to the root group (:class:`SltGroup`), so commands that other modules register
     follow the conventions without repeating them.
     """
+    if not command.short_help and command.help:
+        command.short_help = first_sentence(command.help)
     taken = {opt for param in command.params for opt in getattr(param, "opts", ())}
     for param in command.params:
         if param.metavar is None and not getattr(param, "is_flag", False):
@@ -79,6 +84,15 @@ def apply_conventions(command: Command) -> None:
             param.opts.append("-o")  # (-o taken by another option: the convention test says so)
     for sub in getattr(command, "commands", {}).values():
         apply_conventions(sub)
+
+
+_SENTENCE_END = re.compile(r"(?<=[.!?])\s+(?=[A-Z(`'\"])")
+
+
+def first_sentence(help_text: str) -> str:
+    """Return the first sentence of a help text's first paragraph, on one line."""
+    paragraph = " ".join(help_text.strip().split("\n\n", 1)[0].split()).removeprefix("\b ")
+    return _SENTENCE_END.split(paragraph, 1)[0]
 
 
 class _PlainArgument(TyperArgument):

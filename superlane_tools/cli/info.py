@@ -112,6 +112,9 @@ def _print_table(summary: RecordingSummary) -> None:
             _num(t.median_stamp_offset_ms, ".1f"),
         )
     out.print(table)
+    for t in summary.topics:
+        if t.median_rate_hz is None and t.count > 1:  # 0 or 1 message: "-" needs no reason
+            out.print(f"rate -: {t.topic}: {t.rate_note}", markup=False, highlight=False)
 
 
 def info(

@@ -123,3 +123,17 @@ def test_batch_help_imports_nothing_heavy() -> None:
     ).stdout
     assert "HEAVY []" in out, out
     assert "--manifest" in out
+
+
+def test_cli_manifest_path_list_is_usage_error(
+    tmp_path: Path, make_drives: Callable[..., list[Path]]
+) -> None:
+    (path,) = make_drives(1)
+    manifest = tmp_path / "m.yaml"
+    manifest.write_text(f"- path: {path}\n- path: [{path.name}]\n")
+    out = tmp_path / "out"
+    res = _run("--manifest", manifest, "--out", out, "--job", "extract")
+    assert res.exit_code == 2, res.output  # type: ignore[attr-defined]
+    assert "row 2: path must be one recording path (text), not a list" in res.output  # type: ignore[attr-defined]
+    assert "cannot read" not in res.output  # type: ignore[attr-defined]
+    assert not (out / "summary").exists()

@@ -18,7 +18,7 @@ import typer.main
 from typer.testing import CliRunner
 
 from superlane_tools.cli import app
-from superlane_tools.cli._common import err_console, progress, report_skipped
+from superlane_tools.cli._common import err_console, first_sentence, progress, report_skipped
 from superlane_tools.errors import ExitCode
 from superlane_tools.records import Skipped
 
@@ -73,6 +73,22 @@ def test_short_help_metavars_and_defaults(path: tuple[str, ...], command: Any) -
         and not p.hidden
     ]
     assert " ".join(text.split()).count("[default:") + text.count("; default:") >= len(defaults)
+
+
+GROUPS = [(path, cmd) for path, cmd in COMMANDS if getattr(cmd, "commands", None)]
+
+
+@pytest.mark.parametrize(("path", "group"), GROUPS, ids=[" ".join(p) or "slt" for p, _ in GROUPS])
+def test_command_lists_show_whole_first_sentences(path: tuple[str, ...], group: Any) -> None:
+    text = runner.invoke(app, [*path, "-h"]).output
+    listing = "".join(text.split("Commands:", 1)[1].split())  # wrapped anywhere, even at "-"
+    assert "..." not in listing, text
+    for name, sub in group.commands.items():
+        help_text = " ".join((sub.help or "").split("\n\n")[0].split())
+        sentence = first_sentence(sub.help or "")
+        assert sentence, name
+        assert help_text.startswith(sentence), (name, sentence)
+        assert name + "".join(sentence.split()) in listing, (name, sentence, text)
 
 
 @pytest.mark.parametrize(("path", "command"), COMMANDS, ids=IDS)

@@ -5,6 +5,8 @@ from __future__ import annotations
 import json
 import os
 import socket
+import subprocess
+import sys
 from collections.abc import Callable
 from pathlib import Path
 
@@ -92,7 +94,7 @@ def test_batch_ok_failed_and_idempotent(
     rid = next(r for r in stamp if r.startswith("drive_00-"))
     assert len(list((root / rid / "frames").rglob("*.png"))) == 10
     assert sorted(p.name for p in root.iterdir()) == sorted(
-        [*stamp, "batch_status.parquet", "summary", ".batch.lock"]  # failed: no folder
+        [*stamp, "batch_status.parquet", "summary"]  # failed: no folder; no lock left
     )
     forced = run_batch(drive, _params(root, config={"frame_format": "png"}, force=True))
     assert forced.counts["ok"] == 1
@@ -132,6 +134,44 @@ def test_stale_tmp_is_cleaned_and_root_locked(tmp_path: Path) -> None:
     assert alive.is_dir()
     with root_lock(root), pytest.raises(BatchError, match="another slt batch"), root_lock(root):
         pass
+
+
+def test_lock_file_is_removed_on_exit_and_after_an_error(tmp_path: Path) -> None:
+    root = tmp_path / "out"
+    with root_lock(root):
+        held = (root / ".batch.lock").read_text()
+        assert f"pid {os.getpid()} on {socket.gethostname()}" in held
+        refused = pytest.raises(BatchError, match=rf"running on .*\(pid {os.getpid()} on ")
+        with refused, root_lock(root):
+            pass
+        assert (root / ".batch.lock").exists()  # the refused batch leaves the holder's file
+    assert not (root / ".batch.lock").exists()
+    with pytest.raises(RuntimeError), root_lock(root):
+        raise RuntimeError("the batch failed")
+    assert not (root / ".batch.lock").exists()
+
+
+def test_lock_of_a_killed_batch_is_taken_over(tmp_path: Path) -> None:
+    root = tmp_path / "out"
+    code = (
+        "import sys, time; from pathlib import Path; "
+        "from superlane_tools.commands.batch.root import root_lock\n"
+        "with root_lock(Path(sys.argv[1])):\n print('locked', flush=True); time.sleep(60)"
+    )
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[3])}
+    argv = [sys.executable, "-c", code, str(root)]
+    with subprocess.Popen(argv, stdout=subprocess.PIPE, text=True, env=env) as proc:
+        try:
+            assert proc.stdout is not None
+            assert proc.stdout.readline().strip() == "locked"
+            with pytest.raises(BatchError, match="another slt batch"), root_lock(root):
+                pass
+        finally:
+            proc.kill()  # SIGKILL: no clean-up runs, the file stays
+    assert f"pid {proc.pid}" in (root / ".batch.lock").read_text()
+    with root_lock(root):
+        assert f"pid {os.getpid()}" in (root / ".batch.lock").read_text()
+    assert not (root / ".batch.lock").exists()
 
 
 def test_unwritable_root(tmp_path: Path, make_drives: Callable[..., list[Path]]) -> None:
