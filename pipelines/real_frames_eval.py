@@ -27,7 +27,11 @@ precision = predicted marking pixels within 10 px of a labelled lane polyline.
 Usage:
     python pipelines/real_frames_eval.py [--data ../shared/data] [--work DIR]
         [--backends classical,onnx] [--report reports/real_frames.md] [--json out.json]
-        [--update-cards]
+        [--update-cards] [--reuse earlier.json]
+
+``--reuse`` takes the backends found in an earlier run's ``--json`` from it instead of running
+them again (the chains are deterministic; only the official score's run-time gate depends on
+the machine's load): a new model is then compared with the earlier backends' numbers.
 
 The same chain runs on the 10 CULane night frames (another, unknown camera, estimated from the
 frames without their labels; ``pipelines/culane_night.py``), scored with ``slt eval culane``
@@ -507,6 +511,12 @@ def main(argv: list[str] | None = None) -> int:
         action="store_true",
         help="write each ONNX model's end-to-end metrics into its card (needs classical too)",
     )
+    ap.add_argument(
+        "--reuse",
+        type=Path,
+        default=None,
+        help="--json of an earlier run: its backends are taken from it, not run again",
+    )
     args = ap.parse_args(argv)
     specs = args.backends.split(",")
     if args.update_cards and "classical" not in specs:
@@ -522,8 +532,15 @@ def main(argv: list[str] | None = None) -> int:
         groups, labels, frame_paths = validation_frames(args.data, work)
         culane_camera = estimate_camera(args.data, work / "culane_night.yaml")
         results: dict[str, Any] = {}
+        if args.reuse is not None:
+            # the chains are deterministic (only the official score's run-time gate depends on
+            # the machine's load): an earlier run's backends need not run again
+            results.update(json.loads(args.reuse.read_text(encoding="utf-8")))
         for spec in specs:
             backend, options = backend_args(spec)
+            if backend in results:
+                print(f"{backend}: reused from {args.reuse}", flush=True)
+                continue
             tus = tusimple_chain(spec, groups, labels, work)
             kit = kitti_chain(spec, args.data, work)
             cul = culane_chain(options, backend, args.data, work, culane_camera, slt)
