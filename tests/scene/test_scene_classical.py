@@ -261,7 +261,7 @@ def test_worst_real_set_compares_each_side_by_its_weakest_set() -> None:
 def _chain_result(accuracy: float) -> dict[str, object]:
     official = {"accuracy": accuracy, "fp": 0.3, "fn": 0.2, "f1": 0.7}
     return {
-        "culane": {"score": {"sets": [{"f1": accuracy - 0.1}]}, "commands": []},
+        "culane": {"score": {"all": {"f1_50": accuracy - 0.1}}, "commands": []},
         "tusimple": {
             "official": official,
             "ungated": official,
