@@ -57,6 +57,7 @@ COMMAND_RANKS = {
     "camera_estimate": 1,
     "tables": 1,
     "corridor": 1,
+    "recover": 1,
     "batch": 2,
 }
 """Second level of ``commands``: the commands are peers (rank 1) and never import each other;

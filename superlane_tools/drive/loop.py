@@ -23,8 +23,7 @@ from superlane_tools.drive.config import TopicsConfig
 from superlane_tools.drive.record import DriveFrames, DriveFramesBuilder
 from superlane_tools.drive.signals import ImuSamples
 from superlane_tools.drive.stages import Finished, FrameStages, Prepared
-from superlane_tools.recording.streams import Streams, select_one_each, topics_of_type
-from superlane_tools.recording.video import decode_video
+from superlane_tools.recording import Streams, decode_video, select_one_each, topics_of_type
 from superlane_tools.reporting.gnss_sink import GnssFixes, GnssSink
 
 CAN_TYPE, IMU_TYPE = "can_msgs/msg/Frame", "sensor_msgs/msg/Imu"
@@ -39,7 +38,8 @@ class FrameSink(Protocol):
 
     ``run_frames`` calls :meth:`add` once per frame and :meth:`close` once at the end: with
     ``ok=True`` after the last frame, with ``ok=False`` when the pass failed (discard partial
-    output). ``close`` returns the files written (none when discarded).
+    output). ``close`` returns the files written (none when discarded). Not to be confused with
+    ``reporting.frame_sink.FrameSink``, which writes ``slt extract``'s image files.
     """
 
     def add(self, done: Finished) -> None:

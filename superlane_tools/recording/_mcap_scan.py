@@ -21,7 +21,7 @@ from superlane_tools.recording._scan_types import (
     RecordingScan,
     ScanChannel,
     ScanSchema,
-    TopicLoss,
+    chunk_loss,
 )
 from superlane_tools.recording.errors import RecordingError
 
@@ -170,21 +170,18 @@ class McapWalk:
     def _finish_chunk_losses(self) -> None:
         """Turn the damaged chunks into losses, naming channels found anywhere in the file."""
         for lost in self._lost_chunks:
-            parts = []
+            by_topic: dict[str, list[int]] = {}
             for cid, times in sorted(lost.times.items()):
                 channel = self.channels.get(cid)
-                topic = channel.topic if channel is not None else f"channel {cid}"
-                parts.append(TopicLoss(topic, len(times), min(times), max(times) + 1))
+                by_topic.setdefault(channel.topic if channel else f"channel {cid}", []).extend(
+                    times
+                )
             self.losses.append(
-                Loss(
-                    "corrupt chunk",
+                chunk_loss(
                     lost.detail,
-                    lost.offset,
-                    lost.stop,
-                    sum(p.n_messages or 0 for p in parts) if parts else None,
-                    lost.start_ns,
-                    lost.end_ns + 1,
-                    tuple(parts),
+                    (lost.offset, lost.stop),
+                    by_topic,
+                    (lost.start_ns, lost.end_ns + 1),
                 )
             )
         self.losses.sort(key=lambda loss: loss.byte_start)

@@ -32,7 +32,7 @@ from superlane_tools.recording._scan_types import (
     RecordingScan,
     ScanChannel,
     ScanSchema,
-    TopicLoss,
+    chunk_loss,
 )
 from superlane_tools.recording.base import SkipLog, in_range, ros2_msgtype
 from superlane_tools.recording.errors import RecordingError
@@ -162,23 +162,11 @@ class Ros1Walk:
 
     def _finish_chunk_losses(self) -> None:
         for lost in self._lost_chunks:
-            parts = []
+            by_topic: dict[str, list[int]] = {}
             for cid, times in sorted(lost.times.items()):
                 topic = self.text(cid, "topic") if cid in self.conns else f"connection {cid}"
-                parts.append(TopicLoss(topic, len(times), min(times), max(times) + 1))
-            known = bool(lost.times)
-            self.losses.append(
-                Loss(
-                    "corrupt chunk",
-                    lost.detail,
-                    lost.offset,
-                    lost.stop,
-                    sum(len(t) for t in lost.times.values()) if known else None,
-                    min((p.start_ns for p in parts if p.start_ns is not None), default=None),
-                    max((p.stop_ns for p in parts if p.stop_ns is not None), default=None),
-                    tuple(parts),
-                )
-            )
+                by_topic.setdefault(topic, []).extend(times)
+            self.losses.append(chunk_loss(lost.detail, (lost.offset, lost.stop), by_topic))
         self.losses.sort(key=lambda loss: loss.byte_start)
 
 

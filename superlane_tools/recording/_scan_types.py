@@ -170,6 +170,36 @@ class RecordingScan:
         return [Skipped(loss.what, loss.detail, loss.n_messages or 0) for loss in self.losses]
 
 
+def chunk_loss(
+    detail: str,
+    byte_range: tuple[int, int],
+    lost_times: Mapping[str, list[int]],
+    time_range: tuple[int | None, int | None] = (None, None),
+) -> Loss:
+    """Return the ``corrupt chunk`` loss of a damaged chunk.
+
+    Args:
+        detail: One line for people.
+        byte_range: The chunk's bytes, ``[start, stop)``.
+        lost_times: Log times of the lost messages by topic, as the indexes written after the
+            chunk list them (empty when unknown).
+        time_range: The chunk's log-time range when its header has one (``[start, stop)``),
+            else the range of ``lost_times``.
+    """
+    parts = tuple(
+        TopicLoss(topic, len(times), min(times), max(times) + 1)
+        for topic, times in lost_times.items()
+        if times
+    )
+    start_ns, stop_ns = time_range
+    if start_ns is None:
+        start_ns = min((p.start_ns for p in parts if p.start_ns is not None), default=None)
+    if stop_ns is None:
+        stop_ns = max((p.stop_ns for p in parts if p.stop_ns is not None), default=None)
+    count = sum(p.n_messages or 0 for p in parts) if parts else None
+    return Loss("corrupt chunk", detail, *byte_range, count, start_ns, stop_ns, parts)
+
+
 def _merge(a: TopicLoss, b: TopicLoss) -> TopicLoss:
     count = None if a.n_messages is None or b.n_messages is None else a.n_messages + b.n_messages
     starts = [t for t in (a.start_ns, b.start_ns) if t is not None]

@@ -209,25 +209,25 @@ def _decode_with_one_garbled(
 
 
 @pytest.mark.realdata
-def test_can_log_undecodable_message_is_skipped_and_counted_once(realdata: Path) -> None:
-    total, got, skipped, expected = _decode_with_one_garbled(
-        realdata / CANDUMP, decode_raw_message, b"\x01"
-    )
+@pytest.mark.parametrize(
+    ("rel", "decoder", "garbage", "detail"),
+    [
+        (CANDUMP, decode_raw_message, b"\x01", "can0 (can_msgs/msg/Frame): ValueError"),
+        (NMEA, decode_nmea_message, b"no sentence", "nmea (sensor_msgs/msg/NavSatFix): ValueError"),
+    ],
+    ids=["can", "nmea"],
+)
+def test_log_undecodable_message_is_skipped_and_counted_once(
+    realdata: Path,
+    rel: Path,
+    decoder: Callable[[RawMessage], Any],
+    garbage: bytes,
+    detail: str,
+) -> None:
+    total, got, skipped, expected = _decode_with_one_garbled(realdata / rel, decoder, garbage)
     assert len(got) == total - 1
     assert [m.data for m in got] == expected[:10] + expected[11:]
-    assert skipped == [Skipped("undecodable message", "can0 (can_msgs/msg/Frame): ValueError", 1)]
-
-
-@pytest.mark.realdata
-def test_nmea_undecodable_message_is_skipped_and_counted_once(realdata: Path) -> None:
-    total, got, skipped, expected = _decode_with_one_garbled(
-        realdata / NMEA, decode_nmea_message, b"no sentence here"
-    )
-    assert len(got) == total - 1
-    assert [m.data for m in got] == expected[:10] + expected[11:]
-    assert skipped == [
-        Skipped("undecodable message", "nmea (sensor_msgs/msg/NavSatFix): ValueError", 1)
-    ]
+    assert skipped == [Skipped("undecodable message", detail, 1)]
 
 
 # -- injected MCAP decoder factories --------------------------------------------------------

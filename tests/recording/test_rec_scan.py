@@ -9,6 +9,7 @@ import pytest
 
 from superlane_tools.recording import (
     RecordingError,
+    RecordingScan,
     open_recording,
     scan_mcap,
     scan_recording,
@@ -23,6 +24,17 @@ def _stored(path: Path) -> list[tuple[str, int, bytes]]:
     """Every message of an intact recording: (topic, log time, payload)."""
     with open_recording(path) as rec:
         return [(m.topic, m.log_time_ns, m.payload) for m in rec.raw_messages()]
+
+
+def _assert_lost_by_topic(scan: RecordingScan, lost: list[tuple[str, int]]) -> None:
+    """The scan's per-topic losses are the count and time range of ``lost`` (topic, time)."""
+    expected: dict[str, list[int]] = {}
+    for topic, t in lost:
+        expected.setdefault(topic, []).append(t)
+    assert {
+        topic: (part.n_messages, part.start_ns, part.stop_ns)
+        for topic, part in scan.lost_by_topic().items()
+    } == {topic: (len(ts), min(ts), max(ts) + 1) for topic, ts in expected.items()}
 
 
 def test_intact_mcap_scan_is_complete_and_matches_the_summary() -> None:
@@ -93,13 +105,7 @@ def test_zeroed_mcap_chunk_is_counted_per_topic(drive: SimpleNamespace, tmp_path
     assert chunk.byte_stop == bad.chunk_start_offset + bad.chunk_length
     assert chunk.n_messages == len(in_bad)
     assert (chunk.start_ns, chunk.stop_ns) == (bad.message_start_time, bad.message_end_time + 1)
-    expected: dict[str, list[int]] = {}
-    for topic, t in in_bad:
-        expected.setdefault(topic, []).append(t)
-    assert {
-        topic: (loss.n_messages, loss.start_ns, loss.stop_ns)
-        for topic, loss in scan.lost_by_topic().items()
-    } == {topic: (len(ts), min(ts), max(ts) + 1) for topic, ts in expected.items()}
+    _assert_lost_by_topic(scan, in_bad)
     got = sorted((m.channel.topic, m.log_time_ns) for m in scan.messages())
     assert got == sorted({(topic, t) for topic, t, _ in everything} - set(in_bad))
 
@@ -149,13 +155,7 @@ def test_real_ros1_bag_with_a_zeroed_chunk_counts_what_each_topic_lost(
     lost = sorted(set(full) - set(got))
     assert set(got) <= set(full)
     assert loss.n_messages == len(lost) > 0
-    by_topic: dict[str, list[int]] = {}
-    for topic, t in lost:
-        by_topic.setdefault(topic, []).append(t)
-    assert {
-        topic: (part.n_messages, part.start_ns, part.stop_ns)
-        for topic, part in scan.lost_by_topic().items()
-    } == {topic: (len(ts), min(ts), max(ts) + 1) for topic, ts in by_topic.items()}
+    _assert_lost_by_topic(scan, lost)
 
 
 def test_scan_of_something_else_is_one_clear_error(tmp_path: Path) -> None:
