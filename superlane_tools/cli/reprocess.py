@@ -15,6 +15,7 @@ from superlane_tools.cli._common import (
     cli_errors,
     command_line,
     console,
+    err_console,
     exit_with,
     progress,
     report_skipped,
@@ -153,6 +154,8 @@ def reprocess_cmd(
             )
     for note in result.notes:
         console.print(f"note: {note}", markup=False, soft_wrap=True)
+    if result.implausible:
+        err_console.print(f"slt: note: {result.implausible}", markup=False)
     from superlane_tools.reporting.drive_notes import timing_line
 
     t = result.timings
