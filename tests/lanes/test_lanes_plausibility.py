@@ -66,7 +66,8 @@ def test_few_ego_pairs_and_unstable_widths_are_named() -> None:
 
 def test_lines_that_jump_between_consecutive_frames_lower_the_consistency_only() -> None:
     steady = plausibility(_clips([_fit(1.8, -1.7) for _ in range(16)]))
-    jumpy = plausibility(_clips([_fit(1.8 + 0.5 * (i % 2), -1.7 + 0.5 * (i % 2)) for i in range(16)]))
+    jumps = [_fit(1.8 + 0.5 * (i % 2), -1.7 + 0.5 * (i % 2)) for i in range(16)]
+    jumpy = plausibility(_clips(jumps))
     assert jumpy.consistency == 0.0
     assert jumpy.score < steady.score
     assert jumpy.plausible  # a jump alone is soft: sampled runs may span a lane change
