@@ -18,6 +18,8 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from superlane_tools.camera.model import CameraModel
 from superlane_tools.drive.config import ReprocessConfig
 from superlane_tools.errors import SltError
@@ -120,11 +122,14 @@ def _jsonable(data: dict[str, Any]) -> dict[str, Any]:
 
 
 def sample_starts(total: int, clips: int = SAMPLE_CLIPS, length: int = CLIP_FRAMES) -> list[int]:
-    """Return the first frame index of each sampled run, spread evenly over ``total`` frames."""
+    """Return the first frame index of each sampled run, spread evenly over ``total`` frames.
+
+    At most ``clips`` runs of ``length`` frames, never overlapping (fewer on a short drive).
+    """
     last = total - length
     if last < 0:
         return [0] if total else []
-    n = min(clips, last + 1)
+    n = min(clips, total // length)  # runs never overlap
     if n == 1:
         return [last // 2]
     return sorted({round(i * last / (n - 1)) for i in range(n)})
@@ -148,15 +153,23 @@ def sample_frames(
     return [run for run in runs if run]
 
 
-def try_backend(
-    config: ReprocessConfig, camera: CameraModel, runs: Sequence[Sequence[tuple[int, Message]]]
-) -> Plausibility:
+Sample = Sequence[Sequence[tuple[int, Any]]]
+"""Runs of consecutive frames ``(index, image message or BGR image)``."""
+
+
+def try_backend(config: ReprocessConfig, camera: CameraModel, runs: Sample) -> Plausibility:
     """Run the lane stages with ``config``'s backend on the runs; score the fits."""
-    from superlane_tools.drive.stages import FrameStages
+    from superlane_tools.drive.stages import FrameStages, Prepared
 
     stages = FrameStages(config, camera, lanes_only=True)
+
+    def prepare(index: int, frame: Any) -> Prepared:
+        if isinstance(frame, np.ndarray):
+            return stages.prepare_image(Prepared(index, 0, None), frame)
+        return stages.prepare(index, frame)
+
     # every image stage first: on a first run they overlap the fit's kernels compiling
-    prepared = [[stages.prepare(index, msg) for index, msg in run] for run in runs]
+    prepared = [[prepare(index, frame) for index, frame in run] for run in runs]
     clips = []
     for run in prepared:
         stages.restart()
@@ -167,7 +180,7 @@ def try_backend(
 def self_check(
     config: ReprocessConfig,
     camera: CameraModel,
-    runs: Sequence[Sequence[tuple[int, Message]]],
+    runs: Sample,
     candidates: Sequence[tuple[str, str]],
     fallback: tuple[str, str],
 ) -> SelfCheck:
@@ -239,7 +252,7 @@ def drive_self_check(
     """
     from superlane_tools.recording.open import open_recording
     from superlane_tools.recording.video import decode_video
-    from superlane_tools.scene.backends import auto_backend, auto_candidates
+    from superlane_tools.scene.backends import auto_candidates
 
     seg = config.segmentation
     if seg.backend != "auto" or seg.model:
@@ -250,6 +263,37 @@ def drive_self_check(
         if total is None:
             total = sum(1 for _ in recording.raw_messages(topics=[topic]))
         runs = sample_frames(decode_video(recording.messages(topics=[topic])), total)
+    return self_check(config, camera, runs, auto_candidates(), _card_pick())
+
+
+def _card_pick() -> tuple[str, str]:
+    from superlane_tools.scene.backends import auto_backend, auto_candidates
+
     name, _ = auto_backend(None)
-    fallback = (name, next((m for b, m in auto_candidates() if b == name), ""))
-    return self_check(config, camera, runs, auto_candidates(), fallback)
+    return name, next((m for b, m in auto_candidates() if b == name), "")
+
+
+def images_self_check(
+    images: Sequence[Path], camera: CameraModel, config: ReprocessConfig | None = None
+) -> SelfCheck:
+    """Run the self-check on a sample of an image folder's images (sorted by name).
+
+    Runs of :data:`CLIP_FRAMES` neighbouring images, spread evenly over the folder, as for a
+    drive; unreadable images are left out of the sample.
+    """
+    import cv2
+
+    from superlane_tools.scene.backends import auto_candidates
+
+    starts = sample_starts(len(images))
+    runs = []
+    for start in starts:
+        run = []
+        for index in range(start, min(start + CLIP_FRAMES, len(images))):
+            image = cv2.imread(str(images[index]), cv2.IMREAD_COLOR)
+            if image is not None:
+                run.append((index, np.asarray(image)))
+        if run:
+            runs.append(run)
+    cfg = config or ReprocessConfig()
+    return self_check(cfg, camera, runs, auto_candidates(), _card_pick())

@@ -239,8 +239,6 @@ class FrameStages:
 
     def prepare(self, index: int, msg: Message) -> Prepared:
         """Run the frame-local stages of one image message (thread-safe)."""
-        import cv2
-
         out = Prepared(index, msg.log_time_ns, msg.stamp_ns)
         clock = out.clock()
         reduced = decode_reduced(msg, self.config.segmentation.process_width)
@@ -255,7 +253,23 @@ class FrameStages:
                 return out
             height, width = image.shape[:2]
         out.source_size = (width, height)
-        pw, ph = self.process_size(width, height)
+        return self.prepare_image(out, image, clock)
+
+    def prepare_image(
+        self, out: Prepared, image: NDArray[np.uint8], clock: _StageClock | None = None
+    ) -> Prepared:
+        """Run the frame-local stages on a decoded image (BGR) into ``out`` (thread-safe).
+
+        ``out.source_size`` is the recorded size (set from ``image`` when unset); ``image`` may
+        already be reduced towards the processing size.
+        """
+        import cv2
+
+        clock = clock or out.clock()
+        index = out.index
+        if out.source_size == (0, 0):
+            out.source_size = (image.shape[1], image.shape[0])
+        pw, ph = self.process_size(*out.source_size)
         if (pw, ph) != image.shape[1::-1]:
             image = np.asarray(cv2.resize(image, (pw, ph), interpolation=cv2.INTER_AREA))
         out.image = image
