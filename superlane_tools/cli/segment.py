@@ -66,7 +66,7 @@ def _run(
     overlays: bool,
 ) -> ExitCode:
     from superlane_tools.camera.profiles import load_camera
-    from superlane_tools.commands.segment_check import segment_backend
+    from superlane_tools.commands.segment import segment_backend
     from superlane_tools.scene import segment_images
     from superlane_tools.scene.recording_frames import InputFrames
 

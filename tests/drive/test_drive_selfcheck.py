@@ -155,23 +155,3 @@ def test_a_real_tusimple_clip_gets_a_plausible_backend(realdata: Path, tmp_path:
     widths = [t["scores"]["width_m"] for t in check["trials"] if t["scores"]]
     assert np.nanmax(widths) < 4.5
     assert "most plausible lanes" in (run / "report.md").read_text(encoding="utf-8")
-
-
-@pytest.mark.slow
-def test_slt_segment_runs_the_self_check_on_an_image_folder(realdata: Path, tmp_path: Path) -> None:
-    import shutil
-
-    folder = tmp_path / "images"
-    folder.mkdir()
-    source = realdata / "tusimple" / "train_frames" / "images"
-    for path in sorted(source.glob("*.jpg"))[:12]:
-        shutil.copy(path, folder / path.name)
-    out = tmp_path / "labels"
-    result = runner.invoke(app, ["segment", str(folder), "--out", str(out), "--camera", "tusimple"])
-    assert result.exit_code == 0, result.stderr
-    assert "slt: note: segmentation self-check on 12 frames" in result.stderr
-    assert "most plausible lanes" in result.stderr
-    assert len(list(out.glob("*.png"))) >= 12
-    plain = runner.invoke(app, ["segment", str(folder), "--out", str(tmp_path / "plain")])
-    assert plain.exit_code == 0, plain.stderr
-    assert "self-check skipped: it fits lanes in metres and needs the camera" in plain.stderr
