@@ -59,6 +59,7 @@ COMMAND_RANKS = {
     "tables": 1,
     "corridor": 1,
     "segment": 1,
+    "recover": 1,
     "batch": 2,
 }
 """Second level of ``commands``: the commands are peers (rank 1) and never import each other;

@@ -15,8 +15,8 @@ from superlane_tools.cli._common import (
     cli_errors,
     command_line,
     console,
-    err_console,
     exit_with,
+    note,
     progress,
     report_skipped,
 )
@@ -152,10 +152,8 @@ def reprocess_cmd(
                 f"({sum(added.values())} messages)",
                 markup=False,
             )
-    for note in result.notes:
-        console.print(f"note: {note}", markup=False, soft_wrap=True)
-    if result.implausible:
-        err_console.print(f"slt: note: {result.implausible}", markup=False)
+    for line in result.notes:  # with the "Lanes not plausible" warning when there is one
+        note(line)
     from superlane_tools.reporting.drive_notes import timing_line
 
     t = result.timings

@@ -10,9 +10,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import NamedTuple
-
-import pandas as pd
+from typing import TYPE_CHECKING, NamedTuple
 
 from superlane_tools.records import Skipped
 from superlane_tools.reporting.drive_facts import DriveFacts
@@ -24,6 +22,9 @@ from superlane_tools.reporting.drive_notes import (
 )
 from superlane_tools.reporting.headline import headline_table
 from superlane_tools.reporting.report import Section
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 
 @dataclass(frozen=True)
