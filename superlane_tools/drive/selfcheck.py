@@ -263,6 +263,8 @@ def drive_self_check(
         if total is None:
             total = sum(1 for _ in recording.raw_messages(topics=[topic]))
         runs = sample_frames(decode_video(recording.messages(topics=[topic])), total)
+    if not runs:
+        return "segmentation self-check skipped: no camera frames to sample"
     return self_check(config, camera, runs, auto_candidates(), _card_pick())
 
 
