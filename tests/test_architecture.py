@@ -34,6 +34,7 @@ RANKS = {
     "lanes": 1,
     "evaluation": 1,
     "corridor": 1,
+    "segment": 1,
     "recording": 2,
     "can": 2,
     "reporting": 2,
@@ -57,6 +58,7 @@ COMMAND_RANKS = {
     "camera_estimate": 1,
     "tables": 1,
     "corridor": 1,
+    "segment": 1,
     "recover": 1,
     "batch": 2,
 }

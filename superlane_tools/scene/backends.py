@@ -141,3 +141,16 @@ def auto_backend(model: str | None) -> tuple[str, str]:
         f"classical backend: LaneEval {float(classical):.3f} > {card.name} {float(acc):.3f} on "
         "real frames (model card; --backend onnx forces the model)"
     )
+
+
+def auto_candidates() -> tuple[tuple[str, str], ...]:
+    """Return the ``(backend, model)`` pairs ``auto`` chooses among, in order of preference.
+
+    The shipped default segmentation model (when shipped) and the classical backend; the
+    per-drive self-check (``drive.selfcheck``) tries each on a sample of the drive's frames.
+    """
+    from superlane_tools.models import list_models
+    from superlane_tools.scene.onnx_backend import DEFAULT_SEGMENTATION_MODEL
+
+    shipped = DEFAULT_SEGMENTATION_MODEL in list_models()
+    return ((("onnx", DEFAULT_SEGMENTATION_MODEL),) if shipped else ()) + (("classical", ""),)
