@@ -41,6 +41,7 @@ RANKS = {
     "simulation": 3,
     "training": 3,
     "drive": 3,
+    "fleet": 3,
     "commands": 4,
     "cli": 5,
     "__init__": 6,
@@ -55,6 +56,7 @@ COMMAND_RANKS = {
     "lanes": 1,
     "camera_estimate": 1,
     "tables": 1,
+    "compare": 1,
     "batch": 2,
 }
 """Second level of ``commands``: the commands are peers (rank 1) and never import each other;

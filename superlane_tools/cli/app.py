@@ -10,6 +10,7 @@ from superlane_tools._version import __version__
 from superlane_tools.cli import (
     batch,
     camera,
+    compare,
     convert,
     corridor,
     dbc,
@@ -78,6 +79,7 @@ tables.register(app)
 convert.register(app)
 tools.register(app)
 dbc.register(app)
+compare.register(app)
 
 
 def main() -> None:
