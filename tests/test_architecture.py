@@ -57,14 +57,16 @@ COMMAND_RANKS = {
     "camera_estimate": 1,
     "tables": 1,
     "compare": 1,
+    "mine": 1,
     "batch": 2,
 }
 """Second level of ``commands``: the commands are peers (rank 1) and never import each other;
 ``batch`` runs the others as jobs, so it ranks above them."""
 
 OUTPUT_NAME = re.compile(r"^[a-z_]+\.(parquet|mcap|md|html|mp4|json|yaml)$")
-FORMAT_FILES = frozenset({"metadata.yaml"})
-"""File names a format defines (a ROS 2 bag folder's index), not a command."""
+FORMAT_FILES = frozenset({"metadata.yaml", "labels.json"})
+"""File names a format defines (a ROS 2 bag folder's index, a TuSimple label folder's labels,
+which ``slt mine`` writes and ``slt train`` reads), not a command."""
 
 
 def _unit(path: Path, base: Path = PACKAGE) -> str:

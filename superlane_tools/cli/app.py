@@ -17,6 +17,7 @@ from superlane_tools.cli import (
     extract,
     info,
     lanes,
+    mine,
     reprocess,
     segment,
     simulate,
@@ -80,6 +81,7 @@ convert.register(app)
 tools.register(app)
 dbc.register(app)
 compare.register(app)
+mine.register(app)
 
 
 def main() -> None:
