@@ -26,6 +26,8 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+from superlane_tools.reporting.run_layout import ANNOTATIONS_FILE, REPORT_FILE, RunLayout
+
 TIMING_COLUMN = re.compile(r"_ms$")
 """Measured-time columns (stage times, fit time): never reproducible."""
 
@@ -137,19 +139,20 @@ def compare_runs(run_a: Path, run_b: Path, rtol: float = 0.0) -> tuple[list[str]
     compared = sorted(names_a & names_b)
     for name in compared:
         diffs += compare_table(run_a / name, run_b / name, rtol)
-    if (run_a / "annotations.mcap").is_file() and (run_b / "annotations.mcap").is_file():
-        compared.append("annotations.mcap")
-        diffs += compare_mcap(run_a / "annotations.mcap", run_b / "annotations.mcap")
-    if (run_a / "report.md").is_file() and (run_b / "report.md").is_file():
-        compared.append("report.md")
-        la = (run_a / "report.md").read_text(encoding="utf-8").splitlines()
-        lb = (run_b / "report.md").read_text(encoding="utf-8").splitlines()
+    a, b = RunLayout(run_a), RunLayout(run_b)
+    if a.annotations.is_file() and b.annotations.is_file():
+        compared.append(ANNOTATIONS_FILE)
+        diffs += compare_mcap(a.annotations, b.annotations)
+    if a.report.is_file() and b.report.is_file():
+        compared.append(REPORT_FILE)
+        la = a.report.read_text(encoding="utf-8").splitlines()
+        lb = b.report.read_text(encoding="utf-8").splitlines()
         if la != lb:
             first = next(
                 (i for i, (x, y) in enumerate(zip(la, lb, strict=False)) if x != y),
                 min(len(la), len(lb)),
             )
-            diffs.append(f"report.md differs from line {first + 1}")
+            diffs.append(f"{REPORT_FILE} differs from line {first + 1}")
     return compared, diffs
 
 

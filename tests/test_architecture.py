@@ -3,7 +3,8 @@
 First level: every top-level unit of the package has a rank; nothing imports a higher rank and
 there is no cycle. Second level: inside every package, its modules and subpackages import each
 other without cycles (function-local imports count); the commands rank among themselves (peers
-never import each other); and nothing below the commands knows a command's output file names.
+never import each other); every output file name and schema is written once, in
+``reporting/run_layout.py``; the frame loop lives in ``drive/``; ``cli/`` runs no pipeline.
 ``docs/architecture.md`` lists the same layers (checked here too).
 """
 
@@ -56,6 +57,7 @@ COMMAND_RANKS = {
     "lanes": 1,
     "camera_estimate": 1,
     "tables": 1,
+    "corridor": 1,
     "compare": 1,
     "mine": 1,
     "batch": 2,
@@ -63,10 +65,8 @@ COMMAND_RANKS = {
 """Second level of ``commands``: the commands are peers (rank 1) and never import each other;
 ``batch`` runs the others as jobs, so it ranks above them."""
 
-OUTPUT_NAME = re.compile(r"^[a-z_]+\.(parquet|mcap|md|html|mp4|json|yaml)$")
-FORMAT_FILES = frozenset({"metadata.yaml", "labels.json"})
-"""File names a format defines (a ROS 2 bag folder's index, a TuSimple label folder's labels,
-which ``slt mine`` writes and ``slt train`` reads), not a command."""
+OUTPUT_NAME = re.compile(r"^[a-z_]+\.(parquet|mcap|md|html|mp4|json|png)$")
+"""An output file name (``lanes.parquet``): written only in the run layout."""
 
 
 def _unit(path: Path, base: Path = PACKAGE) -> str:
@@ -174,23 +174,122 @@ def _string_constants(path: Path) -> set[str]:
     }
 
 
-def test_nothing_below_the_commands_knows_their_file_names() -> None:
-    names = {
-        s
-        for path in (PACKAGE / "commands").rglob("*.py")
-        for s in _string_constants(path)
-        if OUTPUT_NAME.match(s) and s not in FORMAT_FILES
-    }
-    assert "curvature_summary.parquet" in names  # the scan finds the commands' file names
-    lower = [u for u, rank in RANKS.items() if rank < RANKS["commands"]]
+LAYOUT = PACKAGE / "reporting" / "run_layout.py"
+"""The one module that names every output file and defines every output schema."""
+OTHER_SCHEMAS = {
+    "lanes/table.py": {"FIT_COLUMNS"},  # the lane fit's columns, composed by the run layout
+    "simulation/groundtruth.py": {"GT_SCHEMA"},  # the simulator's truth, beside its recording
+    "simulation/dataset.py": {"INDEX_SCHEMA"},  # a training set's index
+}
+"""Schemas defined outside the run layout: the lane layer's columns and the simulator's files."""
+
+
+def _layout_names() -> set[str]:
+    return {s for s in _string_constants(LAYOUT) if OUTPUT_NAME.match(s)}
+
+
+def test_output_file_names_are_written_once_in_the_run_layout() -> None:
+    names = _layout_names()
+    assert {"lanes.parquet", "curvature_summary.parquet", "annotations.mcap"} <= names
+    assert {"run_manifest.json", "curvature_time.png", "batch_status.parquet"} <= names
+    sources = [*PACKAGE.rglob("*.py"), *(ROOT / "pipelines").glob("*.py")]
     bad = sorted(
         f"{path.relative_to(ROOT)}: {s!r}"
-        for unit in lower
-        for path in (PACKAGE / unit).rglob("*.py")
-        if (PACKAGE / unit).is_dir()
+        for path in sources
+        if path != LAYOUT
         for s in _string_constants(path) & names
     )
-    assert not bad, bad
+    assert not bad, f"output file names outside reporting/run_layout.py: {bad}"
+
+
+def _schema_assignments(path: Path) -> set[str]:
+    """Return the module-level names assigned a ``pa.schema(...)`` call in a file."""
+    found = set()
+    for node in ast.parse(path.read_text(encoding="utf-8")).body:
+        if isinstance(node, ast.Assign) and isinstance(node.value, ast.Call):
+            func = node.value.func
+            if isinstance(func, ast.Attribute) and func.attr == "schema":
+                found |= {t.id for t in node.targets if isinstance(t, ast.Name)}
+    return found
+
+
+def test_output_schemas_are_defined_once_in_the_run_layout() -> None:
+    assert {"LANES_SCHEMA", "FRAMES_SCHEMA", "RTK_SCHEMA"} <= _schema_assignments(LAYOUT)
+    found = {
+        path.relative_to(PACKAGE).as_posix(): names
+        for path in PACKAGE.rglob("*.py")
+        if path != LAYOUT and (names := _schema_assignments(path))
+    }
+    assert found == OTHER_SCHEMAS, f"schemas outside reporting/run_layout.py: {found}"
+
+
+def _names_used(path: Path) -> tuple[set[str], set[str]]:
+    """Return the names a file refers to, and the names it calls (``f(...)`` or ``x.f(...)``)."""
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    used: set[str] = set()
+    called: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Name):
+            used.add(node.id)
+        elif isinstance(node, ast.Attribute):
+            used.add(node.attr)
+        elif isinstance(node, ast.alias):
+            used.add(node.name.split(".")[-1])
+        if isinstance(node, ast.Call):
+            func = node.func
+            called.add(func.id if isinstance(func, ast.Name) else getattr(func, "attr", ""))
+    return used, called
+
+
+FRAME_TYPES = {"Prepared", "Finished", "_Loop"}
+"""A frame inside the loop: only ``drive/`` sees one (a new per-frame output is a sink there)."""
+READS = {"messages", "raw_messages", "decode_video"}
+"""Reading a recording's messages: the layers' job (``drive.run_frames``, ``recording``)."""
+
+
+def test_the_frame_loop_lives_in_drive() -> None:
+    loop = (PACKAGE / "drive" / "loop.py").read_text(encoding="utf-8")
+    assert "def run_frames(" in loop
+    assert "class FrameSink(Protocol)" in loop
+    outside = [p for p in PACKAGE.rglob("*.py") if p.relative_to(PACKAGE).parts[0] != "drive"]
+    bad = []
+    for path in outside:
+        used, called = _names_used(path)
+        bad += [f"{path.relative_to(ROOT)}: {n}" for n in sorted(used & FRAME_TYPES)]
+        if path.relative_to(PACKAGE).parts[0] in {"commands", "cli"}:
+            bad += [f"{path.relative_to(ROOT)}: calls {n}" for n in sorted(called & READS)]
+    assert not bad, f"frame-loop work outside drive/: {bad}"
+
+
+CLI_BANNED_MODULES = ("cv2", "numpy", "pandas", "pyarrow")
+CLI_BANNED_NAMES = {
+    "write_table",
+    "ParquetStreamWriter",
+    "staged_run",
+    "add_signals",
+    "warm_up_in_background",
+    "FrameStages",
+    "run_frames",
+    "OnnxCorridorModel",
+    "corridor_from_mask",
+}
+"""What a pipeline is made of: writers, staging, stages. ``cli/`` calls one command instead."""
+
+
+def test_the_cli_runs_no_pipeline() -> None:
+    bad = []
+    for path in sorted((PACKAGE / "cli").glob("*.py")):
+        imported = _imported(path)
+        bad += [
+            f"{path.name}: imports {'.'.join(name)}"
+            for name in imported
+            if name[0] in CLI_BANNED_MODULES
+            or name[:2] == ["superlane_tools", "drive"]
+            or name[-1] in CLI_BANNED_NAMES
+        ]
+        used, _ = _names_used(path)
+        bad += [f"{path.name}: uses {n}" for n in sorted(used & CLI_BANNED_NAMES)]
+    assert not bad, f"pipeline code in cli/ (move it to commands/): {bad}"
 
 
 def test_architecture_page_lists_every_layer() -> None:
@@ -276,7 +375,8 @@ def test_tests_mirror_the_package() -> None:
     # `slt lanes` is tested through its CLI (tests/cli/test_cli_lanes.py) and the evaluation
     # tests; `slt camera estimate` in tests/camera/test_cam_calibrate_estimate.py.
     # `slt tables` through its CLI too (tests/cli/test_cli_reprocess.py).
-    untested_here = {"__init__", "errors", "lanes", "camera_estimate", "tables"}
+    # `slt corridor` through its CLI (tests/cli/test_cli_corridor_train.py).
+    untested_here = {"__init__", "errors", "lanes", "camera_estimate", "tables", "corridor"}
     commands = [u for u in COMMAND_RANKS if u not in untested_here]
     missing = [c for c in commands if not list((ROOT / "tests" / "commands" / c).glob("test_*.py"))]
     assert not missing, f"no tests/commands/<command>/test_*.py for {missing}"

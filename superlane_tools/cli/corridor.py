@@ -18,7 +18,6 @@ from superlane_tools.cli._common import (
     report_skipped,
 )
 from superlane_tools.errors import ExitCode
-from superlane_tools.records import Skipped
 
 
 def corridor(
@@ -71,71 +70,27 @@ def _run(
     threshold: float,
     threads: int,
 ) -> ExitCode:
-    import math
+    from superlane_tools.commands.corridor import predict_corridors
 
-    import cv2
-    import numpy as np
-    import pandas as pd
-
-    from superlane_tools.camera.profiles import load_camera
-    from superlane_tools.corridor.geometry import CorridorParams, corridor_from_mask
-    from superlane_tools.reporting import (
-        Provenance,
-        input_identity,
-        write_bytes_atomic,
-        write_table,
-    )
-    from superlane_tools.scene.corridor_runtime import CorridorSmoother, OnnxCorridorModel
-    from superlane_tools.scene.recording_frames import InputFrames
-
-    cam = load_camera(camera_name) if camera_name else None
-    runtime = OnnxCorridorModel(model, threads=threads)
-    frames = InputFrames(input_path, out)
-    smoother = CorridorSmoother(smooth)
-    params = CorridorParams(threshold=threshold)
-    rows: list[dict[str, object]] = []
-    skipped: list[Skipped] = []
-    with progress("corridor", frames.total, "images") as bar:
-        for frame in frames:
-            bar.advance()
-            image = frame.image
-            if image is None or image.shape[0] < 8 or image.shape[1] < 8:
-                skipped.append(Skipped("unreadable image", frame.problem or frame.name, 1))
-                smoother.reset()
-                continue
-            prob = smoother.update(runtime.probability(image))
-            rel = Path(f"{frame.name}.png")
-            ok, png = cv2.imencode(".png", np.round(prob * 255.0).astype(np.uint8))
-            assert ok, "PNG encoding of a uint8 image cannot fail"
-            write_bytes_atomic(out / rel, png.tobytes())
-            geometry = corridor_from_mask(prob, cam, params) if cam is not None else None
-            rows.append(
-                {
-                    "name": rel.as_posix(),
-                    "corridor_fraction": float((prob > threshold).mean()),
-                    "width_m": geometry.width_m if geometry else math.nan,
-                    "length_m": geometry.length_m if geometry else math.nan,
-                }
-            )
-    skipped.extend(frames.skipped)
-    if not rows:
-        report_skipped(skipped)
+    with progress("corridor", None, "images") as bar:
+        result = predict_corridors(
+            input_path,
+            out,
+            model,
+            camera_name,
+            smooth,
+            threshold,
+            threads,
+            command=command_line(),
+            progress=bar.update,
+        )
+    if result.table is None:
+        report_skipped(result.skipped)
         return ExitCode.ERROR
-    provenance = Provenance(
-        command=command_line(),
-        inputs=(input_identity(input_path),),
-        config={
-            "smooth_frames": smooth,
-            "threshold": threshold,
-            "camera": cam.name if cam else None,
-        },
-        models={runtime.card.name: runtime.sha256},
-    )
-    write_table(pd.DataFrame(rows), out / "corridor.parquet", provenance)
     err_console.print(
-        f"slt: wrote {len(rows)} corridor maps with {runtime.name} into {out}", markup=False
+        f"slt: wrote {result.maps} corridor maps with {result.model} into {out}", markup=False
     )
-    return report_skipped(skipped)
+    return report_skipped(result.skipped)
 
 
 def register(app: typer.Typer) -> None:

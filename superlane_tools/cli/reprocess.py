@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import inspect
-import subprocess
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -131,14 +130,22 @@ def reprocess_cmd(
                 overrides["workers"] = workers
             cfg = cfg.with_overrides(overrides)
             target = out if out is not None else Path("runs") / _recording_name(recording)
-            result, added = _run(recording, target, cfg, with_signals, compiler)
+            from superlane_tools.commands.reprocess import reprocess_run
+
+            with progress("reprocess", unit="frames") as bar:
+                result = reprocess_run(
+                    recording, target, cfg, bar.update, command_line(), with_signals, compiler
+                )
         finally:
             if compiler is not None and compiler.poll() is None:
                 compiler.terminate()  # the run failed, or fitted nothing: no work left behind
                 compiler.wait()
+        added = result.signal_channels
         if added is not None:
+            from superlane_tools.reporting.run_layout import ANNOTATIONS_FILE
+
             console.print(
-                f"annotations.mcap: added {len(added)} signal channels "
+                f"{ANNOTATIONS_FILE}: added {len(added)} signal channels "
                 f"({sum(added.values())} messages)",
                 markup=False,
             )
@@ -153,34 +160,6 @@ def reprocess_cmd(
     )
     console.print(f"stages: {stages}", markup=False, soft_wrap=True)
     exit_with(report_skipped(result.skipped))
-
-
-def _run(
-    recording: Path,
-    target: Path,
-    cfg: Any,
-    with_signals: bool,
-    compiler: subprocess.Popen[bytes] | None,
-) -> tuple[Any, dict[str, int] | None]:
-    """Reprocess into a staging folder, add the signal channels, publish the run in one step."""
-    from superlane_tools.commands.reprocess import reprocess
-    from superlane_tools.lanes import FitParams
-    from superlane_tools.lanes.multilane_fit import warm_up_in_background
-    from superlane_tools.reporting.run_folder import staged_run
-
-    warm_up_in_background(FitParams.from_dict(dict(getattr(cfg, "fit", {}))).backend, compiler)
-    added: dict[str, int] | None = None
-    with staged_run(target) as stage:  # the whole run appears at once, or not at all
-        with progress("reprocess", unit="frames") as bar:
-            result = reprocess(recording, stage, cfg, progress=bar.update, command=command_line())
-        annotations = stage / "annotations.mcap"
-        if with_signals and annotations.is_file():
-            from superlane_tools.reporting.annotations import add_signals
-
-            added = add_signals(
-                annotations, stage / "can_signals.parquet", stage / "curvature.parquet"
-            )
-    return result, added
 
 
 def register(app: typer.Typer) -> None:

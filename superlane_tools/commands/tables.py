@@ -1,7 +1,8 @@
 """Paper-style tables over many reprocess runs: availability (corridor paper Table II), curvature.
 
-Inputs are run folders written by ``slt reprocess`` (``availability_sequences.parquet`` and
-``curvature_summary.parquet``). Outputs are Markdown, LaTeX or Parquet (with provenance).
+Inputs are run folders written by ``slt reprocess`` (their ``availability_sequences`` and
+``curvature_summary`` tables, named in ``reporting.run_layout``). Outputs are Markdown, LaTeX
+or Parquet (with provenance).
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from superlane_tools.reporting.parquet import read_provenance, write_table
 from superlane_tools.reporting.provenance import Provenance, input_identity
 from superlane_tools.reporting.report import latex_table, markdown_table
 from superlane_tools.reporting.run_folder import require_complete_run
+from superlane_tools.reporting.run_layout import AVAILABILITY_SEQUENCES_FILE, CURVATURE_SUMMARY_FILE
 
 METHOD_NAMES = AVAILABILITY_NAMES
 TABLE_FORMATS = (".md", ".tex", ".parquet")
@@ -56,7 +58,7 @@ def availability_table(run_dirs: Sequence[Path], by: str = "run") -> pd.DataFram
     """
     parts = []
     for run in run_dirs:
-        seqs = _read(Path(run), "availability_sequences.parquet")
+        seqs = _read(Path(run), AVAILABILITY_SEQUENCES_FILE)
         seqs = seqs.assign(group=_category(Path(run), seqs, by), run=Path(run).name)
         parts.append(seqs)
     if not parts:
@@ -107,7 +109,7 @@ def curvature_table(run_dirs: Sequence[Path]) -> pd.DataFrame:
     """One row per run and source (SUPER, Mobileye): n, coverage, RMSE, MAE, bias, correlation."""
     rows: list[dict[str, object]] = []
     for run in run_dirs:
-        summ = _read(Path(run), "curvature_summary.parquet")
+        summ = _read(Path(run), CURVATURE_SUMMARY_FILE)
         overall = summ[summ["scope"] == "overall"]
         rows.extend(_curvature_row(Path(run).name, rec) for rec in overall.itertuples(index=False))
     if not rows:
@@ -136,7 +138,7 @@ def write_summary_table(
         inputs = tuple(
             input_identity(Path(r) / n)
             for r in run_dirs
-            for n in ("availability_sequences.parquet", "curvature_summary.parquet")
+            for n in (AVAILABILITY_SEQUENCES_FILE, CURVATURE_SUMMARY_FILE)
             if (Path(r) / n).is_file()
         )
         return write_table(

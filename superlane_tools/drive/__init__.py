@@ -17,20 +17,35 @@ from superlane_tools.drive.config import (
     load_manifest,
 )
 from superlane_tools.drive.finalize import DriveTables, ReportFacts, drive_tables
-from superlane_tools.drive.record import Corridors, DriveFrames, DriveRecorder, FitSeries
+from superlane_tools.drive.loop import (
+    DrivePass,
+    DriveTopics,
+    FrameSink,
+    drive_topics,
+    frame_total,
+    run_frames,
+)
+from superlane_tools.drive.record import Corridors, DriveFrames, DriveFramesBuilder, FitSeries
+from superlane_tools.drive.sinks import AnnotationSink, ExampleSink, FrameTablesSink, VideoSink
 from superlane_tools.drive.stages import Finished, FrameStages, Prepared
 
 __all__ = [
     "BACKENDS",
+    "AnnotationSink",
     "CanConfig",
     "CorridorConfig",
     "Corridors",
     "DriveFrames",
-    "DriveRecorder",
+    "DriveFramesBuilder",
+    "DrivePass",
     "DriveTables",
+    "DriveTopics",
+    "ExampleSink",
     "Finished",
     "FitSeries",
+    "FrameSink",
     "FrameStages",
+    "FrameTablesSink",
     "KpiConfig",
     "OutputConfig",
     "Prepared",
@@ -40,9 +55,13 @@ __all__ = [
     "SegmentationConfig",
     "TopicsConfig",
     "TrackingConfig",
+    "VideoSink",
     "config_from_mapping",
     "default_config_yaml",
     "drive_tables",
+    "drive_topics",
+    "frame_total",
     "load_config",
     "load_manifest",
+    "run_frames",
 ]

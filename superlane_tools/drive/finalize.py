@@ -15,7 +15,14 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from superlane_tools.can import MAPPINGS, Latency, LoadedDbc, latency_by_xcorr, mobileye_table
+from superlane_tools.can import (
+    MAPPINGS,
+    Latency,
+    LoadedDbc,
+    MobileyeMapping,
+    latency_by_xcorr,
+    mobileye_table,
+)
 from superlane_tools.can.collect import CanFrames
 from superlane_tools.can.errors import CanError
 from superlane_tools.corridor import (
@@ -29,6 +36,8 @@ from superlane_tools.drive.config import ReprocessConfig, TrackingConfig, load_m
 from superlane_tools.drive.record import DriveFrames, FitSeries
 from superlane_tools.drive.signals import (
     ImuSamples,
+    RtkTruth,
+    Series,
     at_frames,
     can_frame_signals,
     dynamics_reference,
@@ -37,6 +46,7 @@ from superlane_tools.drive.signals import (
     rtk_truth,
 )
 from superlane_tools.geo import DEGRADED_NOTE
+from superlane_tools.geo.dynamics import DynamicsCurvature
 from superlane_tools.lanes.lookahead import align_super_curvature, smooth_like_truth
 from superlane_tools.lanes.tracker import COV_INDEX, COV_KEYS, track_lanes, travelled_m
 from superlane_tools.records import Skipped
@@ -99,14 +109,63 @@ def drive_tables(
 ) -> DriveTables:
     """Turn a drive's per-frame record plus its CAN frames and GNSS fixes into its tables.
 
+    The steps: the vehicle's signals and the truth at the frames, Mobileye's lanes, the
+    yaw-rate / speed reference, the curvature table and its summary, then availability.
+
     Raises:
         CanError: If a used CAN signal has no or an unknown unit, or the Mobileye mapping is
             unknown.
     """
     t_ns = frames.t_ns
-    fit = frames.fit
     notes: list[str] = []
     lost: list[Skipped] = []
+    vehicle = _vehicle_signals(can, dbcs, gnss, t_ns, config, notes, lost)
+    me, mapping = _mobileye(vehicle.signals, config, has_can=bool(len(can)), notes=notes)
+    notes += _truth_notes(vehicle.rtk, config)
+    dyn = _dynamics(vehicle, imu, t_ns, config, notes)
+    curv = _curvature_table(frames, vehicle, me, dyn, config, notes)
+    latency, latency_line = mobileye_latency(frames.fit, me, t_ns, mapping.min_quality)
+    if latency_line:
+        notes.append(latency_line)
+    summary = _curvature_summary(curv, segments, vehicle.rtk, latency)
+    av_frames, av_seqs = _availability(
+        frames, me, vehicle.speed, params, segments, corridor_unavailable, camera
+    )
+    return DriveTables(
+        vehicle.signals,
+        me,
+        vehicle.rtk.fixes,
+        curv,
+        summary,
+        av_frames,
+        av_seqs,
+        tuple(notes),
+        tuple(lost),
+    )
+
+
+@dataclass(frozen=True)
+class _Vehicle:
+    """The vehicle's signals: decoded CAN, speed and yaw rate (series and at the frames), truth."""
+
+    signals: pd.DataFrame
+    speed_s: Series | None
+    yaw_s: Series | None
+    speed: NDArray[np.float64]
+    yaw: NDArray[np.float64]
+    rtk: RtkTruth
+
+
+def _vehicle_signals(
+    can: CanFrames,
+    dbcs: Mapping[str, LoadedDbc],
+    gnss: GnssFixes,
+    t_ns: NDArray[np.int64],
+    config: ReprocessConfig,
+    notes: list[str],
+    lost: list[Skipped],
+) -> _Vehicle:
+    """Decode CAN (noting the DBC coverage), pick speed and yaw rate, build the RTK truth."""
     signals = can.decode(dbcs)
     if len(can):
         coverage = can.coverage(dbcs)
@@ -119,8 +178,6 @@ def drive_tables(
     if speed_s is None and (fallback := gnss_speed(rtk)) is not None:
         speed_s = fallback
         notes.append("speed: no CAN speed, estimated from the GNSS fixes")
-    speed = at_frames(speed_s, t_ns)
-    yaw = at_frames(yaw_s, t_ns)
     if not len(can):
         notes.append(
             "no CAN stream: speed unknown, availability by length marked unknown; "
@@ -131,6 +188,14 @@ def drive_tables(
             f"no CAN speed signal {config.can.speed_signal!r}: availability by length "
             "marked unknown"
         )
+    speed, yaw = at_frames(speed_s, t_ns), at_frames(yaw_s, t_ns)
+    return _Vehicle(signals, speed_s, yaw_s, speed, yaw, rtk)
+
+
+def _mobileye(
+    signals: pd.DataFrame, config: ReprocessConfig, has_can: bool, notes: list[str]
+) -> tuple[pd.DataFrame, MobileyeMapping]:
+    """Return Mobileye's lane updates from the decoded CAN, and the mapping used."""
     if config.can.mobileye_mapping not in MAPPINGS:
         raise CanError(
             f"unknown can.mobileye_mapping {config.can.mobileye_mapping!r}; "
@@ -140,30 +205,53 @@ def drive_tables(
         MAPPINGS[config.can.mobileye_mapping], right_positive=config.can.mobileye_right_positive
     )
     me = mobileye_table(signals, mapping, config.kpi.width_at_m)
-    me_curv = mobileye_at_frames(me, t_ns)
-    if len(can) and me.empty:
+    if has_can and me.empty:
         notes.append("no Mobileye lane messages on CAN: no Mobileye comparison")
-    notes += _truth_notes(rtk, config)
+    return me, mapping
+
+
+def _dynamics(
+    vehicle: _Vehicle,
+    imu: ImuSamples | None,
+    t_ns: NDArray[np.int64],
+    config: ReprocessConfig,
+    notes: list[str],
+) -> DynamicsCurvature | None:
+    """Return the yaw-rate / speed curvature reference (the IMU's yaw rate without CAN's)."""
+    yaw_s = vehicle.yaw_s
     if yaw_s is None and imu is not None and len(imu):
         yaw_s = imu.yaw_series(config.rtk.imu_yaw_axis)
         notes.append(f"yaw rate: IMU gyro about {config.rtk.imu_yaw_axis}")
-    dyn = dynamics_reference(yaw_s, speed_s, t_ns, config.rtk)
+    dyn = dynamics_reference(yaw_s, vehicle.speed_s, t_ns, config.rtk)
     if dyn is None:
         notes.append("no yaw-rate / speed reference: no dynamics curvature cross-check")
     else:
         notes.append(f"yaw-rate reference: gyro bias {dyn.bias.rps:.2e} rad/s ({dyn.bias.source})")
+    return dyn
+
+
+def _curvature_table(
+    frames: DriveFrames,
+    vehicle: _Vehicle,
+    me: pd.DataFrame,
+    dyn: DynamicsCurvature | None,
+    config: ReprocessConfig,
+    notes: list[str],
+) -> pd.DataFrame:
+    """One row per frame: the truth, SUPER (raw, aligned, tracked), Mobileye, the dynamics."""
+    t_ns, fit, rtk = frames.t_ns, frames.fit, vehicle.rtk
     curv = pd.DataFrame(
         {
             "frame_index": np.arange(len(t_ns), dtype=np.int32),
             "log_time_ns": t_ns,
             "t_s": (t_ns - (t_ns[0] if len(t_ns) else 0)) / 1e9,
             "s_m": rtk.frame_s_m,
-            "speed_mps": speed,
-            "yaw_rate_rps": yaw,
+            "speed_mps": vehicle.speed,
+            "yaw_rate_rps": vehicle.yaw,
             "rtk_curvature": rtk.frame_curvature,
             "rtk_valid": rtk.frame_valid,
             "super_curvature": fit.curvature_per_m,
-            "mobileye_curvature": me_curv,
+            "mobileye_curvature": mobileye_at_frames(me, t_ns),
             "dynamics_curvature": (
                 dyn.curvature_per_m if dyn is not None else np.full(len(t_ns), np.nan)
             ),
@@ -185,9 +273,13 @@ def drive_tables(
     curv["super_path_sg_curvature"] = aligned.path_per_m
     _add_track(curv, frames, config, notes)
     _add_fair_mobileye(curv, me, t_ns, config, notes)
-    latency, latency_line = mobileye_latency(fit, me, t_ns, mapping.min_quality)
-    if latency_line:
-        notes.append(latency_line)
+    return curv
+
+
+def _curvature_summary(
+    curv: pd.DataFrame, segments: Sequence[Segment], rtk: RtkTruth, latency: Latency | None
+) -> pd.DataFrame:
+    """Add the error columns to ``curv``; return the errors overall and per sequence."""
     curv["super_error"] = curv["super_curvature"] - curv["rtk_curvature"]
     curv["super_path_error"] = curv["super_path_curvature"] - curv["rtk_curvature"]
     curv["mobileye_error"] = curv["mobileye_curvature"] - curv["rtk_curvature"]
@@ -196,6 +288,20 @@ def drive_tables(
     summary["truth_degraded"] = rtk.degraded
     summary["mobileye_latency_s"] = latency.lag_s if latency is not None else np.nan
     summary["mobileye_latency_resolved"] = latency is not None and latency.resolved
+    return summary
+
+
+def _availability(
+    frames: DriveFrames,
+    me: pd.DataFrame,
+    speed: NDArray[np.float64],
+    params: AvailabilityParams,
+    segments: Sequence[Segment],
+    corridor_unavailable: str,
+    camera: bool,
+) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Availability of every method per frame and per sequence."""
+    t_ns = frames.t_ns
     unavailable = {"corridor_net": corridor_unavailable} if corridor_unavailable else {}
     if me.empty:
         unavailable["mobileye"] = "no Mobileye lane messages"
@@ -211,9 +317,7 @@ def drive_tables(
     av_frames, av_seqs, _ = tables.availability_tables(
         t_ns, geometry, unavailable, speed, params, segments
     )
-    return DriveTables(
-        signals, me, rtk.fixes, curv, summary, av_frames, av_seqs, tuple(notes), tuple(lost)
-    )
+    return av_frames, av_seqs
 
 
 IMAGE_METHODS = ("super", "corridor_net", "hough")

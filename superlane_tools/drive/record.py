@@ -8,24 +8,19 @@ after the pass need; :meth:`DriveRecorder.record` returns them as a frozen :clas
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from contextlib import ExitStack
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pyarrow as pa
 from numpy.typing import NDArray
 
 from superlane_tools.drive.stages import Finished
-from superlane_tools.lanes.table import fit_row
 from superlane_tools.lanes.tracker import COV_INDEX
-from superlane_tools.reporting import ParquetStreamWriter, Provenance
-from superlane_tools.reporting import drive_tables as tables
+from superlane_tools.reporting.run_layout import STAGES
 
 FloatArray = NDArray[np.float64]
-FLUSH_ROWS = 256
+BLOCK_ROWS = 256
+"""Rows a record's buffers hold before they first grow."""
 
 
 class _Rows:
@@ -36,7 +31,7 @@ class _Rows:
     """
 
     def __init__(self, width: int, dtype: type = np.float64) -> None:
-        self._data: NDArray[Any] = np.empty((FLUSH_ROWS, width), dtype=dtype)
+        self._data: NDArray[Any] = np.empty((BLOCK_ROWS, width), dtype=dtype)
         self._n = 0
 
     def append(self, row: tuple[Any, ...]) -> None:
@@ -77,7 +72,7 @@ class Corridors:
     hough_length_m: FloatArray
 
     def by_method(self) -> dict[str, tuple[FloatArray, FloatArray]]:
-        """Return method -> (width, length), in :data:`drive_tables.METHODS` order."""
+        """Return method -> (width, length), in ``reporting.drive_tables.METHODS`` order."""
         return {
             "super": (self.super_width_m, self.super_length_m),
             "corridor_net": (self.net_width_m, self.net_length_m),
@@ -127,7 +122,7 @@ class DriveFrames:
         decoded: Whether each frame's image could be decoded.
         corridors: Corridor geometry of each method.
         fit: The SUPER fit series.
-        stage_s: ``(n, len(STAGES))`` wall seconds per stage (:data:`drive_tables.STAGES`).
+        stage_s: ``(n, len(STAGES))`` wall seconds per stage (``run_layout.STAGES``).
         stage_cpu_s: The same in thread CPU seconds.
     """
 
@@ -149,8 +144,8 @@ class DriveFrames:
     def stage_totals(self) -> dict[str, float]:
         """Return seconds per stage summed over frames: ``<stage>`` wall, ``cpu_<stage>`` CPU."""
         wall, cpu = self.stage_s.sum(axis=0), self.stage_cpu_s.sum(axis=0)
-        out = {s: float(wall[k]) for k, s in enumerate(tables.STAGES)}
-        out.update({f"cpu_{s}": float(cpu[k]) for k, s in enumerate(tables.STAGES)})
+        out = {s: float(wall[k]) for k, s in enumerate(STAGES)}
+        out.update({f"cpu_{s}": float(cpu[k]) for k, s in enumerate(STAGES)})
         return out
 
 
@@ -180,57 +175,9 @@ def no_camera_frames(t_ns: np.ndarray) -> DriveFrames:
             trackable=np.zeros(n, dtype=bool),
             cov=np.full((n, 3, 3), np.nan),
         ),
-        stage_s=np.zeros((n, len(tables.STAGES))),
-        stage_cpu_s=np.zeros((n, len(tables.STAGES))),
+        stage_s=np.zeros((n, len(STAGES))),
+        stage_cpu_s=np.zeros((n, len(STAGES))),
     )
-
-
-def frame_rows(done: Finished, corridor_status: str, mean_frames: int) -> dict[str, dict[str, Any]]:
-    """Return one row per streamed table (frames, lanes, corridor, baseline) for a frame."""
-    prep = done.prepared
-    image = prep.image
-    ph, pw = (image.shape[:2]) if image is not None else (0, 0)
-    frames = {
-        "frame_index": prep.index,
-        "log_time_ns": prep.log_time_ns,
-        "stamp_ns": prep.stamp_ns,
-        "width": prep.source_size[0],
-        "height": prep.source_size[1],
-        "process_width": pw,
-        "process_height": ph,
-        "ok": not prep.error,
-        "error": prep.error,
-        **{f"{s}_ms": prep.seconds.get(s, 0.0) * 1e3 for s in tables.STAGES},
-        **{f"{s}_cpu_ms": prep.cpu_seconds.get(s, 0.0) * 1e3 for s in tables.STAGES},
-    }
-    lanes = {
-        "frame_index": prep.index,
-        "log_time_ns": prep.log_time_ns,
-        **fit_row(f"{prep.index:06d}", pw, ph, done.fit),
-        "c": done.fit.c if done.fit.ok else math.nan,
-    }
-    net = done.net_corridor
-    corridor = {
-        "frame_index": prep.index,
-        "log_time_ns": prep.log_time_ns,
-        "width_m": net.width_m,
-        "length_m": net.length_m,
-        "n_rows": net.n_rows,
-        "mean_frames": mean_frames,
-        "status": corridor_status or ("" if prep.image is not None else "frame not decoded"),
-    }
-    h = prep.hough
-    baseline = {
-        "frame_index": prep.index,
-        "log_time_ns": prep.log_time_ns,
-        "ok": bool(h.ok) if h else False,
-        "width_m": h.width_m if h else math.nan,
-        "range_m": h.range_m if h else math.nan,
-        "reason": h.reason if h else "frame not decoded",
-        "left_line_px": list(h.left_line) if h and h.left_line else None,
-        "right_line_px": list(h.right_line) if h and h.right_line else None,
-    }
-    return {"frames": frames, "lanes": lanes, "corridor": corridor, "baseline": baseline}
 
 
 _COLUMNS = (
@@ -253,58 +200,24 @@ _COLUMNS = (
 )
 
 
-class DriveRecorder:
-    """Streams the per-frame tables of a drive and gathers its :class:`DriveFrames`.
+class DriveFramesBuilder:
+    """Gathers a drive's :class:`DriveFrames` from its finished frames, taken in order.
 
     Args:
-        files: Path of each streamed table: ``frames``, ``lanes``, ``corridor``, ``baseline``.
-        provenance: Provenance of every table.
-        stack: Closes (and on error discards) the table writers.
-        corridor_status: Why the corridor network is unavailable ("" when it is available).
-        mean_frames: Frames of the corridor network's mean.
         max_slope: Largest plausible ``|b|`` (see :meth:`LaneFit.plausible`).
     """
 
-    def __init__(
-        self,
-        files: Mapping[str, Path],
-        provenance: Provenance,
-        stack: ExitStack,
-        corridor_status: str,
-        mean_frames: int,
-        max_slope: float,
-    ) -> None:
-        specs = {
-            "frames": tables.FRAMES_SCHEMA,
-            "lanes": tables.LANES_SCHEMA,
-            "corridor": tables.CORRIDOR_SCHEMA,
-            "baseline": tables.BASELINE_SCHEMA,
-        }
-        self.writers = {
-            name: stack.enter_context(ParquetStreamWriter(files[name], schema, provenance))
-            for name, schema in specs.items()
-        }
-        self._rows: dict[str, list[dict[str, Any]]] = {name: [] for name in specs}
-        self._corridor_status, self._mean_frames = corridor_status, mean_frames
+    def __init__(self, max_slope: float) -> None:
         self._max_slope = max_slope
         self._t = _Rows(1, np.int64)
         self._flags = _Rows(2, np.bool_)  # decoded, trackable
         self._values = _Rows(len(_COLUMNS))
         self._cov = _Rows(len(COV_INDEX))
-        self._stage = _Rows(len(tables.STAGES))
-        self._stage_cpu = _Rows(len(tables.STAGES))
-
-    @property
-    def paths(self) -> list[Path]:
-        """Return the streamed tables' paths."""
-        return [w.path for w in self.writers.values()]
+        self._stage = _Rows(len(STAGES))
+        self._stage_cpu = _Rows(len(STAGES))
 
     def add(self, done: Finished) -> None:
         """Take one finished frame (frames come in order)."""
-        for name, row in frame_rows(done, self._corridor_status, self._mean_frames).items():
-            self._rows[name].append(row)
-        if len(self._rows["frames"]) >= FLUSH_ROWS:
-            self.flush()
         prep, fit = done.prepared, done.fit
         h = prep.hough
         hough_ok = h is not None and h.ok
@@ -337,17 +250,10 @@ class DriveRecorder:
         self._cov.append(
             tuple(float(cov[i, j]) if cov is not None else math.nan for i, j in COV_INDEX)
         )
-        self._stage.append(tuple(prep.seconds.get(s, 0.0) for s in tables.STAGES))
-        self._stage_cpu.append(tuple(prep.cpu_seconds.get(s, 0.0) for s in tables.STAGES))
+        self._stage.append(tuple(prep.seconds.get(s, 0.0) for s in STAGES))
+        self._stage_cpu.append(tuple(prep.cpu_seconds.get(s, 0.0) for s in STAGES))
 
-    def flush(self) -> None:
-        """Write the buffered rows."""
-        for name, rows in self._rows.items():
-            if rows:
-                self.writers[name].write(pa.Table.from_pylist(rows, self.writers[name].schema))
-                rows.clear()
-
-    def record(self) -> DriveFrames:
+    def frames(self) -> DriveFrames:
         """Return the frames taken so far as a :class:`DriveFrames`."""
         n = len(self._t)
         values = self._values.array()

@@ -17,7 +17,7 @@ from superlane_tools.fleet.differences import run_differences
 from superlane_tools.fleet.errors import FleetError
 from superlane_tools.fleet.kpis import KPI_BY_NAME, KPIS, DriveTables, Kpi, sequence_kpis
 from superlane_tools.fleet.report import compare_sections, iso_time
-from superlane_tools.fleet.runs import DriveRun, Fleet, RunFiles, find_drives, read_tables
+from superlane_tools.fleet.runs import DriveRun, Fleet, find_drives, read_tables
 from superlane_tools.fleet.spans import (
     SpanParams,
     disagreement_spans,
@@ -44,7 +44,6 @@ __all__ = [
     "FleetError",
     "GateRule",
     "Kpi",
-    "RunFiles",
     "SpanParams",
     "compare_fleets",
     "compare_sections",

@@ -1,6 +1,6 @@
 """Find the drives of a run folder, a folder of run folders or a batch root, and read their tables.
 
-The command names the files (:class:`RunFiles`); this module only reads them. A drive's match
+File names come from :mod:`superlane_tools.reporting.run_layout`. A drive's match
 key is the content hash of its recording (the provenance's first input, or the batch status's
 ``content_hash``) plus its batch window, so the same recording matches across run folders and
 batch roots wherever it was stored.
@@ -22,7 +22,8 @@ from superlane_tools.fleet.kpis import DriveTables
 from superlane_tools.records import Skipped
 from superlane_tools.reporting.errors import OutputError
 from superlane_tools.reporting.parquet import read_provenance
-from superlane_tools.reporting.run_folder import RUN_MANIFEST, require_complete_run
+from superlane_tools.reporting.run_folder import require_complete_run
+from superlane_tools.reporting.run_layout import BATCH_STATUS_FILE, MANIFEST_FILE, RunLayout
 
 UNCATEGORISED = "uncategorised"
 REQUIRED_COLUMNS: Mapping[str, tuple[str, ...]] = {
@@ -42,22 +43,6 @@ REQUIRED_COLUMNS: Mapping[str, tuple[str, ...]] = {
     "frames": ("frame_index", "log_time_ns"),
 }
 """Columns each table must have for the KPIs (tables of other tool versions may lack some)."""
-
-
-@dataclass(frozen=True)
-class RunFiles:
-    """File names of a run folder and a batch root (given by the command that owns them).
-
-    Attributes:
-        tables: Table key (the fields of :class:`~superlane_tools.fleet.kpis.DriveTables`) ->
-            file name inside a run folder.
-        annotations: The run's annotations MCAP (for Foxglove links).
-        batch_status: The status table of a batch root.
-    """
-
-    tables: Mapping[str, str]
-    annotations: str
-    batch_status: str
 
 
 @dataclass(frozen=True)
@@ -81,6 +66,11 @@ class DriveRun:
     provenance: Mapping[str, Any] = field(repr=False)
 
     @property
+    def annotations(self) -> Path:
+        """Return the run's annotations MCAP (for Foxglove)."""
+        return RunLayout(self.folder).annotations
+
+    @property
     def tool_version(self) -> str:
         """Return the version of the tool that wrote the run."""
         return str(self.provenance.get("tool_version", ""))
@@ -96,23 +86,21 @@ class Fleet:
     skipped: tuple[Skipped, ...] = ()
 
 
-def _provenance(folder: Path, files: RunFiles) -> dict[str, Any]:
-    name = files.tables["availability_sequences"]
+def _provenance(folder: Path) -> dict[str, Any]:
     try:
-        return read_provenance(folder / name)
+        return read_provenance(RunLayout(folder).availability_sequences)
     except OutputError as err:
         raise FleetError(f"{folder}: not a reprocess run ({err})") from err
 
 
 def _run_drive(
     folder: Path,
-    files: RunFiles,
     drive: str,
     category: str = "",
     recording: str = "",
     window: str = "",
 ) -> DriveRun:
-    prov = _provenance(folder, files)
+    prov = _provenance(folder)
     inputs = prov.get("inputs") or []
     first = inputs[0] if inputs and isinstance(inputs[0], Mapping) else {}
     content = str(first.get("content_hash", "")) or f"folder:{folder.name}"
@@ -126,33 +114,32 @@ def _run_drive(
     )
 
 
-def _is_run(folder: Path, files: RunFiles) -> bool:
-    return (folder / RUN_MANIFEST).is_file() and (
-        folder / files.tables["availability_sequences"]
-    ).is_file()
+def _is_run(folder: Path) -> bool:
+    layout = RunLayout(folder)
+    return layout.manifest.is_file() and layout.availability_sequences.is_file()
 
 
-def _batch_root(root: Path, files: RunFiles) -> Fleet:
+def _batch_root(root: Path) -> Fleet:
     try:
-        status = pd.read_parquet(root / files.batch_status)
+        status = pd.read_parquet(root / BATCH_STATUS_FILE)
     except (OSError, pa.ArrowException, ValueError) as err:
-        raise FleetError(f"{root}: unreadable {files.batch_status}: {err}") from err
+        raise FleetError(f"{root}: unreadable {BATCH_STATUS_FILE}: {err}") from err
     drives, skipped = [], []
     for row in status.itertuples(index=False):
         rid = str(row.recording_id)
         folder = root / rid
         result = str(getattr(row, "result", "")) or str(row.status)
-        if result not in ("ok", "partial") or not _is_run(folder, files):
+        if result not in ("ok", "partial") or not _is_run(folder):
             why = str(getattr(row, "error", "")) or f"no reprocess run ({result or 'unknown'})"
             skipped.append(Skipped("drive without a run", f"{rid}: {why}"))
             continue
         window = "|".join(str(getattr(row, c, "")) for c in ("sequence", "start_s", "end_s"))
         window = "" if window in ("||", "|nan|nan", "|None|None") else window
-        drives.append(_run_drive(folder, files, rid, str(row.category), str(row.recording), window))
+        drives.append(_run_drive(folder, rid, str(row.category), str(row.recording), window))
     return Fleet(root, "batch root", tuple(drives), tuple(skipped))
 
 
-def find_drives(path: str | Path, files: RunFiles) -> Fleet:
+def find_drives(path: str | Path) -> Fleet:
     """Return the drives under ``path``: a run folder, a folder of run folders or a batch root.
 
     Raises:
@@ -163,30 +150,30 @@ def find_drives(path: str | Path, files: RunFiles) -> Fleet:
     if not root.is_dir():
         raise FleetError(f"{root}: no such folder (expected a reprocess run or a batch root)")
     try:
-        if (root / RUN_MANIFEST).is_file():
+        if (root / MANIFEST_FILE).is_file():
             require_complete_run(root)
-            if not _is_run(root, files):
+            if not _is_run(root):
                 raise FleetError(
-                    f"{root}: a run folder without {files.tables['availability_sequences']} "
+                    f"{root}: a run folder without {RunLayout(root).availability_sequences.name} "
                     "(not a reprocess run)"
                 )
-            return Fleet(root, "run folder", (_run_drive(root, files, root.name),))
-        if (root / files.batch_status).is_file():
-            return _batch_root(root, files)
-        runs = sorted(p for p in root.iterdir() if p.is_dir() and _is_run(p, files))
+            return Fleet(root, "run folder", (_run_drive(root, root.name),))
+        if (root / BATCH_STATUS_FILE).is_file():
+            return _batch_root(root)
+        runs = sorted(p for p in root.iterdir() if p.is_dir() and _is_run(p))
         for run in runs:
             require_complete_run(run)
     except OutputError as err:
         raise FleetError(str(err)) from err
     if not runs:
         raise FleetError(
-            f"{root}: not a reprocess run folder ({RUN_MANIFEST}), a batch root "
-            f"({files.batch_status}) or a folder of run folders"
+            f"{root}: not a reprocess run folder ({MANIFEST_FILE}), a batch root "
+            f"({BATCH_STATUS_FILE}) or a folder of run folders"
         )
-    return Fleet(root, "folder of runs", tuple(_run_drive(r, files, r.name) for r in runs))
+    return Fleet(root, "folder of runs", tuple(_run_drive(r, r.name) for r in runs))
 
 
-def read_tables(run: DriveRun, files: RunFiles) -> DriveTables:
+def read_tables(run: DriveRun) -> DriveTables:
     """Read the tables the KPIs need from a drive's run folder.
 
     Raises:
@@ -195,7 +182,7 @@ def read_tables(run: DriveRun, files: RunFiles) -> DriveTables:
     """
     frames: dict[str, pd.DataFrame] = {}
     for key, columns in REQUIRED_COLUMNS.items():
-        path = run.folder / files.tables[key]
+        path = RunLayout(run.folder).table(key)
         try:
             table = pq.read_table(path)
         except (OSError, pa.ArrowException) as err:

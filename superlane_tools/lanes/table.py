@@ -1,7 +1,8 @@
 """The lanes table: one row per frame's SUPER fit, list columns with one entry per lane.
 
-``slt lanes fit`` writes it as ``lanes.parquet``; ``slt reprocess`` writes the same columns plus
-its frame index, log time and the vertical-curvature term.
+The columns (:data:`FIT_COLUMNS`) are the lane fit's part of the tables that
+``slt lanes fit`` and ``slt reprocess`` write; their whole schemas (and file names) are in
+:mod:`superlane_tools.reporting.run_layout`.
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ import pyarrow as pa
 
 from superlane_tools.lanes.result import Lane, LaneFit
 
-LANES_SCHEMA = pa.schema(
+FIT_COLUMNS = pa.schema(
     [
         ("name", pa.string()),
         ("width", pa.int32()),
@@ -39,13 +40,15 @@ LANES_SCHEMA = pa.schema(
         ("fit_time_ms", pa.float64()),
         ("quality", pa.float64()),
         ("reason", pa.string()),
+        ("c", pa.float64()),
     ]
 )
-"""Columns of ``lanes.parquet``: one row per mask; list columns hold one entry per lane."""
+"""The lane fit's columns, one row per frame; list columns hold one entry per lane; ``c`` is the
+road's vertical curvature term (1/m, ``z = b x + c x^2``)."""
 
 
 def fit_row(name: str, width: int, height: int, fit: LaneFit) -> dict[str, Any]:
-    """Return the ``lanes.parquet`` row of one frame's fit (see :data:`LANES_SCHEMA`)."""
+    """Return the lane fit's columns of one frame (see :data:`FIT_COLUMNS`)."""
     lanes = fit.lanes
     return {
         "name": name,
@@ -72,6 +75,7 @@ def fit_row(name: str, width: int, height: int, fit: LaneFit) -> dict[str, Any]:
         "fit_time_ms": fit.fit_time_s * 1e3,
         "quality": fit.quality,
         "reason": fit.reason,
+        "c": fit.c,
     }
 
 

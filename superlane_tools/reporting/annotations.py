@@ -15,12 +15,15 @@ import json
 import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any, cast
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
 
 from superlane_tools.reporting.atomic import atomic_path
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 ANNOTATIONS_TOPIC = "/slt/annotations"
 PARAMETERS_TOPIC = "/slt/lane_parameters"
@@ -176,7 +179,7 @@ def _finite(value: Any) -> float | None:
 
 
 def add_signals(
-    annotations: Path, can_signals: Path | None, curvature: Path | None
+    annotations: Path, can_signals: pd.DataFrame | None, curvature: pd.DataFrame | None
 ) -> dict[str, int]:
     """Add decoded CAN signals and the truth curves to an ``annotations.mcap``, atomically.
 
@@ -186,13 +189,12 @@ def add_signals(
 
     Args:
         annotations: The ``annotations.mcap`` written by reprocess.
-        can_signals: ``can_signals.parquet`` (None or missing: no CAN channels).
-        curvature: ``curvature.parquet`` (None or missing: no truth channel).
+        can_signals: The run's decoded CAN signals table (None or empty: no CAN channels).
+        curvature: The run's curvature table (None: no truth channel).
 
     Returns:
         Messages written per added topic.
     """
-    import pandas as pd
     from mcap.reader import make_reader
     from mcap.writer import CompressionType, Writer
 
@@ -200,8 +202,8 @@ def add_signals(
 
     rows: list[tuple[int, str, dict[str, Any]]] = []
     schemas: dict[str, dict[str, Any]] = {}
-    if can_signals is not None and can_signals.is_file():
-        table = pd.read_parquet(can_signals)
+    if can_signals is not None and len(can_signals):
+        table = can_signals
         for (message, t_ns), group in table.groupby(["message", "log_time_ns"], sort=False):
             topic = SIGNALS_PREFIX + str(message)
             values = {
@@ -224,8 +226,8 @@ def add_signals(
                         for sig, unit in units.items()
                     },
                 }  # fmt: skip
-    if curvature is not None and curvature.is_file():
-        curves = pd.read_parquet(curvature)
+    if curvature is not None:
+        curves = curvature
         wanted = [c for c in _TRUTH_COLUMNS if c in curves.columns]
         schemas[TRUTH_TOPIC] = {
             "title": "slt.Truth",

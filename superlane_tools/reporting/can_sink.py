@@ -12,31 +12,8 @@ from superlane_tools.can import Coverage, LoadedDbc, bind_dbcs, dbc_coverage, de
 from superlane_tools.records import Message
 from superlane_tools.reporting import ParquetStreamWriter
 from superlane_tools.reporting.provenance import ProvenanceSource, resolve_provenance
+from superlane_tools.reporting.run_layout import CAN_RAW_SCHEMA, CAN_SIGNALS_SCHEMA
 
-CAN_RAW_SCHEMA = pa.schema(
-    [
-        ("log_time_ns", pa.int64()),
-        ("stamp_ns", pa.int64()),
-        ("topic", pa.string()),
-        ("can_id", pa.uint32()),
-        ("is_extended", pa.bool_()),
-        ("dlc", pa.int16()),
-        ("data", pa.binary()),
-    ]
-)
-CAN_SIGNALS_SCHEMA = pa.schema(
-    [
-        ("log_time_ns", pa.int64()),
-        ("can_id", pa.uint32()),
-        ("message", pa.string()),
-        ("signal", pa.string()),
-        ("value", pa.float64()),
-        ("unit", pa.string()),
-        ("label", pa.string()),
-        ("bus", pa.string()),
-        ("dbc", pa.string()),
-    ]
-)
 CHUNK_ROWS = 65_536
 """CAN frames buffered before a row group is written and decoded."""
 

@@ -1,4 +1,7 @@
-"""Tables of a reprocessed drive: the streamed per-frame schemas and the derived KPI tables."""
+"""The derived KPI tables of a reprocessed drive: availability and the curvature summary.
+
+Their file names and the streamed tables' schemas are in :mod:`.run_layout`.
+"""
 
 from __future__ import annotations
 
@@ -6,7 +9,6 @@ from collections.abc import Sequence
 
 import numpy as np
 import pandas as pd
-import pyarrow as pa
 from numpy.typing import NDArray
 
 from superlane_tools.corridor import (
@@ -17,69 +19,10 @@ from superlane_tools.corridor import (
     sequence_availability,
 )
 from superlane_tools.evaluation.curvature import curvature_errors
-from superlane_tools.lanes.table import LANES_SCHEMA as LANES_FIT_SCHEMA
 
 FloatArray = NDArray[np.float64]
 METHODS = ("super", "corridor_net", "hough", "mobileye")
 """Availability methods: SUPER lane fit, ego-corridor network, Hough baseline, Mobileye."""
-STAGES = (
-    "decode",
-    "segmentation",
-    "points",
-    "corridor_net",
-    "hough",
-    "lane_fit",
-    "corridor_geometry",
-)
-
-FRAMES_SCHEMA = pa.schema(
-    [
-        ("frame_index", pa.int32()),
-        ("log_time_ns", pa.int64()),
-        ("stamp_ns", pa.int64()),
-        ("width", pa.int32()),
-        ("height", pa.int32()),
-        ("process_width", pa.int32()),
-        ("process_height", pa.int32()),
-        ("ok", pa.bool_()),
-        ("error", pa.string()),
-        *[(f"{s}_ms", pa.float64()) for s in STAGES],
-        *[(f"{s}_cpu_ms", pa.float64()) for s in STAGES],
-    ]
-)
-LANES_SCHEMA = pa.schema(
-    [
-        ("frame_index", pa.int32()),
-        ("log_time_ns", pa.int64()),
-        *LANES_FIT_SCHEMA,
-        ("c", pa.float64()),
-    ]
-)
-"""``lanes.parquet`` of reprocess: ``slt lanes fit``'s columns plus the road's vertical
-curvature term ``c`` (1/m, ``z = b x + c x^2``; 0 with ``fit.vertical_curvature_bound = 0``)."""
-CORRIDOR_SCHEMA = pa.schema(
-    [
-        ("frame_index", pa.int32()),
-        ("log_time_ns", pa.int64()),
-        ("width_m", pa.float64()),
-        ("length_m", pa.float64()),
-        ("n_rows", pa.int32()),
-        ("mean_frames", pa.int32()),
-        ("status", pa.string()),
-    ]
-)
-BASELINE_SCHEMA = pa.schema(
-    [
-        ("frame_index", pa.int32()),
-        ("log_time_ns", pa.int64()),
-        ("ok", pa.bool_()),
-        ("width_m", pa.float64()),
-        ("range_m", pa.float64()),
-        ("reason", pa.string()),
-        ("left_line_px", pa.list_(pa.float64())),
-        ("right_line_px", pa.list_(pa.float64())),
-    ]
-)
 
 
 def availability_tables(

@@ -25,35 +25,8 @@ from superlane_tools.records import Message
 from superlane_tools.reporting import OutputError, ParquetStreamWriter
 from superlane_tools.reporting.atomic import temp_prefix
 from superlane_tools.reporting.provenance import ProvenanceSource, resolve_provenance
+from superlane_tools.reporting.run_layout import CAMERA_INFO_SCHEMA, EXTRACT_FRAMES_SCHEMA
 
-FRAMES_SCHEMA = pa.schema(
-    [
-        ("topic", pa.string()),
-        ("index", pa.int64()),
-        ("log_time_ns", pa.int64()),
-        ("stamp_ns", pa.int64()),
-        ("width", pa.int32()),
-        ("height", pa.int32()),
-        ("encoding", pa.string()),
-        ("path", pa.string()),
-        ("ok", pa.bool_()),
-        ("error", pa.string()),
-    ]
-)
-CAMERA_INFO_SCHEMA = pa.schema(
-    [
-        ("topic", pa.string()),
-        ("log_time_ns", pa.int64()),
-        ("frame_id", pa.string()),
-        ("width", pa.int32()),
-        ("height", pa.int32()),
-        ("distortion_model", pa.string()),
-        ("d", pa.list_(pa.float64())),
-        ("k", pa.list_(pa.float64())),
-        ("r", pa.list_(pa.float64())),
-        ("p", pa.list_(pa.float64())),
-    ]
-)
 RAW_TYPES = {"sensor_msgs/msg/Image", "foxglove.RawImage"}
 _EXT = {"jpg": ("jpeg", ".jpg"), "png": ("png", ".png")}
 FLUSH_ROWS = 4096
@@ -107,7 +80,7 @@ class FrameSink:
         self.seen: dict[str, int] = {}
         self.kept = 0
         self.failed = 0
-        self._rows: dict[str, list[Any]] = {name: [] for name in FRAMES_SCHEMA.names}
+        self._rows: dict[str, list[Any]] = {name: [] for name in EXTRACT_FRAMES_SCHEMA.names}
         self._writer: ParquetStreamWriter | None = None
         self._info_rows: list[dict[str, Any]] = []
         self._last_info: dict[str, tuple[Any, ...]] = {}
@@ -238,9 +211,9 @@ class FrameSink:
         if self._writer is None:
             provenance = resolve_provenance(self._provenance)
             path = self.index_path
-            self._writer = ParquetStreamWriter(path, FRAMES_SCHEMA, provenance).__enter__()
+            self._writer = ParquetStreamWriter(path, EXTRACT_FRAMES_SCHEMA, provenance).__enter__()
         self._writer.write(self._rows)
-        self._rows = {name: [] for name in FRAMES_SCHEMA.names}
+        self._rows = {name: [] for name in EXTRACT_FRAMES_SCHEMA.names}
 
     def close(self, ok: bool) -> list[Path]:
         """Finish the outputs (discard them all when ``ok`` is False); return the files."""
@@ -255,7 +228,7 @@ class FrameSink:
                 if self._writer is None:  # no frame kept: still write the (empty) index
                     provenance = resolve_provenance(self._provenance)
                     self._writer = ParquetStreamWriter(
-                        self.index_path, FRAMES_SCHEMA, provenance
+                        self.index_path, EXTRACT_FRAMES_SCHEMA, provenance
                     ).__enter__()
         except BaseException:
             ok = False

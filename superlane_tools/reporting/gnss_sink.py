@@ -15,26 +15,7 @@ from superlane_tools.geo import GeodeticOrigin, geodetic_to_enu, speed_heading, 
 from superlane_tools.records import Message
 from superlane_tools.reporting import write_table
 from superlane_tools.reporting.provenance import ProvenanceSource, resolve_provenance
-
-RTK_SCHEMA = pa.schema(
-    [
-        ("topic", pa.string()),
-        ("log_time_ns", pa.int64()),
-        ("stamp_ns", pa.int64()),
-        ("latitude_deg", pa.float64()),
-        ("longitude_deg", pa.float64()),
-        ("altitude_m", pa.float64()),
-        ("fix_status", pa.int8()),
-        ("rtk_quality", pa.int16()),  # GGA quality: any 0-255 digit string is legal
-        ("covariance_m2", pa.list_(pa.float64(), 9)),
-        ("covariance_type", pa.int16()),  # NavSatFix uint8: 255 is legal
-        ("east_m", pa.float64()),
-        ("north_m", pa.float64()),
-        ("up_m", pa.float64()),
-        ("speed_mps", pa.float64()),
-        ("heading_rad", pa.float64()),
-    ]
-)
+from superlane_tools.reporting.run_layout import RTK_SCHEMA
 
 CHUNK = 4096
 """Fixes per storage chunk of :class:`GnssSink` (a full chunk is never copied again)."""

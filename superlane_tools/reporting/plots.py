@@ -11,6 +11,12 @@ from numpy.typing import NDArray
 
 from superlane_tools.reporting.atomic import atomic_path
 from superlane_tools.reporting.names import CURVATURE_NAMES
+from superlane_tools.reporting.run_layout import (
+    AVAILABILITY_PLOT,
+    CURVATURE_DISTANCE_PLOT,
+    CURVATURE_TIME_PLOT,
+    example_plot_name,
+)
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -99,8 +105,8 @@ def curvature_plots(curv: pd.DataFrame, out_dir: Path) -> list[Path]:
     half = max(15, n // 10)
     lo, hi = _zoom_window(curv["rtk_curvature"].to_numpy(dtype=float), n, half)
     for axis, label, name in (
-        ("t_s", "time (s)", "curvature_time.png"),
-        ("s_m", "distance along RTK track (m)", "curvature_distance.png"),
+        ("t_s", "time (s)", CURVATURE_TIME_PLOT),
+        ("s_m", "distance along RTK track (m)", CURVATURE_DISTANCE_PLOT),
     ):
         x = curv[axis].to_numpy(dtype=float)
         if axis == "s_m" and not np.isfinite(x).any():
@@ -145,7 +151,7 @@ def availability_plot(frames: pd.DataFrame, out_dir: Path) -> Path:
     ax.set_title("lateral-control availability (green: available, red: not, grey: unknown)")
     ax.set_ylim(-0.7, len(methods) - 0.3)
     fig.tight_layout()
-    return _save(fig, out_dir / "availability_timeline.png")
+    return _save(fig, out_dir / AVAILABILITY_PLOT)
 
 
 def example_plot(example: ExampleFrame, out_dir: Path) -> Path:
@@ -194,7 +200,7 @@ def example_plot(example: ExampleFrame, out_dir: Path) -> Path:
         ax.axis("off")
     fig.suptitle(f"frame {example.frame_index}")
     fig.tight_layout()
-    return _save(fig, out_dir / f"example_{example.frame_index:06d}.png")
+    return _save(fig, out_dir / example_plot_name(example.frame_index))
 
 
 def plot_all(

@@ -22,9 +22,8 @@ from pathlib import Path
 
 from superlane_tools.reporting.atomic import pid_alive, write_text_atomic
 from superlane_tools.reporting.errors import OutputError
+from superlane_tools.reporting.run_layout import MANIFEST_FILE as RUN_MANIFEST
 
-RUN_MANIFEST = "run_manifest.json"
-"""File every complete run folder holds, written last."""
 _STAGING = "slt-staging"
 _OLD = "slt-old"
 _RENAME_EXCHANGE = 2  # renameat2 flag (Linux >= 3.15)

@@ -16,8 +16,9 @@ from superlane_tools.commands.batch.errors import BatchError
 from superlane_tools.commands.batch.manifest import BatchEntry
 from superlane_tools.reporting import Provenance, write_table
 from superlane_tools.reporting.provenance import CONTENT_HASH
+from superlane_tools.reporting.run_layout import BATCH_STATUS_FILE
 
-STATUS_FILE = "batch_status.parquet"
+STATUS_FILE = BATCH_STATUS_FILE
 STATUSES = ("ok", "partial", "failed", "skipped")
 """``skipped``: already finished with the same key by an earlier run (outputs kept)."""
 

@@ -18,11 +18,15 @@ from superlane_tools.commands.batch.status import read_status
 from superlane_tools.evaluation.curvature import curvature_errors
 from superlane_tools.reporting import Provenance, write_table
 from superlane_tools.reporting.report import Section, write_report
+from superlane_tools.reporting.run_layout import (
+    AVAILABILITY_SEQUENCES_FILE,
+    CURVATURE_FILE,
+    CURVATURE_SUMMARY_FILE,
+    SUMMARY_DIR,
+    SummaryLayout,
+)
 
-SUMMARY_DIR = "summary"
 UNCATEGORISED = "uncategorised"
-AVAILABILITY_FILE = "availability_sequences.parquet"
-CURVATURE_FILE = "curvature.parquet"
 TRUTH_COLUMN = "rtk_curvature"
 
 
@@ -61,7 +65,7 @@ def availability_by_category(root: Path, status: pd.DataFrame) -> pd.DataFrame:
     """
     parts = []
     for row in _done(root, status).itertuples(index=False):
-        path = root / str(row.recording_id) / AVAILABILITY_FILE
+        path = root / str(row.recording_id) / AVAILABILITY_SEQUENCES_FILE
         if not path.is_file():
             continue
         seqs = pd.read_parquet(path)
@@ -171,8 +175,8 @@ def _paper_tables(root: Path, status: pd.DataFrame) -> list[tuple[str, pd.DataFr
 
     runs = [root / str(r) for r in _done(root, status)["recording_id"]]
     sections = []
-    with_avail = [r for r in runs if (r / AVAILABILITY_FILE).is_file()]
-    with_curv = [r for r in runs if (r / "curvature_summary.parquet").is_file()]
+    with_avail = [r for r in runs if (r / AVAILABILITY_SEQUENCES_FILE).is_file()]
+    with_curv = [r for r in runs if (r / CURVATURE_SUMMARY_FILE).is_file()]
     try:
         if with_avail:
             table = availability_table(with_avail, by="category")
@@ -189,7 +193,7 @@ def _paper_tables(root: Path, status: pd.DataFrame) -> list[tuple[str, pd.DataFr
 def _report(out: Path, sections: Sequence[tuple[str, pd.DataFrame, str]], title: str) -> list[Path]:
     """Write ``report.md`` and ``report.html`` with one table per section."""
     return write_report(
-        out / "report.md",
+        SummaryLayout(out).report,
         title,
         [Section(heading, [note] if note else [], [frame]) for heading, frame, note in sections],
     )
@@ -203,15 +207,16 @@ def write_summary(root: str | Path, command: str = "") -> list[Path]:
     """
     base = Path(root)
     out = base / SUMMARY_DIR
+    layout = SummaryLayout(out)
     status = read_status(base)
     fleet = fleet_status(status)
     avail = availability_by_category(base, status)
     curv = curvature_by_recording(base, status)
     provenance = Provenance(command=command or "slt batch", config={"root": str(base)})
     written = [
-        write_table(fleet, out / "fleet_status.parquet", provenance),
-        write_table(avail, out / "availability_by_category.parquet", provenance),
-        write_table(curv, out / "curvature_by_recording.parquet", provenance),
+        write_table(fleet, layout.fleet_status, provenance),
+        write_table(avail, layout.availability_by_category, provenance),
+        write_table(curv, layout.curvature_by_recording, provenance),
     ]
     sections = _sections(status, fleet, avail, curv)
     sections[2:2] = _paper_tables(base, status)

@@ -7,14 +7,6 @@ from pathlib import Path
 
 import pandas as pd
 
-from superlane_tools.commands.compare.files import (
-    COMPARE_TABLE,
-    DRIVES_TABLE,
-    PLOTS,
-    REPORT,
-    RUN_FILES,
-    SPANS_TABLE,
-)
 from superlane_tools.fleet import (
     BootstrapParams,
     Comparison,
@@ -36,6 +28,7 @@ from superlane_tools.fleet import (
 from superlane_tools.records import Skipped
 from superlane_tools.reporting import Provenance, write_table
 from superlane_tools.reporting.report import write_report
+from superlane_tools.reporting.run_layout import CompareLayout
 
 DELTA_PLOT_KPIS = (
     "availability_frames.super",
@@ -77,12 +70,12 @@ def _read(
     others = {d.key: d for d in candidate}
     kb, kc, parts = [], [], []
     for drive in base:
-        tables = read_tables(drive, RUN_FILES)
+        tables = read_tables(drive)
         kb.append((drive, sequence_kpis(tables)))
         cand = others.pop(drive.key, None)
         if cand is None:
             continue
-        cand_tables = read_tables(cand, RUN_FILES)
+        cand_tables = read_tables(cand)
         kc.append((cand, sequence_kpis(cand_tables)))
         spans = disagreement_spans(
             drive.drive, frame_disagreement(tables, cand_tables, params), params
@@ -90,11 +83,11 @@ def _read(
         parts.append(
             spans.assign(
                 recording=drive.recording,
-                base_annotations=str(drive.folder / RUN_FILES.annotations),
-                candidate_annotations=str(cand.folder / RUN_FILES.annotations),
+                base_annotations=str(drive.annotations),
+                candidate_annotations=str(cand.annotations),
             )
         )
-    kc += [(d, sequence_kpis(read_tables(d, RUN_FILES))) for d in others.values()]
+    kc += [(d, sequence_kpis(read_tables(d))) for d in others.values()]
     if not parts:
         return kb, kc, pd.DataFrame()
     spans = pd.concat(parts, ignore_index=True).sort_values("score", ascending=False)
@@ -104,7 +97,8 @@ def _read(
 def _plots(out: Path, result: CompareResult, params: CompareParams) -> list[Path]:
     from superlane_tools.reporting.compare_plots import plot_deltas, plot_timelines
 
-    pngs = [plot_deltas(result.comparison.table, DELTA_PLOT_KPIS, out / PLOTS / "deltas.png")]
+    layout = CompareLayout(out)
+    pngs = [plot_deltas(result.comparison.table, DELTA_PLOT_KPIS, layout.deltas_plot())]
     matched = {b.drive: (b, c) for b, c in result.comparison.matched}
     worst = list(dict.fromkeys(result.spans["drive"])) if not result.spans.empty else []
     for k, drive in enumerate(worst[: params.timelines]):
@@ -112,10 +106,10 @@ def _plots(out: Path, result: CompareResult, params: CompareParams) -> list[Path
         pngs.append(
             plot_timelines(
                 drive,
-                read_tables(base, RUN_FILES).availability_frames,
-                read_tables(cand, RUN_FILES).availability_frames,
+                read_tables(base).availability_frames,
+                read_tables(cand).availability_frames,
                 result.spans[result.spans["drive"] == drive],
-                out / PLOTS / f"timeline_{k}.png",
+                layout.timeline_plot(k),
             )
         )
     return pngs
@@ -128,7 +122,7 @@ def compare_runs(base: Path, candidate: Path, out: Path, params: CompareParams) 
         FleetError: If an input is not a run or batch root, a fleet has no drive, or tables of
             a run are incompatible with this tool version.
     """
-    fleets = find_drives(base, RUN_FILES), find_drives(candidate, RUN_FILES)
+    fleets = find_drives(base), find_drives(candidate)
     for fleet in fleets:
         if not fleet.drives:
             raise FleetError(f"{fleet.root}: empty fleet: no drive with a reprocess run")
@@ -153,10 +147,11 @@ def compare_runs(base: Path, candidate: Path, out: Path, params: CompareParams) 
             "bootstrap": params.bootstrap.text(),
         },
     )
+    layout = CompareLayout(out)
     written = [
-        write_table(comparison.table, out / COMPARE_TABLE, provenance),
-        write_table(result.spans, out / SPANS_TABLE, provenance),
-        write_table(_drives(comparison), out / DRIVES_TABLE, provenance),
+        write_table(comparison.table, layout.table, provenance),
+        write_table(result.spans, layout.spans, provenance),
+        write_table(_drives(comparison), layout.drives, provenance),
     ]
     images = _plots(out, result, params) if params.plots else []
     written += images
@@ -169,7 +164,7 @@ def compare_runs(base: Path, candidate: Path, out: Path, params: CompareParams) 
         params.gate,
         [p.relative_to(out).as_posix() for p in images],
     )
-    written += write_report(out / REPORT, title, sections)
+    written += write_report(layout.report, title, sections)
     return CompareResult(
         result.comparison,
         differences,

@@ -21,6 +21,7 @@ from superlane_tools.reporting.can_sink import CanSink
 from superlane_tools.reporting.frame_sink import FrameSink
 from superlane_tools.reporting.gnss_sink import GnssSink
 from superlane_tools.reporting.provenance import HashedProvenance, PendingIdentities
+from superlane_tools.reporting.run_layout import CAMERA_INFO_FILE, FRAMES_FILE, ExtractLayout
 
 
 def extract(
@@ -84,6 +85,7 @@ def extract(
         )
         whole = start_ns is None and stop_ns is None
         total = message_total(rec.topics(), set(kind_of)) if whole else None
+        layout = ExtractLayout(out)
         frame_sink = (
             FrameSink(
                 out,
@@ -91,21 +93,19 @@ def extract(
                 config.every,
                 provenance,
                 skips,
-                index_name="frames.parquet",
+                index_name=FRAMES_FILE,
                 images_name="frames",
-                camera_info_name="camera_info.parquet",
+                camera_info_name=CAMERA_INFO_FILE,
             )
             if selected["frames"] or selected["camera_info"]
             else None
         )
         can_sink = (
-            CanSink(out / "can_raw.parquet", out / "can_signals.parquet", dbcs, provenance)
+            CanSink(layout.can_raw, layout.can_signals, dbcs, provenance)
             if selected["can"]
             else None
         )
-        gnss_sink = (
-            GnssSink(out / "rtk.parquet", config.origin, provenance) if selected["gnss"] else None
-        )
+        gnss_sink = GnssSink(layout.rtk, config.origin, provenance) if selected["gnss"] else None
         sinks: list[Any] = [s for s in (frame_sink, can_sink, gnss_sink) if s is not None]
         done = 0
         ok = False

@@ -6,13 +6,12 @@ from superlane_tools.commands.lanes.export import (
     export_tusimple,
     parse_h_samples,
 )
-from superlane_tools.commands.lanes.fit import SCHEMA, LanesFitResult, fit_masks
+from superlane_tools.commands.lanes.fit import LanesFitResult, fit_masks
 from superlane_tools.lanes.class_map import ClassMap, load_classes, mask_points, parse_classes
 from superlane_tools.lanes.table import lanes_from_row
 from superlane_tools.scene.label_folder import find_masks, natural_key, read_segment_times
 
 __all__ = [
-    "SCHEMA",
     "ClassMap",
     "ExportResult",
     "LanesFitResult",

@@ -23,7 +23,6 @@ from numpy.typing import NDArray
 
 from superlane_tools.camera.model import CameraModel
 from superlane_tools.commands.errors import PipelineError
-from superlane_tools.commands.lanes.fit import SCHEMA
 from superlane_tools.errors import ConfigError
 from superlane_tools.evaluation.tusimple import format_record, load_jsonl
 from superlane_tools.evaluation.tusimple_export import (
@@ -34,6 +33,7 @@ from superlane_tools.evaluation.tusimple_export import (
 )
 from superlane_tools.lanes.table import lanes_from_row
 from superlane_tools.reporting import read_provenance, write_bytes_atomic, write_text_atomic
+from superlane_tools.reporting.run_layout import LANES_FIT_SCHEMA
 
 
 def parse_h_samples(spec: str) -> list[int]:
@@ -98,7 +98,9 @@ def export_tusimple(
     except (OSError, pa.ArrowInvalid) as err:
         raise PipelineError(f"cannot read {src}: {err}") from err
     optional = {"c", "seg_time_ms"}  # files written before these columns existed
-    missing = [n for n in SCHEMA.names if n not in table.column_names and n not in optional]
+    missing = [
+        n for n in LANES_FIT_SCHEMA.names if n not in table.column_names and n not in optional
+    ]
     if missing:
         raise PipelineError(f"{src}: not a lanes.parquet file (missing {', '.join(missing)})")
     rows = table.to_pylist()

@@ -22,13 +22,14 @@ from superlane_tools.commands.errors import PipelineError
 from superlane_tools.lanes import FitParams, LaneFit, fit_frame
 from superlane_tools.lanes.attributes import colour_codes_from_image
 from superlane_tools.lanes.class_map import ClassMap, mask_points
-from superlane_tools.lanes.table import LANES_SCHEMA, fit_row
+from superlane_tools.lanes.table import fit_row
 from superlane_tools.records import Skipped
 from superlane_tools.reporting import (
     Provenance,
     input_identity,
     write_table,
 )
+from superlane_tools.reporting.run_layout import LANES_FIT_SCHEMA
 from superlane_tools.scene.errors import SceneError
 from superlane_tools.scene.label_folder import (
     find_masks,
@@ -40,16 +41,12 @@ from superlane_tools.scene.label_folder import (
 Progress = Callable[[int, int], None]
 """Progress callback ``(done, total)``."""
 
-SCHEMA = pa.schema([*LANES_SCHEMA, ("c", pa.float64()), ("seg_time_ms", pa.float64())])
-"""Columns of ``lanes.parquet``: the lanes table plus the vertical-curve term ``c`` (1/m) and
-the segmentation time of the mask (ms, NaN when unknown)."""
-
 
 def _fit_row(
     name: str, width: int, height: int, fit: LaneFit, seg_time_ms: float
 ) -> dict[str, Any]:
-    """Return one ``lanes.parquet`` row of this command (see :data:`SCHEMA`)."""
-    return {**fit_row(name, width, height, fit), "c": fit.c, "seg_time_ms": seg_time_ms}
+    """Return one row of this command's table (see ``run_layout.LANES_FIT_SCHEMA``)."""
+    return {**fit_row(name, width, height, fit), "seg_time_ms": seg_time_ms}
 
 
 @dataclass(frozen=True)
@@ -146,7 +143,7 @@ def fit_masks(
             progress(done, len(paths))
     if not rows:
         raise PipelineError(f"none of the {len(paths)} masks under {root} could be read")
-    table = pa.Table.from_pylist(rows, schema=SCHEMA)
+    table = pa.Table.from_pylist(rows, schema=LANES_FIT_SCHEMA)
     provenance = Provenance(
         command=command,
         inputs=(input_identity(root),),

@@ -14,28 +14,18 @@ from pathlib import Path
 import pandas as pd
 
 from superlane_tools.camera.model import CameraModel
+from superlane_tools.evaluation.culane import SUFFIX as CULANE_SUFFIX
 from superlane_tools.evaluation.tusimple import format_record
-from superlane_tools.fleet import DriveRun, FleetError, RunFiles, find_drives, read_tables
+from superlane_tools.fleet import DriveRun, FleetError, find_drives, read_tables
+from superlane_tools.fleet.frames import frame_jpegs
 from superlane_tools.fleet.label_export import pre_annotation
 from superlane_tools.fleet.mining import MineParams, candidates, frame_scores, select_frames
 from superlane_tools.records import Skipped
 from superlane_tools.reporting import Provenance, write_bytes_atomic, write_table
 from superlane_tools.reporting.atomic import write_text_atomic
+from superlane_tools.reporting.run_layout import CompareLayout, MineLayout
 
-RUN_FILES = RunFiles(
-    tables={
-        "availability_frames": "availability_frames.parquet",
-        "availability_sequences": "availability_sequences.parquet",
-        "curvature": "curvature.parquet",
-        "lanes": "lanes.parquet",
-        "frames": "frames.parquet",
-    },
-    annotations="annotations.mcap",
-    batch_status="batch_status.parquet",
-)
-SPANS_TABLE = "compare_spans.parquet"
-IMAGES, LABELS, MANIFEST = "images", "labels.json", "manifest.parquet"
-LINES_SUFFIX = ".lines.txt"
+LINES_SUFFIX = CULANE_SUFFIX
 
 
 @dataclass(frozen=True)
@@ -62,27 +52,10 @@ def _recording(drive: DriveRun, search: Sequence[Path]) -> Path | None:
 def _spans(compare_dir: Path | None) -> pd.DataFrame:
     if compare_dir is None:
         return pd.DataFrame(columns=["recording", "start_ns", "stop_ns"])
-    path = compare_dir / SPANS_TABLE
+    path = CompareLayout(compare_dir).spans
     if not path.is_file():
-        raise FleetError(f"{compare_dir}: no {SPANS_TABLE} (not an slt compare output)")
+        raise FleetError(f"{compare_dir}: no {path.name} (not an slt compare output)")
     return pd.read_parquet(path)
-
-
-def _frames(recording: Path, topic: str, times: set[int]) -> dict[int, bytes]:
-    """Return JPEG bytes of the frames at ``times`` (log time, ns) of the recording's camera."""
-    import cv2
-
-    from superlane_tools.recording import open_recording
-    from superlane_tools.recording.images import decode_frame
-
-    out: dict[int, bytes] = {}
-    with open_recording(recording) as rec:
-        for msg in rec.messages([topic], min(times), max(times) + 1):
-            if msg.log_time_ns in times:
-                ok, data = cv2.imencode(".jpg", decode_frame(msg))
-                if ok:
-                    out[msg.log_time_ns] = data.tobytes()
-    return out
 
 
 def mine_runs(
@@ -98,7 +71,7 @@ def mine_runs(
     Raises:
         FleetError: If an input is not a run, or no drive is found.
     """
-    found = [(Path(path).name, d) for path in inputs for d in find_drives(path, RUN_FILES).drives]
+    found = [(Path(path).name, d) for path in inputs for d in find_drives(path).drives]
     names = [d.drive for _, d in found]
     by_name = {  # a drive mined from two runs gets its run's name in front
         (f"{run}_{d.drive}" if names.count(d.drive) > 1 else d.drive): d for run, d in found
@@ -107,11 +80,12 @@ def mine_runs(
     if not drives:
         raise FleetError("empty fleet: no drive with a reprocess run")
     spans = _spans(compare_dir)
+    layout = MineLayout(out)
     pool = []
     for label, drive in by_name.items():
         mine = spans[spans["recording"] == drive.recording]
         ranges = list(zip(mine["start_ns"].astype(int), mine["stop_ns"].astype(int), strict=True))
-        scores = frame_scores(read_tables(drive, RUN_FILES), ranges, params)
+        scores = frame_scores(read_tables(drive), ranges, params)
         pool.append(candidates(scores, params).assign(drive=label))
     picks = select_frames(pd.concat(pool, ignore_index=True), params)
     skipped: list[Skipped] = []
@@ -133,15 +107,15 @@ def mine_runs(
             continue
         camera = CameraModel.from_dict(resolved["camera"])
         times = set(group["log_time_ns"].astype(int))
-        images = _frames(recording, str(resolved["streams"]["frames"]), times)
-        fits = read_tables(drive, RUN_FILES).lanes.set_index("frame_index", drop=False)
+        images = frame_jpegs(recording, str(resolved["streams"]["frames"]), times)
+        fits = read_tables(drive).lanes.set_index("frame_index", drop=False)
         for pick in group.to_dict("records"):
             index, t_ns = int(pick["frame_index"]), int(pick["log_time_ns"])
             jpeg = images.get(t_ns)
             if jpeg is None:
                 skipped.append(Skipped("undecodable frame", f"{name} frame {index}"))
                 continue
-            raw = f"{IMAGES}/{name}_{index:06d}.jpg"
+            raw = f"{layout.images.name}/{name}_{index:06d}.jpg"
             written.append(write_bytes_atomic(out / raw, jpeg))
             fit = {str(k): v for k, v in fits.loc[index].to_dict().items()}
             record, lines = pre_annotation(fit, camera, raw)
@@ -160,7 +134,7 @@ def mine_runs(
                 }
             )
     manifest = pd.DataFrame(rows)
-    written.append(write_text_atomic(out / LABELS, "".join(f"{t}\n" for t in labels)))
+    written.append(write_text_atomic(layout.labels, "".join(f"{t}\n" for t in labels)))
     provenance = Provenance(
         command=command or "slt mine",
         config={
@@ -170,5 +144,5 @@ def mine_runs(
             "min_gap_s": params.min_gap_s,
         },
     )
-    written.append(write_table(manifest, out / MANIFEST, provenance))
+    written.append(write_table(manifest, layout.manifest, provenance))
     return MineResult(manifest, tuple(skipped), tuple(written))

@@ -1,5 +1,6 @@
 """``slt reprocess``: the end-to-end offline pipeline from a drive to tables, plots and reports."""
 
+from superlane_tools.commands.reprocess.publish import reprocess_run
 from superlane_tools.commands.reprocess.result import ReprocessResult
 from superlane_tools.commands.reprocess.run import reprocess
 from superlane_tools.drive.config import (
@@ -34,4 +35,5 @@ __all__ = [
     "default_config_yaml",
     "load_config",
     "reprocess",
+    "reprocess_run",
 ]

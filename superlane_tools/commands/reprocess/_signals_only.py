@@ -15,17 +15,15 @@ from typing import Any
 import numpy as np
 
 from superlane_tools.can import LoadedDbc
-from superlane_tools.can.collect import CanFrames
 from superlane_tools.commands.errors import PipelineError
 from superlane_tools.commands.reprocess.outputs import write_outputs
 from superlane_tools.commands.reprocess.result import ReprocessResult
 from superlane_tools.corridor import Segment, windows
 from superlane_tools.drive.config import ReprocessConfig
 from superlane_tools.drive.finalize import ReportFacts, drive_tables
+from superlane_tools.drive.loop import DriveTopics, run_frames
 from superlane_tools.drive.record import no_camera_frames
-from superlane_tools.drive.signals import ImuSamples
 from superlane_tools.reporting import Provenance, input_identity
-from superlane_tools.reporting.gnss_sink import GnssSink
 
 GRID_HZ = 15.0
 """Evaluation rate without camera frames (the corridor paper's camera rate), Hz."""
@@ -38,7 +36,7 @@ def reprocess_signals(
     out: Path,
     cfg: ReprocessConfig,
     loaded: tuple[dict[str, LoadedDbc], list[Path]],
-    topics: tuple[set[str], set[str], str],
+    topics: DriveTopics,
     command: str,
 ) -> ReprocessResult:
     """Collect CAN, GNSS and IMU, then write the tables and report that need no camera.
@@ -49,7 +47,7 @@ def reprocess_signals(
         out: Output folder.
         cfg: Configuration.
         loaded: DBCs by name (``BUS=FILE`` names bind a bus) and their files.
-        topics: CAN topics, IMU topics and the GNSS topic.
+        topics: The CAN, IMU and GNSS topics to read.
         command: Command line for the provenance.
 
     Returns:
@@ -60,8 +58,7 @@ def reprocess_signals(
     """
     t_start = time.perf_counter()
     dbcs, dbc_paths = loaded
-    can_topics, imu_topics, gnss_topic = topics
-    if not can_topics and not gnss_topic:
+    if not topics.can and not topics.streams.gnss:
         listing = ", ".join(f"{t.topic} ({t.msgtype})" for t in rec.topics()) or "none"
         raise PipelineError(f"{src.name}: no camera, CAN or GNSS stream to reprocess ({listing})")
     provenance = Provenance(
@@ -70,24 +67,12 @@ def reprocess_signals(
         config=cfg.to_dict(),
     )
     out.mkdir(parents=True, exist_ok=True)
-    can, imu = CanFrames(), ImuSamples()
-    gnss = GnssSink(None, None, provenance)
-    first = last = None
-    wanted = [*can_topics, *imu_topics, *([gnss_topic] if gnss_topic else [])]
-    for msg in rec.messages(topics=wanted):
-        if msg.topic in can_topics:
-            can.add(msg)
-        elif msg.topic in imu_topics:
-            imu.add(msg)
-        elif msg.topic == gnss_topic:
-            gnss.add(msg)
-        first = msg.log_time_ns if first is None else min(first, msg.log_time_ns)
-        last = msg.log_time_ns if last is None else max(last, msg.log_time_ns)
+    drive = run_frames(rec, topics, None, [])
     skipped = list(rec.skipped)
     step = round(1e9 / GRID_HZ)
     t_ns = (
-        np.arange(first, last + 1, step, dtype=np.int64)
-        if first is not None and last is not None
+        np.arange(drive.span_ns[0], drive.span_ns[1] + 1, step, dtype=np.int64)
+        if drive.span_ns is not None
         else np.zeros(0, dtype=np.int64)
     )
     notes = [
@@ -99,14 +84,14 @@ def reprocess_signals(
     frames = no_camera_frames(t_ns)
     derived = drive_tables(
         frames,
-        can,
+        drive.can,
         dbcs,
-        gnss.fixes(),
+        drive.gnss,
         cfg,
         segments,
         cfg.kpi.availability_params(GRID_HZ),
         NO_CAMERA,
-        imu=imu,
+        imu=drive.imu,
         camera=False,
     )
     notes += derived.notes

@@ -1,45 +1,127 @@
-"""The writer of ``slt reprocess``: the derived tables, the plots and the report, by file name."""
+"""What ``slt reprocess`` writes: its provenance, the frame sinks, then tables, plots, report."""
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 from superlane_tools.drive.config import ReprocessConfig
+from superlane_tools.drive.examples import example_indices
 from superlane_tools.drive.finalize import DriveTables, ReportFacts, report_sections
-from superlane_tools.reporting import Provenance, write_table
+from superlane_tools.drive.loop import DrivePass, DriveTopics, FrameSink
+from superlane_tools.drive.sinks import AnnotationSink, ExampleSink, FrameTablesSink, VideoSink
+from superlane_tools.drive.stages import FrameStages
+from superlane_tools.reporting import Provenance, input_identity, write_table
 from superlane_tools.reporting.plots import ExampleFrame
 from superlane_tools.reporting.report import write_report
+from superlane_tools.reporting.run_layout import RunLayout
 
 if TYPE_CHECKING:
     import pandas as pd
 
-STREAMED_FILES = {
-    "frames": "frames.parquet",
-    "lanes": "lanes.parquet",
-    "corridor": "corridor.parquet",
-    "baseline": "baseline.parquet",
-}
-"""Table -> file name of the tables written while the frames stream."""
+    from superlane_tools.camera.model import CameraModel
+    from superlane_tools.corridor import TimeSegment
 
 
-def streamed_files(out: Path) -> dict[str, Path]:
-    """Return the paths of the streamed tables under ``out``."""
-    return {table: out / name for table, name in STREAMED_FILES.items()}
+def run_provenance(
+    src: Path,
+    dbc_paths: Sequence[Path],
+    config: ReprocessConfig,
+    resolved: tuple[DriveTopics, CameraModel, FrameStages],
+    segments: Sequence[TimeSegment] | None,
+    command: str,
+) -> Provenance:
+    """Return the provenance of every output: inputs, the configuration and what it resolved to.
 
-
-def table_files(result: DriveTables) -> dict[str, pd.DataFrame]:
-    """Return output file name -> table."""
-    return {
-        "can_signals.parquet": result.can_signals,
-        "mobileye.parquet": result.mobileye,
-        "rtk.parquet": result.rtk,
-        "curvature.parquet": result.curvature,
-        "curvature_summary.parquet": result.curvature_summary,
-        "availability_frames.parquet": result.availability_frames,
-        "availability_sequences.parquet": result.availability_sequences,
+    Args:
+        src: The recording.
+        dbc_paths: The DBC files used.
+        config: The configuration.
+        resolved: The topics read, the camera and the stages built from the configuration.
+        segments: KPI sequences given by the caller (recorded when given).
+        command: Command line (default: ``reprocess('<name>')``).
+    """
+    topics, camera, stages = resolved
+    config_data = config.to_dict()
+    config_data["resolved"] = {
+        "streams": topics.streams._asdict(),
+        "camera": camera.to_dict(),
+        "segmentation_backend": stages.backend_name,
+        "corridor_unavailable": stages.corridor_unavailable,
     }
+    if segments is not None:
+        config_data["resolved"]["segments"] = [s._asdict() for s in segments]
+    return Provenance(
+        command=command or f"reprocess({src.name!r})",
+        inputs=(input_identity(src), *(input_identity(p) for p in dbc_paths)),
+        config=config_data,
+        models=stages.models,
+    )
+
+
+class PassSinks(NamedTuple):
+    """The sinks of one pass: those that write outputs, and the example plots (for the report).
+
+    Attributes:
+        outputs: The per-frame tables, then the annotations and the overlay video when enabled.
+        examples: The example plots drawn during the pass.
+    """
+
+    outputs: tuple[FrameSink, ...]
+    examples: ExampleSink
+
+    def all(self) -> list[FrameSink]:
+        """Return every sink, in the order :func:`~superlane_tools.drive.run_frames` takes."""
+        return [*self.outputs, self.examples]
+
+    def written(self, drive: DrivePass) -> tuple[list[Path], list[Path]]:
+        """Return the files the output sinks wrote, and the example plots, of a pass."""
+        n = len(self.outputs)
+        return [p for files in drive.files[:n] for p in files], list(drive.files[n])
+
+
+def open_sinks(
+    out: Path,
+    config: ReprocessConfig,
+    stages: FrameStages,
+    camera_topic: str,
+    provenance: Provenance,
+    total: int | None,
+) -> PassSinks:
+    """Open the sinks of a pass into ``out`` (a sink that fails to open closes the others).
+
+    Args:
+        out: The run folder.
+        config: ``output.*`` says which sinks, ``corridor.mean_frames`` the tables' mean.
+        stages: The stages (the corridor network's status).
+        camera_topic: The image topic the annotations belong to.
+        provenance: Provenance of the tables.
+        total: Frames in the recording when known (spreads the example frames).
+    """
+    layout = RunLayout(out)
+    out_cfg = config.output
+    opened: list[Any] = []
+    try:
+        tables = FrameTablesSink(
+            layout.streamed(), provenance, stages.corridor_unavailable, config.corridor.mean_frames
+        )
+        opened.append(tables)
+        if out_cfg.annotations:
+            opened.append(AnnotationSink(layout.annotations, camera_topic))
+        if out_cfg.video:
+            opened.append(VideoSink(layout.overlay, out_cfg.video_fps or 15.0))
+        indices = example_indices(total, out_cfg.plots and out_cfg.example_frames)
+        return PassSinks(tuple(opened), ExampleSink(layout.plots, indices))
+    except BaseException:
+        for sink in opened:
+            sink.close(False)
+        raise
+
+
+def table_files(out: Path, result: DriveTables) -> dict[Path, pd.DataFrame]:
+    """Return output path -> table of the derived tables (named by :class:`RunLayout`)."""
+    return {path: getattr(result, name) for name, path in RunLayout(out).derived().items()}
 
 
 def write_outputs(
@@ -56,18 +138,29 @@ def write_outputs(
     ``rendered``: example plots already written (during the pass), listed after the plots
     drawn here, as :func:`~superlane_tools.reporting.plots.plot_all` orders its own examples.
     """
-    written = [write_table(t, out / name, provenance) for name, t in table_files(result).items()]
+    layout = RunLayout(out)
+    written = [write_table(t, path, provenance) for path, t in table_files(out, result).items()]
     images: list[str] = []
     if config.output.plots:
         from superlane_tools.reporting.plots import plot_all
 
-        pngs = plot_all(result.curvature, result.availability_frames, examples, out / "plots")
+        pngs = plot_all(result.curvature, result.availability_frames, examples, layout.plots)
         pngs += rendered
         written += pngs
         images = [p.relative_to(out).as_posix() for p in pngs]
     written += write_report(
-        out / "report.md",
+        layout.report,
         f"slt reprocess: {report.recording.name}",
         report_sections(config, report, result, images),
     )
     return written
+
+
+def add_signal_channels(out: Path, result: DriveTables) -> dict[str, int] | None:
+    """Add the decoded CAN signals and truth curves to the run's annotations (None: no file)."""
+    from superlane_tools.reporting.annotations import add_signals
+
+    annotations = RunLayout(out).annotations
+    if not annotations.is_file():
+        return None
+    return add_signals(annotations, result.can_signals, result.curvature)

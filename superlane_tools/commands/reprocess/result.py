@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -27,6 +28,8 @@ class ReprocessResult:
         frames: Camera frames processed.
         notes: Missing streams and fallbacks, as stated in the report.
         frames_per_s: Frames per second of wall time, end to end.
+        signal_channels: Messages per signal channel added to the annotations
+            (``with_signals``; None when none were added).
     """
 
     status: str
@@ -36,3 +39,32 @@ class ReprocessResult:
     frames: int = 0
     notes: tuple[str, ...] = ()
     frames_per_s: float = 0.0
+    signal_channels: dict[str, int] | None = None
+
+
+class RunClock:
+    """Wall and process CPU time of a run's two phases: the streaming pass and what follows."""
+
+    def __init__(self) -> None:
+        self._wall = [time.perf_counter()]
+        self._cpu = [time.process_time()]
+
+    def lap(self) -> None:
+        """Mark the end of a phase (the pass, then the tables, plots and report)."""
+        self._wall.append(time.perf_counter())
+        self._cpu.append(time.process_time())
+
+    def timings(self) -> dict[str, float]:
+        """Return ``pass_wall``, ``post``, ``total`` and ``cpu_pass``, ``cpu_post``, ``cpu_total``.
+
+        Call after two laps.
+        """
+        (w0, w1, w2), (c0, c1, c2) = self._wall[:3], self._cpu[:3]
+        return {
+            "pass_wall": w1 - w0,
+            "post": w2 - w1,
+            "total": w2 - w0,
+            "cpu_pass": c1 - c0,
+            "cpu_post": c2 - c1,
+            "cpu_total": c2 - c0,
+        }

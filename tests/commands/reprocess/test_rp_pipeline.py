@@ -98,9 +98,14 @@ def test_every_output_exists_with_provenance(run_dir: Path) -> None:
     fitted = lanes["reason"].isin(["", "one line"])
     assert fitted.any()
     assert (lanes.loc[fitted, "c"] == 0.0).all()  # vertical curvature off by default
-    report = (run_dir / "report.md").read_text(encoding="utf-8")
-    assert "corridor network" in report
-    assert "no corridor model" in report or "available" in report
+    # The report's run section states what this run resolved, line for line.
+    resolved = read_provenance(run_dir / "frames.parquet")["config"]["resolved"]
+    report = (run_dir / "report.md").read_text(encoding="utf-8").splitlines()
+    assert "- frames: 60" in report
+    assert f"- segmentation backend: {resolved['segmentation_backend']}" in report
+    assert f"- corridor network: {resolved['corridor_unavailable'] or 'available'}" in report
+    corridor = pd.read_parquet(run_dir / "corridor.parquet")
+    assert set(corridor["status"]) == {resolved["corridor_unavailable"]}
 
 
 def test_annotations_are_foxglove_messages(run_dir: Path) -> None:

@@ -1,0 +1,45 @@
+"""``slt reprocess`` into a run folder that appears whole or not at all."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+
+from superlane_tools.commands.reprocess.result import Progress, ReprocessResult
+from superlane_tools.commands.reprocess.run import reprocess
+from superlane_tools.drive.config import ReprocessConfig
+
+
+def reprocess_run(
+    recording_path: str | os.PathLike[str],
+    target: str | os.PathLike[str],
+    config: ReprocessConfig,
+    progress: Progress | None = None,
+    command: str = "",
+    with_signals: bool = False,
+    compiler: subprocess.Popen[bytes] | None = None,
+) -> ReprocessResult:
+    """Reprocess into a staging folder beside ``target``, then publish it there in one step.
+
+    Args:
+        recording_path: The recording.
+        target: The run folder (replaced only when the run succeeds).
+        config: Configuration.
+        progress: Called as ``progress(frames_done, frames_total_or_None)``.
+        command: Command line for the provenance.
+        with_signals: Also add the decoded CAN signals and truth curves to the annotations.
+        compiler: The lane-fit kernels' compiler, started early by the caller
+            (:func:`~superlane_tools.lanes.kernel_cache.start_compiling`), or None.
+
+    Raises:
+        OutputError: If ``target`` is a file or a foreign folder, or cannot be written.
+    """
+    from superlane_tools.lanes import FitParams
+    from superlane_tools.lanes.multilane_fit import warm_up_in_background
+    from superlane_tools.reporting.run_folder import staged_run
+
+    warm_up_in_background(FitParams.from_dict(dict(getattr(config, "fit", {}))).backend, compiler)
+    with staged_run(target) as stage:  # the whole run appears at once, or not at all
+        return reprocess(
+            recording_path, stage, config, progress, command, with_signals=with_signals
+        )
