@@ -99,11 +99,12 @@ def _run_drive(
     category: str = "",
     recording: str = "",
     window: str = "",
+    content_hash: str = "",
 ) -> DriveRun:
     prov = _provenance(folder)
     inputs = prov.get("inputs") or []
     first = inputs[0] if inputs and isinstance(inputs[0], Mapping) else {}
-    content = str(first.get("content_hash", "")) or f"folder:{folder.name}"
+    content = content_hash or str(first.get("content_hash", "")) or f"folder:{folder.name}"
     return DriveRun(
         key=f"{content}|{window}" if window else content,
         drive=drive,
@@ -135,7 +136,16 @@ def _batch_root(root: Path) -> Fleet:
             continue
         window = "|".join(str(getattr(row, c, "")) for c in ("sequence", "start_s", "end_s"))
         window = "" if window in ("||", "|nan|nan", "|None|None") else window
-        drives.append(_run_drive(folder, rid, str(row.category), str(row.recording), window))
+        drives.append(
+            _run_drive(
+                folder,
+                rid,
+                str(row.category),
+                str(row.recording),
+                window,
+                str(getattr(row, "content_hash", "") or ""),
+            )
+        )
     return Fleet(root, "batch root", tuple(drives), tuple(skipped))
 
 

@@ -75,6 +75,10 @@ AVAILABILITY_BY_CATEGORY_FILE = "availability_by_category.parquet"
 CURVATURE_BY_RECORDING_FILE = "curvature_by_recording.parquet"
 SUMMARY_DIR = "summary"
 """``slt batch``'s fleet summary folder under the output root."""
+NIGHTLY_COMPARE_DIR = "compare"
+"""``pipelines/nightly.py --baseline``: the comparison with the baseline, under the summary."""
+NIGHTLY_MINED_DIR = "mined"
+"""``pipelines/nightly.py --baseline``: the frames worth labelling, under the summary."""
 BATCH_STATUS_FILE = "batch_status.parquet"
 """``slt batch``'s status table at the output root, one row per recording."""
 
@@ -167,6 +171,8 @@ class SummaryLayout(_Layout):
     availability_by_category = _File(AVAILABILITY_BY_CATEGORY_FILE)
     curvature_by_recording = _File(CURVATURE_BY_RECORDING_FILE)
     report = _File(REPORT_FILE)
+    comparison = _File(NIGHTLY_COMPARE_DIR)
+    mined = _File(NIGHTLY_MINED_DIR)
 
 
 # ---- slt compare and slt mine -------------------------------------------------------------
