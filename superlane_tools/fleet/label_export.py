@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
-import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -15,10 +13,9 @@ from superlane_tools.evaluation.tusimple import TuSimpleRecord
 from superlane_tools.evaluation.tusimple_export import (
     NO_POINT,
     ExportOptions,
-    FittedFrame,
+    fitted_frame,
     frame_record,
 )
-from superlane_tools.lanes.table import lanes_from_row
 
 TUSIMPLE_ROWS = tuple(range(160, 720, 10))
 """TuSimple's ``h_samples`` for a 720-row image (scaled to other heights)."""
@@ -27,26 +24,6 @@ TUSIMPLE_ROWS = tuple(range(160, 720, 10))
 def h_samples(height: int) -> list[float]:
     """Return TuSimple rows for an image ``height`` pixels tall (rows 160..710 scaled)."""
     return [round(r * height / 720.0) for r in TUSIMPLE_ROWS if r * height / 720.0 < height]
-
-
-def fitted_frame(row: Mapping[str, Any], name: str) -> FittedFrame:
-    """Return a ``lanes.parquet`` row as the TuSimple exporter's frame."""
-    lanes, slope = lanes_from_row(dict(row))
-    colours = row.get("colours")
-    styles = row.get("styles")
-    colours = list(colours) if colours is not None else ["unknown"] * len(lanes)
-    styles = list(styles) if styles is not None else ["unknown"] * len(lanes)
-    c = row.get("c")
-    return FittedFrame(
-        name=name,
-        lanes=tuple(
-            dataclasses.replace(ln, colour=str(co), style=str(st))
-            for ln, co, st in zip(lanes, colours, styles, strict=True)
-        ),
-        b=slope,
-        c=float(c) if c is not None and math.isfinite(c) else 0.0,
-        fit_time_ms=float(row.get("fit_time_ms") or 0.0),
-    )
 
 
 def pre_annotation(

@@ -128,3 +128,75 @@ def test_unmatched_drives_are_listed(oracle_runs: Any, tmp_path: Path) -> None:
 def test_an_empty_folder_is_not_a_fleet(tmp_path: Path) -> None:
     with pytest.raises(FleetError, match="not a reprocess run folder"):
         compare_runs(tmp_path, tmp_path, tmp_path / "out", QUICK)
+
+
+def _older_run(src: Path, dst: Path, version: str, drop: str | None) -> Path:
+    """Copy a run as if an older tool version wrote it (its provenance says so)."""
+    import json
+    import shutil
+
+    import pyarrow.parquet as pq
+
+    from superlane_tools.reporting.parquet import METADATA_KEY
+    from superlane_tools.reporting.run_folder import write_run_manifest
+
+    shutil.copytree(src, dst)
+    path = dst / "availability_sequences.parquet"
+    table = pq.read_table(path)
+    meta = json.loads(table.schema.metadata[METADATA_KEY])
+    meta["tool_version"] = version
+    if drop:
+        table = table.drop_columns([drop])
+    table = table.replace_schema_metadata({METADATA_KEY: json.dumps(meta).encode()})
+    pq.write_table(table, path)
+    (dst / "run_manifest.json").unlink()
+    write_run_manifest(dst)
+    return dst
+
+
+def test_other_tool_versions_are_named(oracle_runs: Any, tmp_path: Path) -> None:
+    same_tables = _older_run(oracle_runs.repeat, tmp_path / "v0_9", "0.9.0", None)
+    result = compare_runs(oracle_runs.base, same_tables, tmp_path / "a", QUICK)
+    first = result.differences.iloc[0]
+    assert (first["what"], first["candidate"]) == ("tool version", "0.9.0")
+    assert "Tool versions differ" in (tmp_path / "a" / "compare.md").read_text()
+    old = _older_run(oracle_runs.repeat, tmp_path / "v0_1", "0.1.0-old", "start_ns")
+    cli = runner.invoke(
+        app, ["compare", str(oracle_runs.base), str(old), "-o", str(tmp_path / "b")]
+    )
+    assert cli.exit_code == 1
+    assert "tool version 0.1.0-old lacks start_ns: incompatible" in cli.output
+
+
+def test_a_batch_root_without_finished_drives_is_an_empty_fleet(
+    oracle_runs: Any, tmp_path: Path
+) -> None:
+    from superlane_tools.commands.batch.status import COLUMNS
+    from superlane_tools.reporting import Provenance, write_table
+
+    row: dict[str, object] = dict.fromkeys(COLUMNS, "")
+    row.update(
+        recording_id="curves-0123456789",
+        status="failed",
+        result="failed",
+        error="corrupt recording",
+        attempts=1,
+        size_bytes=0,
+        mtime_ns=0,
+        total_s=0.0,
+        outputs=0,
+        frames=0,
+        finished_ns=0,
+        start_s=float("nan"),
+        end_s=float("nan"),
+    )
+    write_table(
+        pd.DataFrame([row]).astype(COLUMNS),
+        tmp_path / "root" / "batch_status.parquet",
+        Provenance(command="test"),
+    )
+    cli = runner.invoke(
+        app, ["compare", str(oracle_runs.base), str(tmp_path / "root"), "-o", str(tmp_path / "out")]
+    )
+    assert cli.exit_code == 1
+    assert "empty fleet" in cli.output
