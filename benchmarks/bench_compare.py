@@ -1,6 +1,7 @@
 """Benchmark ``slt compare`` on two batch roots of 200 drives each (reads Parquet, not recordings).
 
-Run: ``python benchmarks/bench_compare.py [--drives 200] [--keep]``.
+Run: ``python benchmarks/bench_compare.py [--drives 200] [--keep] [--runs DIR]``
+(``--runs``: reuse the ``base/`` and ``candidate/`` run folders of a kept earlier work folder).
 
 Builds the fleets cheaply: two simulated 10 s drives (320x180) are reprocessed twice each with
 the oracle segmentation, the candidate seeing blank label images in a 3 s span (so the runs
@@ -103,11 +104,15 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0] if __doc__ else None)
     ap.add_argument("--drives", type=int, default=200)
     ap.add_argument("--keep", action="store_true")
+    ap.add_argument("--runs", type=Path, help="work folder of an earlier run (reuse its runs)")
     args = ap.parse_args()
     work = Path(tempfile.mkdtemp(prefix="bench_compare_"))
     try:
         t0 = time.perf_counter()
-        runs = _runs(work)
+        if args.runs is not None:
+            runs = {n: sorted((args.runs / n).iterdir()) for n in ("base", "candidate")}
+        else:
+            runs = _runs(work)
         build_runs_s = time.perf_counter() - t0
         for name in ("base", "candidate"):
             _root(work / f"root_{name}", runs[name], args.drives)

@@ -11,6 +11,7 @@ reproducible; :class:`BootstrapParams` is stated in every output.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
@@ -144,6 +145,72 @@ def kpi_delta(
         data = (np.arange(len(bd), dtype=np.float64), np.arange(len(cd), dtype=np.float64))
         lo, hi = _interval(unpaired_stat, data, False, params)
     return Delta(b_val, c_val, delta, lo, hi, n, paired, verdict(kpi, b_val, delta, lo, hi))
+
+
+Pair = tuple[FloatArray, FloatArray]
+"""``(num, den)`` per sequence of one run."""
+
+
+def paired_deltas(
+    kpi: Kpi, drives: Sequence[tuple[Pair, Pair]], params: BootstrapParams
+) -> list[Delta]:
+    """Return :func:`kpi_delta` (paired) for many drives at once.
+
+    Drives with the same number of usable sequences share one vectorised
+    ``scipy.stats.bootstrap`` call (the statistic reduces the last axis of ``(drives, n)``
+    arrays), so a fleet of hundreds of drives costs a few calls per KPI, not one per drive.
+    """
+    out: list[Delta | None] = [None] * len(drives)
+    groups: dict[int, list[int]] = {}
+    kept: list[tuple[FloatArray, ...]] = []
+    for i, (base, cand) in enumerate(drives):
+        bn, bd, cn, cd = (np.asarray(a, dtype=np.float64) for a in (*base, *cand))
+        keep = (bd > 0) & (cd > 0)
+        kept.append((bn[keep], bd[keep], cn[keep], cd[keep]))
+        if keep.sum() < 2:
+            out[i] = kpi_delta(kpi, base, cand, True, params)  # unavailable or too few
+        else:
+            groups.setdefault(int(keep.sum()), []).append(i)
+
+    def stat(bn: Any, bd: Any, cn: Any, cd: Any, axis: int = -1) -> Any:
+        return kpi.pooled(cn.sum(axis=axis), cd.sum(axis=axis)) - kpi.pooled(
+            bn.sum(axis=axis), bd.sum(axis=axis)
+        )
+
+    from scipy.stats import bootstrap
+
+    for members in groups.values():
+        data = tuple(np.stack([kept[i][j] for i in members]) for j in range(4))
+        res = bootstrap(
+            data,
+            stat,
+            n_resamples=params.n_resamples,
+            paired=True,
+            vectorized=True,
+            axis=-1,
+            confidence_level=params.confidence,
+            method=params.method,
+            random_state=np.random.default_rng(params.seed),
+        )
+        lows = np.atleast_1d(res.confidence_interval.low)
+        highs = np.atleast_1d(res.confidence_interval.high)
+        for row, i in enumerate(members):
+            bn, bd, cn, cd = kept[i]
+            b_val = float(kpi.pooled(np.array([bn.sum()]), np.array([bd.sum()]))[0])
+            c_val = float(kpi.pooled(np.array([cn.sum()]), np.array([cd.sum()]))[0])
+            lo, hi = float(lows[row]), float(highs[row])
+            delta = c_val - b_val
+            out[i] = Delta(
+                b_val,
+                c_val,
+                delta,
+                lo,
+                hi,
+                len(bd),
+                True,
+                verdict(kpi, b_val, delta, lo, hi) if math.isfinite(delta) else UNAVAILABLE,
+            )
+    return [d for d in out if d is not None]
 
 
 def verdict(kpi: Kpi, base: float, delta: float, ci_low: float, ci_high: float) -> str:

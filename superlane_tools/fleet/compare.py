@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from superlane_tools.fleet.bootstrap import BootstrapParams, Delta, kpi_delta
+from superlane_tools.fleet.bootstrap import BootstrapParams, Delta, kpi_delta, paired_deltas
 from superlane_tools.fleet.kpis import KPI_BY_NAME, KPIS
 from superlane_tools.fleet.runs import DriveRun
 
@@ -99,28 +99,37 @@ def _row(
 
 def _paired_rows(merged: pd.DataFrame, params: BootstrapParams) -> list[dict[str, object]]:
     rows: list[dict[str, object]] = []
-    for (drive, kpi), g in merged.groupby(["drive", "kpi"], sort=False):
+    for kpi, g in merged.groupby("kpi", sort=False):
         k = KPI_BY_NAME[str(kpi)]
-        b = (g["num_b"].to_numpy(np.float64), g["den_b"].to_numpy(np.float64))
-        c = (g["num_c"].to_numpy(np.float64), g["den_c"].to_numpy(np.float64))
-        for i, (seq, cat, t0) in enumerate(
-            zip(g["sequence"], g["category"], g["start_ns"], strict=True)
+        nb, db = g["num_b"].to_numpy(np.float64), g["den_b"].to_numpy(np.float64)
+        nc, dc = g["num_c"].to_numpy(np.float64), g["den_c"].to_numpy(np.float64)
+        bv, cv = k.pooled(nb, db), k.pooled(nc, dc)
+        for i, (drive, seq, cat, t0) in enumerate(
+            zip(g["drive"], g["sequence"], g["category"], g["start_ns"], strict=True)
         ):
-            bv = float(k.pooled(b[0][i : i + 1], b[1][i : i + 1])[0])
-            cv = float(k.pooled(c[0][i : i + 1], c[1][i : i + 1])[0])
-            one = Delta(bv, cv, cv - bv, np.nan, np.nan, 1, True, "")
-            rows.append(_row("sequence", str(kpi), one, str(drive), int(seq), str(cat), int(t0)))
-        cat0 = str(g["category"].iloc[0])
-        rows.append(
-            _row(
-                "drive",
-                str(kpi),
-                kpi_delta(k, b, c, True, params),
-                str(drive),
-                category=cat0,
-                start_ns=int(g["start_ns"].min()),
+            one = Delta(
+                float(bv[i]), float(cv[i]), float(cv[i] - bv[i]), np.nan, np.nan, 1, True, ""
             )
-        )
+            rows.append(_row("sequence", str(kpi), one, str(drive), int(seq), str(cat), int(t0)))
+        drives = list(g.groupby("drive", sort=False))
+        pairs = [
+            (
+                (d["num_b"].to_numpy(np.float64), d["den_b"].to_numpy(np.float64)),
+                (d["num_c"].to_numpy(np.float64), d["den_c"].to_numpy(np.float64)),
+            )
+            for _, d in drives
+        ]
+        for (drive, d), delta in zip(drives, paired_deltas(k, pairs, params), strict=True):
+            rows.append(
+                _row(
+                    "drive",
+                    str(kpi),
+                    delta,
+                    str(drive),
+                    category=str(d["category"].iloc[0]),
+                    start_ns=int(d["start_ns"].min()),
+                )
+            )
     return rows
 
 

@@ -91,3 +91,24 @@ def test_gate_rules() -> None:
         parse_rule("nope")
     with pytest.raises(UsageError, match="threshold"):
         parse_rule("fit_cost:-1")
+
+
+def test_many_drives_at_once_agree_with_one_at_a_time() -> None:
+    from superlane_tools.fleet.bootstrap import paired_deltas
+
+    rng = np.random.default_rng(5)
+    drives = []
+    for n, shift in ((6, 0.0), (6, -30.0), (9, 0.0), (1, 0.0), (4, 5.0)):
+        den = np.full(n, 100.0)
+        base = rng.integers(60, 90, n).astype(float)
+        drives.append(((base, den), (np.clip(base + shift + rng.normal(0, 1, n), 0, 100), den)))
+    drives.append(((np.zeros(3), np.zeros(3)), (np.zeros(3), np.zeros(3))))
+    many = paired_deltas(AVAIL, drives, PARAMS)
+    one = [kpi_delta(AVAIL, b, c, True, PARAMS) for b, c in drives]
+    assert [d.verdict for d in many] == [d.verdict for d in one]
+    assert many[1].verdict == WORSE
+    assert many[3].verdict == TOO_FEW
+    assert many[5].verdict == UNAVAILABLE
+    for a, b in zip(many, one, strict=True):
+        assert a.delta == pytest.approx(b.delta, nan_ok=True)
+        assert a.n_sequences == b.n_sequences
