@@ -8,7 +8,7 @@ the oracle segmentation, the candidate seeing blank label images in a 3 s span (
 really differ); then each root gets ``--drives`` recording folders, copies of those four run
 folders, and a ``batch_status.parquet`` in ``slt batch``'s schema where every copy has its own
 content hash (so each is a distinct drive and base and candidate copies pair up). Times
-``compare_runs`` in-process (imports warm, median of 3, with and without plots) and the whole
+``compare_runs`` in-process (imports warm, median of ``--rounds``, with and without plots) and the whole
 ``slt compare`` command in a fresh process once. Writes ``benchmarks/results/compare.json``.
 """
 
@@ -104,6 +104,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0] if __doc__ else None)
     ap.add_argument("--drives", type=int, default=200)
     ap.add_argument("--keep", action="store_true")
+    ap.add_argument("--rounds", type=int, default=3, help="timed compare runs (median)")
     ap.add_argument("--runs", type=Path, help="work folder of an earlier run (reuse its runs)")
     args = ap.parse_args()
     work = Path(tempfile.mkdtemp(prefix="bench_compare_"))
@@ -119,7 +120,7 @@ def main() -> None:
         base, cand = work / "root_base", work / "root_candidate"
         timings: dict[str, list[float]] = {"with_plots": [], "no_plots": []}
         result = None
-        for _ in range(3):
+        for _ in range(args.rounds):
             for key, plots in (("with_plots", True), ("no_plots", False)):
                 t = time.perf_counter()
                 result = compare_runs(base, cand, work / f"out_{key}", CompareParams(plots=plots))
@@ -144,7 +145,8 @@ def main() -> None:
         cli_s = time.perf_counter() - t
         fleet = result.comparison.fleet_rows().set_index("kpi")
         out = {
-            "command": "python benchmarks/bench_compare.py --drives " + str(args.drives),
+            "command": f"python benchmarks/bench_compare.py --drives {args.drives} "
+            f"--rounds {args.rounds}",
             "data": "simulated drives (2 x 10 s, 320x180, oracle segmentation), run folders "
             "copied into two batch roots",
             "drives_per_root": args.drives,

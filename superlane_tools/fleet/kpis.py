@@ -22,8 +22,6 @@ from superlane_tools.reporting.names import AVAILABILITY_NAMES, curvature_name
 FloatArray = NDArray[np.float64]
 CURVATURE_KPI_SOURCES = ("super_path", "super")
 """SUPER curvature sources compared: the tracked path estimate and the raw ``2*a2``."""
-CPU_MS_SUFFIX = "_cpu_ms"
-"""Per-frame thread CPU time of a stage (``frames.parquet``), milliseconds."""
 
 
 @dataclass(frozen=True)
@@ -161,10 +159,6 @@ def sequences(tables: DriveTables) -> pd.DataFrame:
     return result
 
 
-def _in_range(index: NDArray[np.int64], start: int, stop: int) -> NDArray[np.bool_]:
-    return (index >= start) & (index < stop)
-
-
 def _width(tables: DriveTables, method: str) -> tuple[NDArray[np.int64], FloatArray]:
     fr = tables.availability_frames
     sel = fr[fr["method"] == method]
@@ -188,8 +182,17 @@ def _curvature_sums(
     return index, err * err, ok.astype(np.float64)
 
 
-def _seq_sum(index: NDArray[np.int64], values: FloatArray, start: int, stop: int) -> float:
-    return float(values[_in_range(index, start, stop)].sum())
+def range_sums(
+    index: NDArray[np.int64],
+    values: FloatArray,
+    starts: NDArray[np.int64],
+    stops: NDArray[np.int64],
+) -> FloatArray:
+    """Return the sums of ``values`` whose frame ``index`` is in each ``[start, stop)``."""
+    order = np.argsort(index, kind="stable")
+    idx = index[order]
+    cum = np.concatenate([[0.0], np.cumsum(np.asarray(values, dtype=np.float64)[order])])
+    return np.asarray(cum[np.searchsorted(idx, stops)] - cum[np.searchsorted(idx, starts)])
 
 
 def sequence_kpis(tables: DriveTables) -> pd.DataFrame:
@@ -200,19 +203,36 @@ def sequence_kpis(tables: DriveTables) -> pd.DataFrame:
     """
     seqs = sequences(tables)
     per_kpi: dict[str, tuple[FloatArray, FloatArray]] = {}
-    ranges = list(zip(seqs["start"].astype(int), seqs["stop"].astype(int), strict=True))
+    starts = seqs["start"].to_numpy(np.int64)
+    stops = seqs["stop"].to_numpy(np.int64)
     avail = tables.availability_sequences
+    n = len(seqs)
+    seq_ids = seqs["sequence"].to_numpy(np.int64)
+    a_method = avail["method"].to_numpy(object)
+    a_seq = avail["sequence"].to_numpy(np.int64)
+    a_ran = (
+        avail["method_available"].fillna(False).to_numpy(bool)
+        if "method_available" in avail
+        else np.ones(len(avail), bool)
+    )
+    a_n = np.nan_to_num(avail["n_available"].to_numpy(np.float64))
+    a_big_n = np.nan_to_num(avail["n_frames"].to_numpy(np.float64))
+    decided = avail["available"].astype("boolean")
+    a_known = decided.notna().to_numpy(bool)
+    a_yes = decided.fillna(False).to_numpy(bool)
+    order = np.argsort(seq_ids, kind="stable")
     for method in METHODS:
-        sel = avail[avail["method"] == method].drop_duplicates("sequence").set_index("sequence")
-        sel = sel.reindex(seqs["sequence"])
-        ran = sel["n_frames"].notna().to_numpy(bool)
-        if "method_available" in sel:
-            ran = ran & sel["method_available"].fillna(False).to_numpy(bool)
-        fn = np.where(ran, np.nan_to_num(sel["n_available"].to_numpy(np.float64)), 0.0)
-        fd = np.where(ran, np.nan_to_num(sel["n_frames"].to_numpy(np.float64)), 0.0)
-        decided = sel["available"].astype("boolean")
-        sd = (ran & decided.notna().to_numpy(bool)).astype(np.float64)
-        sn = np.where(sd > 0, decided.fillna(False).to_numpy(bool), False).astype(np.float64)
+        rows = np.flatnonzero(a_method == method)
+        pos = np.searchsorted(seq_ids[order], a_seq[rows])
+        hit = pos < n
+        hit[hit] &= seq_ids[order][pos[hit]] == a_seq[rows][hit]
+        rows, at = rows[hit], order[pos[hit]]
+        fn, fd, sn, sd = (np.zeros(n) for _ in range(4))
+        ran = a_ran[rows]
+        fn[at] = np.where(ran, a_n[rows], 0.0)
+        fd[at] = np.where(ran, a_big_n[rows], 0.0)
+        sd[at] = (ran & a_known[rows]).astype(np.float64)
+        sn[at] = (ran & a_known[rows] & a_yes[rows]).astype(np.float64)
         per_kpi[f"availability_frames.{method}"] = (fn, fd)
         per_kpi[f"availability_sequences.{method}"] = (sn, sd)
     curv = tables.curvature
@@ -223,70 +243,67 @@ def sequence_kpis(tables: DriveTables) -> pd.DataFrame:
         ):
             idx, sq, ok = _curvature_sums(curv, source, ref, valid)
             per_kpi[f"{family}.{source}"] = (
-                np.array([_seq_sum(idx, sq, a, b) for a, b in ranges]),
-                np.array([_seq_sum(idx, ok, a, b) for a, b in ranges]),
+                range_sums(idx, sq, starts, stops),
+                range_sums(idx, ok, starts, stops),
             )
-    per_kpi |= _width_kpis(tables, ranges)
-    per_kpi |= _fit_kpis(tables, ranges)
-    rows = []
-    for name, (num, den) in per_kpi.items():
-        part = seqs.copy()
-        part["kpi"], part["num"], part["den"] = name, num, den
-        rows.append(part)
-    return pd.concat(rows, ignore_index=True)  # KPI order: that of KPIS
+    per_kpi |= _width_kpis(tables, starts, stops)
+    per_kpi |= _fit_kpis(tables, starts, stops)
+    out = {c: np.tile(seqs[c].to_numpy(), len(per_kpi)) for c in SEQUENCE_COLUMNS}
+    out["kpi"] = np.repeat(np.array(list(per_kpi), dtype=object), n)
+    out["num"] = np.concatenate([v[0] for v in per_kpi.values()]) if n else np.zeros(0)
+    out["den"] = np.concatenate([v[1] for v in per_kpi.values()]) if n else np.zeros(0)
+    return pd.DataFrame(out)  # KPI order: that of KPIS
 
 
 def _width_kpis(
-    tables: DriveTables, ranges: list[tuple[int, int]]
+    tables: DriveTables, starts: NDArray[np.int64], stops: NDArray[np.int64]
 ) -> dict[str, tuple[FloatArray, FloatArray]]:
     idx, super_w = _width(tables, "super")
     me_idx, me_w = _width(tables, "mobileye")
-    me = pd.Series(me_w, index=me_idx).reindex(idx).to_numpy(np.float64)
+    me_series = pd.Series(me_w, index=me_idx)
+    me = me_series[~me_series.index.duplicated()].reindex(idx).to_numpy(np.float64)
     both = np.isfinite(super_w) & np.isfinite(me)
     diff = np.where(both, super_w - me, 0.0)
     step = np.diff(super_w, prepend=np.nan)
-    consecutive = np.diff(idx, prepend=-2) == 1
-    ok_step = np.isfinite(step) & consecutive
+    ok_step = np.isfinite(step) & (np.diff(idx, prepend=-2) == 1)
     step2 = np.where(ok_step, step * step, 0.0)
-    bias_n, bias_d, jit_n, jit_d = [], [], [], []
-    for a, b in ranges:
-        inside = _in_range(idx, a, b)
-        bias_n.append(float(diff[inside].sum()))
-        bias_d.append(float(both[inside].sum()))
-        inner = inside & _in_range(idx, a + 1, b)  # steps inside the sequence only
-        jit_n.append(float(step2[inner].sum()))
-        jit_d.append(float(ok_step[inner].sum()))
+    inner = starts + 1  # a step into a sequence's first frame belongs to the one before
     return {
-        "lane_width_bias": (np.array(bias_n), np.array(bias_d)),
-        "lane_width_jitter": (np.array(jit_n), np.array(jit_d)),
+        "lane_width_bias": (
+            range_sums(idx, diff, starts, stops),
+            range_sums(idx, both.astype(np.float64), starts, stops),
+        ),
+        "lane_width_jitter": (
+            range_sums(idx, step2, inner, stops),
+            range_sums(idx, ok_step.astype(np.float64), inner, stops),
+        ),
     }
 
 
 def _fit_kpis(
-    tables: DriveTables, ranges: list[tuple[int, int]]
+    tables: DriveTables, starts: NDArray[np.int64], stops: NDArray[np.int64]
 ) -> dict[str, tuple[FloatArray, FloatArray]]:
     lanes, frames = tables.lanes, tables.frames
     idx = lanes["frame_index"].to_numpy(np.int64)
-    pair = ((lanes["ego_left"] >= 0) & (lanes["ego_right"] >= 0)).to_numpy(np.float64)
+    pair: FloatArray = np.asarray(
+        ((lanes["ego_left"] >= 0) & (lanes["ego_right"] >= 0)).to_numpy(), dtype=np.float64
+    )
     cost = lanes["cost"].to_numpy(np.float64)
-    has_cost = np.isfinite(cost)
-    cost = np.where(has_cost, cost, 0.0)
+    has_cost = np.isfinite(cost).astype(np.float64)
     f_idx = frames["frame_index"].to_numpy(np.int64)
-    stages = [c for c in frames.columns if c.endswith(CPU_MS_SUFFIX)]
+    stages = [c for c in frames.columns if c.endswith("_cpu_ms")]  # stage thread CPU time
     stage_s = frames[stages].fillna(0.0).to_numpy(np.float64).sum(axis=1) / 1e3
-    out: dict[str, list[float]] = {k: [] for k in ("pn", "pd", "cn", "cd", "fn", "fd")}
-    for a, b in ranges:
-        inside = _in_range(idx, a, b)
-        out["pn"].append(float(pair[inside].sum()))
-        out["pd"].append(float(inside.sum()))
-        out["cn"].append(float(cost[inside & has_cost].sum()))
-        out["cd"].append(float((inside & has_cost).sum()))
-        f_in = _in_range(f_idx, a, b)
-        out["fn"].append(float(f_in.sum()))
-        out["fd"].append(float(stage_s[f_in].sum()))
-    arr = {k: np.array(v) for k, v in out.items()}
     return {
-        "ego_pair_share": (arr["pn"], arr["pd"]),
-        "fit_cost": (arr["cn"], arr["cd"]),
-        "frames_per_s": (arr["fn"], arr["fd"]),
+        "ego_pair_share": (
+            range_sums(idx, pair, starts, stops),
+            range_sums(idx, np.ones(len(idx)), starts, stops),
+        ),
+        "fit_cost": (
+            range_sums(idx, np.where(has_cost > 0, cost, 0.0), starts, stops),
+            range_sums(idx, has_cost, starts, stops),
+        ),
+        "frames_per_s": (
+            range_sums(f_idx, np.ones(len(f_idx)), starts, stops),
+            range_sums(f_idx, stage_s, starts, stops),
+        ),
     }

@@ -27,6 +27,7 @@ from numpy.typing import NDArray
 
 from superlane_tools.fleet.errors import FleetError
 from superlane_tools.fleet.kpis import DriveTables
+from superlane_tools.fleet.spans import per_method
 
 FloatArray = NDArray[np.float64]
 CRITERIA = (
@@ -71,26 +72,26 @@ def frame_scores(
     ``spans``: ``[start_ns, stop_ns)`` disagreement spans of this drive (may be empty).
     """
     fr = tables.availability_frames
-    width = fr.pivot_table(index="frame_index", columns="method", values="width_m", aggfunc="first")
-    avail = fr.assign(a=fr["available"].astype(float)).pivot_table(
-        index="frame_index", columns="method", values="a", aggfunc="first"
-    )
-    known = fr.assign(k=fr["known"].astype(float) if "known" in fr else 1.0).pivot_table(
-        index="frame_index", columns="method", values="k", aggfunc="first"
-    )
-    times = fr.drop_duplicates("frame_index").set_index("frame_index")["log_time_ns"]
+    times = fr.drop_duplicates("frame_index").set_index("frame_index")["log_time_ns"].sort_index()
     idx = times.index.to_numpy(np.int64)
     out = pd.DataFrame({"frame_index": idx, "log_time_ns": times.to_numpy(np.int64)})
-    sup_w, sup_a = width["super"].to_numpy(np.float64), avail["super"].to_numpy(np.float64)
+    fr = fr.assign(
+        available=fr["available"].astype(float),
+        known=fr["known"].astype(float) if "known" in fr else 1.0,
+    )
+    width = {m: s.reindex(idx).to_numpy(np.float64) for m, s in per_method(fr, "width_m").items()}
+    avail = {m: s.reindex(idx).to_numpy(np.float64) for m, s in per_method(fr, "available").items()}
+    known = per_method(fr, "known")["super"].reindex(idx).to_numpy(np.float64)
+    sup_w, sup_a = width["super"], avail["super"]
     dis = np.zeros(len(idx))
     for other in ("corridor_net", "mobileye", "hough"):
         if other not in width:
             continue
-        dw = np.nan_to_num(np.abs(sup_w - width[other].to_numpy(np.float64)))
-        flip = np.nan_to_num(np.abs(sup_a - avail[other].to_numpy(np.float64)))
+        dw = np.nan_to_num(np.abs(sup_w - width[other]))
+        flip = np.nan_to_num(np.abs(sup_a - avail[other]))
         dis = np.maximum(dis, np.maximum(np.minimum(dw, 1.0), flip))
     out["disagree"] = dis
-    out["availability_drop"] = ((sup_a == 0) & (known["super"].to_numpy() == 1)).astype(float)
+    out["availability_drop"] = ((sup_a == 0) & (known == 1)).astype(float)
     lanes = tables.lanes.set_index("frame_index")
     quality = _by_frame(lanes["quality"], idx) if "quality" in lanes else np.full(len(idx), np.nan)
     out["fit_quality"] = np.where(np.isfinite(quality), 1.0 - quality, 0.0)

@@ -43,6 +43,22 @@ REQUIRED_COLUMNS: Mapping[str, tuple[str, ...]] = {
     "frames": ("frame_index", "log_time_ns"),
 }
 """Columns each table must have for the KPIs (tables of other tool versions may lack some)."""
+OPTIONAL_COLUMNS: Mapping[str, tuple[str, ...]] = {
+    "availability_frames": ("known",),
+    "availability_sequences": ("category", "method_available"),
+    "curvature": (
+        "rtk_curvature",
+        "rtk_valid",
+        "dynamics_curvature",
+        "super_curvature",
+        "super_path_curvature",
+        "super_lateral_m",
+    ),
+    "lanes": ("quality",),
+    "frames": (),
+}
+"""Columns read where present; only these are read (a fleet's tables stay small in memory)."""
+CPU_MS_SUFFIX = "_cpu_ms"
 
 
 @dataclass(frozen=True)
@@ -194,14 +210,31 @@ def read_tables(run: DriveRun) -> DriveTables:
     for key, columns in REQUIRED_COLUMNS.items():
         path = RunLayout(run.folder).table(key)
         try:
-            table = pq.read_table(path)
+            present = pq.read_schema(path).names
+            wanted = [*columns, *OPTIONAL_COLUMNS[key]]
+            wanted += [c for c in present if key == "frames" and c.endswith(CPU_MS_SUFFIX)]
+            missing = [c for c in columns if c not in present]
+            if missing:
+                raise FleetError(
+                    f"{run.folder}: {path.name} of tool version {run.tool_version or 'unknown'} "
+                    f"lacks {', '.join(missing)}: incompatible with this slt"
+                )
+            table = pq.read_table(path, columns=[c for c in wanted if c in present])
         except (OSError, pa.ArrowException) as err:
             raise FleetError(f"{run.folder}: cannot read {path.name}: {err}") from err
-        missing = [c for c in columns if c not in table.column_names]
-        if missing:
-            raise FleetError(
-                f"{run.folder}: {path.name} of tool version {run.tool_version or 'unknown'} "
-                f"lacks {', '.join(missing)}: incompatible with this slt"
-            )
         frames[key] = table.to_pandas()
     return DriveTables(**frames)
+
+
+def read_lanes(run: DriveRun) -> pd.DataFrame:
+    """Read a drive's whole lanes table (every fitted line, for pre-annotations).
+
+    Raises:
+        FleetError: If it cannot be read.
+    """
+    path = RunLayout(run.folder).lanes
+    try:
+        lanes: pd.DataFrame = pq.read_table(path).to_pandas()
+    except (OSError, pa.ArrowException) as err:
+        raise FleetError(f"{run.folder}: cannot read {path.name}: {err}") from err
+    return lanes

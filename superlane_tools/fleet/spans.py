@@ -61,8 +61,13 @@ class FrameDisagreement(NamedTuple):
         return total
 
 
-def _per_method(frames: pd.DataFrame, column: str) -> pd.DataFrame:
-    return frames.pivot_table(index="frame_index", columns="method", values=column, aggfunc="first")
+def per_method(frames: pd.DataFrame, column: str) -> dict[str, pd.Series]:
+    """Return method -> ``column`` of a long per-frame table by frame index (first per frame)."""
+    out = {}
+    for method, group in frames.groupby("method", sort=False):
+        series = pd.Series(group[column].to_numpy(), index=group["frame_index"].to_numpy())
+        out[str(method)] = series[~series.index.duplicated()]
+    return out
 
 
 def frame_disagreement(
@@ -72,8 +77,8 @@ def frame_disagreement(
     fb, fc = base.availability_frames, candidate.availability_frames
     times = fb.drop_duplicates("frame_index").set_index("frame_index")["log_time_ns"]
     idx = np.intersect1d(times.index.to_numpy(), fc["frame_index"].unique())
-    ab = _per_method(fb.assign(available=fb["available"].astype(float)), "available")
-    ac = _per_method(fc.assign(available=fc["available"].astype(float)), "available")
+    ab = per_method(fb.assign(available=fb["available"].astype(float)), "available")
+    ac = per_method(fc.assign(available=fc["available"].astype(float)), "available")
     terms: dict[str, FloatArray] = {}
     for method in METHODS:
         if method in ab and method in ac:
@@ -82,8 +87,8 @@ def frame_disagreement(
             flip = np.nan_to_num(np.abs(x - y))
             if flip.any():
                 terms[f"{method} availability"] = flip
-    wb = _per_method(fb, "width_m")["super"].reindex(idx).to_numpy(np.float64)
-    wc = _per_method(fc, "width_m")["super"].reindex(idx).to_numpy(np.float64)
+    wb = per_method(fb, "width_m")["super"].reindex(idx).to_numpy(np.float64)
+    wc = per_method(fc, "width_m")["super"].reindex(idx).to_numpy(np.float64)
     terms["SUPER lane width"] = np.nan_to_num(
         np.minimum(np.abs(wc - wb) / params.width_scale_m, 1.0)
     )

@@ -20,6 +20,7 @@ from superlane_tools.fleet import DriveRun, FleetError, find_drives, read_tables
 from superlane_tools.fleet.frames import frame_jpegs
 from superlane_tools.fleet.label_export import pre_annotation
 from superlane_tools.fleet.mining import MineParams, candidates, frame_scores, select_frames
+from superlane_tools.fleet.runs import read_lanes
 from superlane_tools.records import Skipped
 from superlane_tools.reporting import Provenance, write_bytes_atomic, write_table
 from superlane_tools.reporting.atomic import write_text_atomic
@@ -108,7 +109,7 @@ def mine_runs(
         camera = CameraModel.from_dict(resolved["camera"])
         times = set(group["log_time_ns"].astype(int))
         images = frame_jpegs(recording, str(resolved["streams"]["frames"]), times)
-        fits = read_tables(drive).lanes.set_index("frame_index", drop=False)
+        fits = read_lanes(drive).set_index("frame_index", drop=False)
         for pick in group.to_dict("records"):
             index, t_ns = int(pick["frame_index"]), int(pick["log_time_ns"])
             jpeg = images.get(t_ns)
