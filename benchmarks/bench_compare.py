@@ -9,7 +9,8 @@ really differ); then each root gets ``--drives`` recording folders, copies of th
 folders, and a ``batch_status.parquet`` in ``slt batch``'s schema where every copy has its own
 content hash (so each is a distinct drive and base and candidate copies pair up). Times
 ``compare_runs`` in-process (imports warm, median of ``--rounds``, with and without plots) and
-the whole ``slt compare`` command in a fresh process once. Writes ``benchmarks/results/compare.json``.
+the whole ``slt compare`` command in a fresh process once. Writes
+``benchmarks/results/compare.json``.
 """
 
 from __future__ import annotations
