@@ -77,8 +77,8 @@ def jpeg_pool(width: int, height: int, count: int = 8) -> list[bytes]:
 def make_recording(
     path: Path, seed: int, frames: int, pool: list[bytes], compression: str = "zstd"
 ) -> None:
+    from superlane_tools.recording import open_writer
     from superlane_tools.recording.messages import can_frame, compressed_image, navsatfix
-    from superlane_tools.recording.writers import open_writer
 
     with open_writer(path, "mcap", compression=compression) as w:  # type: ignore[arg-type]
         w.add_topic("/cam/compressed", "sensor_msgs/msg/CompressedImage")

@@ -69,8 +69,8 @@ def jpeg_pool(quality: int = 90) -> list[bytes]:
 
 def make_recording(path: Path, seconds: int, pool: list[bytes]) -> None:
     """Write an MCAP with 15 Hz frames, 100 Hz CAN and 20 Hz GNSS for ``seconds``."""
+    from superlane_tools.recording import open_writer
     from superlane_tools.recording.messages import can_frame, compressed_image, navsatfix
-    from superlane_tools.recording.writers import open_writer
 
     events: list[tuple[int, str, int]] = []
     events += [(T0 + i * 1_000_000_000 // 15, "/cam", i) for i in range(seconds * 15)]

@@ -30,8 +30,8 @@ from pathlib import Path
 import numpy as np
 
 from superlane_tools.recording import messages as m
+from superlane_tools.recording import open_writer
 from superlane_tools.recording.inspect import mcap_file_info, summary_from_mcap
-from superlane_tools.recording.writers import open_writer
 
 T0 = 1_700_000_000_000_000_000
 _MAIN = "from superlane_tools.cli.app import main; main()"

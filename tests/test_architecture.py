@@ -60,6 +60,7 @@ COMMAND_RANKS = {
     "corridor": 1,
     "compare": 1,
     "mine": 1,
+    "recover": 1,
     "batch": 2,
 }
 """Second level of ``commands``: the commands are peers (rank 1) and never import each other;

@@ -9,7 +9,13 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from superlane_tools.cli._common import EXIT_CODES_HELP, cli_errors, console, progress
+from superlane_tools.cli._common import (
+    EXIT_CODES_HELP,
+    cli_errors,
+    console,
+    progress,
+    report_skipped,
+)
 from superlane_tools.errors import ExitCode
 
 if TYPE_CHECKING:
@@ -112,6 +118,9 @@ def _print_table(summary: RecordingSummary) -> None:
             _num(t.median_stamp_offset_ms, ".1f"),
         )
     out.print(table)
+    for t in summary.topics:
+        if t.median_rate_hz is None and t.count > 1:  # 0 or 1 message: "-" needs no reason
+            out.print(f"rate -: {t.topic}: {t.rate_note}", markup=False, highlight=False)
 
 
 def info(
@@ -135,7 +144,6 @@ def info(
     ] = False,
 ) -> None:
     """Show topics, types, counts, median rates, largest gaps and header-stamp offsets."""
-    from superlane_tools.cli._common import report_skipped
     from superlane_tools.recording import open_recording, summarize
     from superlane_tools.recording.inspect import (
         CAN_MSGTYPES,

@@ -16,6 +16,7 @@ from superlane_tools.cli._common import (
     command_line,
     console,
     exit_with,
+    note,
     progress,
     report_skipped,
 )
@@ -106,7 +107,11 @@ def reprocess_cmd(
         # First: on a cold kernel cache the compiler is this run's critical path.
         compiler = start_compiling()
         try:
-            from superlane_tools.commands.reprocess import ReprocessConfig, load_config
+            from superlane_tools.commands.reprocess import (
+                ReprocessConfig,
+                load_config,
+                reprocess_run,
+            )
 
             cfg = load_config(config) if config is not None else ReprocessConfig()
             overrides: dict[str, Any] = {}
@@ -130,8 +135,6 @@ def reprocess_cmd(
                 overrides["workers"] = workers
             cfg = cfg.with_overrides(overrides)
             target = out if out is not None else Path("runs") / _recording_name(recording)
-            from superlane_tools.commands.reprocess import reprocess_run
-
             with progress("reprocess", unit="frames") as bar:
                 result = reprocess_run(
                     recording, target, cfg, bar.update, command_line(), with_signals, compiler
@@ -149,16 +152,18 @@ def reprocess_cmd(
                 f"({sum(added.values())} messages)",
                 markup=False,
             )
-    for note in result.notes:
-        console.print(f"note: {note}", markup=False, soft_wrap=True)
+    for line in result.notes:
+        note(line)
+    from superlane_tools.reporting.drive_notes import timing_line
+
     t = result.timings
-    stages = ", ".join(f"{k} {v:.1f} s" for k, v in t.items() if k != "total")
     console.print(
         f"reprocessed {result.frames} frames in {t.get('total', 0):.1f} s "
         f"({result.frames_per_s:.1f} frames/s) -> {target}",
         markup=False,
     )
-    console.print(f"stages: {stages}", markup=False, soft_wrap=True)
+    if stages := timing_line(t):
+        console.print(f"times: {stages}", markup=False, soft_wrap=True)
     exit_with(report_skipped(result.skipped))
 
 

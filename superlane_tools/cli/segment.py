@@ -11,7 +11,7 @@ from superlane_tools.cli._common import (
     EXIT_CODES_HELP,
     camera_option,
     cli_errors,
-    err_console,
+    note,
     progress,
     report_skipped,
 )
@@ -83,10 +83,7 @@ def _run(
                 written += 1
             bar.advance()
     skipped.extend(frames.skipped)
-    err_console.print(
-        f"slt: segmented {written} of {seen} images with the {seg_backend.name} backend into {out}",
-        markup=False,
-    )
+    note(f"segmented {written} of {seen} images with the {seg_backend.name} backend into {out}")
     if written == 0:
         report_skipped(skipped)
         return ExitCode.ERROR

@@ -13,7 +13,7 @@ from superlane_tools.cli._common import (
     EXIT_CODES_HELP,
     cli_errors,
     command_line,
-    err_console,
+    note,
     progress,
 )
 from superlane_tools.errors import UsageError
@@ -133,11 +133,10 @@ def train(
                 bar.update(step, total, note=f"loss {loss:.4f}")
 
             result = run_training(params, update)
-        err_console.print(
-            f"slt: trained {task} model ({result.card.parameters} parameters, "
+        note(
+            f"trained {task} model ({result.card.parameters} parameters, "
             f"{result.seconds:.0f} s, final loss {result.epoch_losses[-1]:.4f}) -> "
-            f"{result.model_path} + {result.card_path.name}",
-            markup=False,
+            f"{result.model_path} + {result.card_path.name}"
         )
 
 

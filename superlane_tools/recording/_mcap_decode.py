@@ -3,13 +3,15 @@
 from __future__ import annotations
 
 import json
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from types import SimpleNamespace
 from typing import TYPE_CHECKING, Any
 
 from superlane_tools.recording.base import msgdef_starts_with_header, ros2_msgtype
+from superlane_tools.recording.decoding import DecodeFailureError
 
 if TYPE_CHECKING:
+    from mcap.decoder import DecoderFactory
     from mcap.records import Schema
     from rosbags.typesys.store import Typestore
 
@@ -17,10 +19,6 @@ Decoder = Callable[[bytes], Any]
 """Turns one serialized payload into a message object with attribute access."""
 
 ROS_SCHEMA_ENCODINGS = {"ros2msg", "ros2idl", "ros1msg"}
-
-
-class DecodeFailureError(Exception):
-    """No decoder could be built for a channel's schema (the reason is the message)."""
 
 
 def msgtype_name(schema: Schema | None, message_encoding: str) -> str:
@@ -51,12 +49,17 @@ def _json_decoder(data: bytes) -> Any:
 class McapDecoders:
     """Builds and caches one decoder per (message encoding, schema) of an MCAP file.
 
-    Decoding tries the mcap decoder factories first (``mcap_ros2``, ``mcap_ros1``,
-    ``mcap_protobuf``), which use the schemas stored in the file. When a ROS schema cannot be
-    parsed, it falls back to the rosbags typestore definition of the same type name.
+    Decoding tries the injected decoder factories first, in order, then the built-in mcap
+    decoder factories (``mcap_ros2``, ``mcap_ros1``, ``mcap_protobuf``), which use the schemas
+    stored in the file. When a ROS schema cannot be parsed, it falls back to the rosbags
+    typestore definition of the same type name.
+
+    Args:
+        factories: Extra decoder factories (mcap's ``DecoderFactory`` interface: a factory
+            returns a decoder for the encodings and schemas it knows, None for the others).
     """
 
-    def __init__(self) -> None:
+    def __init__(self, factories: Sequence[DecoderFactory] = ()) -> None:
         from mcap_protobuf.decoder import DecoderFactory as ProtobufFactory
         from mcap_ros1.decoder import DecoderFactory as Ros1Factory
         from mcap_ros2.decoder import DecoderFactory as Ros2Factory
@@ -66,6 +69,7 @@ class McapDecoders:
             "ros1": Ros1Factory(),
             "protobuf": ProtobufFactory(),
         }
+        self._injected = tuple(factories)
         self._cache: dict[tuple[str, int], Decoder | DecodeFailureError] = {}
         self._ros2_store: Typestore | None = None
         self._ros1_store: Typestore | None = None
@@ -89,6 +93,9 @@ class McapDecoders:
         return cached
 
     def _build(self, message_encoding: str, schema: Schema | None) -> Decoder:
+        injected = self._injected_decoder(message_encoding, schema)
+        if injected is not None:
+            return injected
         if message_encoding == "json":
             return _json_decoder
         factory = self._factories.get(message_encoding)
@@ -108,6 +115,20 @@ class McapDecoders:
         if fallback is not None:
             return fallback
         raise DecodeFailureError(f"cannot decode {schema.encoding} schema {schema.name!r}: {error}")
+
+    def _injected_decoder(self, message_encoding: str, schema: Schema | None) -> Decoder | None:
+        """Return the first injected factory's decoder for the channel, or None."""
+        for factory in self._injected:
+            try:
+                decoder = factory.decoder_for(message_encoding, schema)
+            except Exception as err:  # an injected factory that cannot parse the schema
+                name = schema.name if schema is not None else message_encoding
+                raise DecodeFailureError(
+                    f"{type(factory).__name__} cannot decode {name!r}: {type(err).__name__}: {err}"
+                ) from err
+            if decoder is not None:
+                return decoder
+        return None
 
     def _typestore_decoder(self, message_encoding: str, schema: Schema) -> Decoder | None:
         """Decode with the rosbags typestore's own definition of the schema's type name."""

@@ -7,13 +7,14 @@ import os
 import re
 import struct
 import zlib
-from collections.abc import Collection, Generator, Iterator
+from collections.abc import Collection, Generator, Hashable, Iterator
 from pathlib import Path
 from typing import Any, NamedTuple
 
-from superlane_tools.recording.base import ClosingRecording, SkipLog, in_range, storable_time
+from superlane_tools.recording.base import SkipLog, in_range, storable_time
+from superlane_tools.recording.decoding import Decode, RawSource
 from superlane_tools.recording.errors import RecordingError
-from superlane_tools.records import Message, RawMessage, Skipped, TopicInfo
+from superlane_tools.records import RawMessage, Skipped, TopicInfo
 
 CAN_FRAME_TYPE = "can_msgs/msg/Frame"
 CANLOG_SUFFIXES = (".log", ".asc", ".blf")
@@ -61,6 +62,30 @@ def encode_raw_frame(frame: CanFrame) -> bytes:
     flags = (_EXTENDED_FLAG if frame.is_extended else 0) | (0x40000000 if frame.is_rtr else 0)
     flags |= 0x20000000 if frame.is_error else 0
     return _RAW_HEADER.pack(flags | (frame.id & 0x1FFFFFFF), frame.dlc & 0xFF) + frame.data
+
+
+def decode_raw_frame(payload: bytes) -> CanFrame:
+    """Parse a frame serialized with :func:`encode_raw_frame`.
+
+    Raises:
+        ValueError: If the payload is shorter than its 5-byte header.
+    """
+    if len(payload) < _RAW_HEADER.size:
+        raise ValueError(f"a raw CAN frame needs {_RAW_HEADER.size} header bytes")
+    flags, dlc = _RAW_HEADER.unpack_from(payload)
+    return CanFrame(
+        id=flags & 0x1FFFFFFF,
+        is_extended=bool(flags & _EXTENDED_FLAG),
+        is_rtr=bool(flags & 0x40000000),
+        is_error=bool(flags & 0x20000000),
+        dlc=dlc,
+        data=bytes(payload[_RAW_HEADER.size :]),
+    )
+
+
+def decode_raw_message(raw: RawMessage) -> CanFrame:
+    """Decode a raw message of a CAN log (the source's decoder, see :func:`decode_raw_frame`)."""
+    return decode_raw_frame(raw.payload)
 
 
 def looks_like_canlog(path: str | os.PathLike[str]) -> bool:
@@ -277,7 +302,7 @@ def _frame_of(msg: Any) -> CanFrame:
     )
 
 
-class CanLogRecording(ClosingRecording):
+class CanLogRecording(RawSource):
     """A CAN log file as a :class:`~superlane_tools.recording.base.Recording`.
 
     Each CAN channel (``can0``, ``vcan1``, ASC channel numbers) is one topic of type
@@ -360,30 +385,24 @@ class CanLogRecording(ClosingRecording):
             for topic, count in sorted(self._topics.items())
         ]
 
-    def messages(
-        self,
-        topics: Collection[str] | None = None,
-        start_ns: int | None = None,
-        stop_ns: int | None = None,
-    ) -> Iterator[Message]:
-        """Yield CAN frames as messages (``data`` is a :class:`CanFrame`) in file order."""
+    def _pass_skips(self) -> SkipLog:
+        return self._skips
+
+    def _keyed_raw(
+        self, topics: Collection[str] | None, start_ns: int | None, stop_ns: int | None
+    ) -> Iterator[tuple[Hashable, RawMessage]]:
+        """Yield frames serialized with :func:`encode_raw_frame` (encoding ``can``), one key."""
         for topic, log_time_ns, frame in self._frames():
             if topics is not None and topic not in topics:
                 continue
             if in_range(log_time_ns, start_ns, stop_ns):
-                yield Message(topic, log_time_ns, None, CAN_FRAME_TYPE, frame)
+                raw = RawMessage(topic, log_time_ns, CAN_FRAME_TYPE, "can", encode_raw_frame(frame))
+                yield None, raw
 
-    def raw_messages(
-        self,
-        topics: Collection[str] | None = None,
-        start_ns: int | None = None,
-        stop_ns: int | None = None,
-    ) -> Iterator[RawMessage]:
-        """Yield frames serialized with :func:`encode_raw_frame` (encoding ``can``)."""
-        for msg in self.messages(topics, start_ns, stop_ns):
-            yield RawMessage(
-                msg.topic, msg.log_time_ns, CAN_FRAME_TYPE, "can", encode_raw_frame(msg.data)
-            )
+    def _decoder_for(self, key: Hashable, raw: RawMessage) -> Decode:
+        """Return :func:`decode_raw_message`: messages are :class:`CanFrame` objects."""
+        del key, raw
+        return decode_raw_message
 
     def close(self) -> None:
         """Nothing stays open between iterations; present for the protocol."""

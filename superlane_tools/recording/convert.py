@@ -33,6 +33,7 @@ from superlane_tools.recording import messages as msgs
 from superlane_tools.recording.errors import RecordingError
 from superlane_tools.recording.times import format_utc, parse_time
 from superlane_tools.recording.typestore import COMPRESSED_VIDEO_MSGTYPE
+from superlane_tools.records import Skipped
 
 InputKind = Literal["video", "nmea", "gpx", "can", "csv"]
 VIDEO_SUFFIXES = frozenset({".mp4", ".mkv", ".mov", ".avi", ".webm", ".m4v", ".h264", ".h265"})
@@ -86,12 +87,13 @@ class ConvertConfig:
 
 @dataclass
 class ConvertResult:
-    """What was written: message counts per topic, the alignment, and notes."""
+    """What was written: message counts per topic, the alignment, notes, what was skipped."""
 
     path: Path
     counts: dict[str, int] = field(default_factory=dict)
     alignment: dict[str, str] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
+    skipped: list[Skipped] = field(default_factory=list)
 
 
 def input_kind(path: Path) -> InputKind:
@@ -230,7 +232,7 @@ def _video_start(container: Any, config: ConvertConfig) -> tuple[int, str]:
     return 0, "no start time known: seconds into the video"
 
 
-def _fix_items(path: Path, offset_ns: int) -> Iterator[Item]:
+def _fix_items(path: Path, offset_ns: int, result: ConvertResult) -> Iterator[Item]:
     from superlane_tools.recording.nmea_source import NmeaRecording
 
     with NmeaRecording(path) as rec:
@@ -247,6 +249,7 @@ def _fix_items(path: Path, offset_ns: int) -> Iterator[Item]:
                 cov,
             )
             yield m.log_time_ns + offset_ns, FIX_TOPIC, "sensor_msgs/msg/NavSatFix", fix
+        result.skipped.extend(rec.skipped)  # bad checksums, unparsable sentences
 
 
 def _gpx_items(path: Path, offset_ns: int) -> Iterator[Item]:
@@ -281,6 +284,7 @@ def _can_items(path: Path, offset_ns: int, result: ConvertResult) -> Iterator[It
             topic = "/can/" + (_SAFE.sub("_", m.topic).strip("_") or "raw")
             t = m.log_time_ns + offset_ns
             yield t, topic, "can_msgs/msg/Frame", msgs.can_frame(t, f.id, f.data, f.is_extended)
+        result.skipped.extend(rec.skipped)  # unparsable log lines
 
 
 def _csv_items(path: Path, offset_ns: int) -> Iterator[Item]:
@@ -344,7 +348,8 @@ def convert(
         command: Command line for the metadata record.
 
     Returns:
-        Counts per topic, the time alignment and notes.
+        Counts per topic, the time alignment, notes, and what was skipped in the inputs (bad
+        NMEA checksums, unparsable log lines).
 
     Raises:
         RecordingError: For unreadable inputs, two videos, or an existing output.
@@ -368,7 +373,7 @@ def convert(
         if kind == "video":
             sources.append(_video_items(item.path, cfg, offset_ns, result))
         elif kind == "nmea":
-            sources.append(_fix_items(item.path, offset_ns))
+            sources.append(_fix_items(item.path, offset_ns, result))
         elif kind == "gpx":
             sources.append(_gpx_items(item.path, offset_ns))
         elif kind == "can":

@@ -15,7 +15,7 @@ from typing import Any
 
 from superlane_tools.recording._mcap_decode import msgtype_name
 from superlane_tools.recording.base import Recording, field_value
-from superlane_tools.recording.summary import RecordingSummary, TopicSummary
+from superlane_tools.recording.summary import RecordingSummary, TopicSummary, rate_hz
 
 _NS = 1e9
 CAN_MSGTYPES = frozenset({"can_msgs/msg/Frame"})
@@ -134,9 +134,11 @@ def summary_from_mcap(path: Path, info: McapFileInfo) -> RecordingSummary:
         count = info.channel_counts.get(topic, 0)
         first, last = info.channel_spans.get(topic, (None, None))
         span = (last - first) if first is not None and last is not None else 0
-        rate = (count - 1) * _NS / span if count > 1 and span > 0 else None
+        rate, why = rate_hz(count, span)
         topics.append(
-            TopicSummary(topic, msgtype, encoding, count, rate, None, first, last, span / _NS, None)
+            TopicSummary(
+                topic, msgtype, encoding, count, rate, None, first, last, span / _NS, None, why
+            )
         )
     firsts = [t.first_ns for t in topics if t.first_ns is not None]
     lasts = [t.last_ns for t in topics if t.last_ns is not None]
@@ -161,7 +163,8 @@ class CanIdStats:
         topic: CAN topic or log channel.
         can_id: Arbitration id.
         count: Frames.
-        rate_hz: Mean rate over the id's own span, Hz (None for one frame).
+        rate_hz: Mean rate over the id's own span, Hz (None for one frame or a span under
+            :data:`~superlane_tools.recording.summary.MIN_RATE_SPAN_NS`).
         dlcs: Data lengths seen, sorted.
     """
 
@@ -191,6 +194,6 @@ def can_id_stats(rec: Recording, topics: Collection[str]) -> list[CanIdStats]:
             entry[3].add(int(dlc or 0))
     out = []
     for (topic, can_id), (count, first, last, dlcs) in sorted(acc.items()):
-        rate = (count - 1) * _NS / (last - first) if count > 1 and last > first else None
+        rate, _ = rate_hz(count, last - first)
         out.append(CanIdStats(topic, can_id, count, rate, tuple(sorted(dlcs))))
     return out

@@ -3,63 +3,47 @@
 from __future__ import annotations
 
 import heapq
-import io
 import queue
-import struct
-import zlib
 from collections import deque
-from collections.abc import Collection, Iterator
+from collections.abc import Collection, Hashable, Iterator, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from itertools import pairwise
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, BinaryIO, NamedTuple
+from typing import TYPE_CHECKING, Any, BinaryIO, cast
 
-from superlane_tools.recording._mcap_decode import (
-    DecodeFailureError,
-    Decoder,
-    McapDecoders,
-    header_first,
-    msgtype_name,
+from superlane_tools.recording._mcap_decode import McapDecoders, header_first, msgtype_name
+from superlane_tools.recording._mcap_scan import (
+    MCAP_MAGIC,
+    RECORD_PREFIX,
+    ChunkRef,
+    file_order_messages,
+    read_summary,
+    walk_data_section,
 )
 from superlane_tools.recording.base import (
-    ClosingRecording,
     SkipLog,
     in_range,
     raw_header_stamp_ns,
     stamp_ns_of,
     storable_time,
 )
+from superlane_tools.recording.decoding import Decode, RawSource
 from superlane_tools.recording.errors import RecordingError
-from superlane_tools.records import Message, RawMessage, Skipped, TopicInfo
+from superlane_tools.records import RawMessage, Skipped, TopicInfo
 
 if TYPE_CHECKING:
+    from mcap.decoder import DecoderFactory
     from mcap.records import Channel, Schema
     from mcap.records import Message as McapMessage
     from mcap.summary import Summary
 
-MCAP_MAGIC = b"\x89MCAP0\r\n"
-"""The 8 bytes every MCAP file starts (and, when complete, ends) with."""
-
-_RECORD_PREFIX = 9  # opcode (1 byte) + record length (8 bytes)
-_FOOTER_SIZE = _RECORD_PREFIX + 8 + 8 + 4  # summary start, summary offset start, summary CRC
-_FOOTER_OPCODE = 0x02
-_CHUNK_OPCODE = 0x06
 PREFETCH_CHUNKS = 3
 """Chunks loaded ahead of the consumer by the background loader threads."""
 LOADER_THREADS = 2
 """Threads loading chunks: each one's read, decompression and CRC check release the GIL."""
 
 
-class _ChunkRef(NamedTuple):
-    """Where one chunk lies and which log times and channels it holds."""
-
-    offset: int
-    start_ns: int
-    end_ns: int
-    channel_ids: frozenset[int] | None  # None: unknown without reading the chunk
-
-
-class McapRecording(ClosingRecording):
+class McapRecording(RawSource):
     """An MCAP file opened for streaming (see :class:`~superlane_tools.recording.base.Recording`).
 
     Complete files are read through their chunk index. Files without a usable summary (cut
@@ -68,7 +52,17 @@ class McapRecording(ClosingRecording):
     or compression is broken are skipped and reported; reading continues after them.
     """
 
-    def __init__(self, path: str | Path) -> None:
+    def __init__(self, path: str | Path, decoder_factories: Sequence[DecoderFactory] = ()) -> None:
+        """Open the file and read its index (or scan it when the index is unusable).
+
+        Args:
+            path: The MCAP file.
+            decoder_factories: mcap decoder factories tried before the built-in ones
+                (``mcap_ros2``, ``mcap_ros1``, ``mcap_protobuf``, JSON) when messages are decoded.
+
+        Raises:
+            RecordingError: If the file cannot be opened or is not MCAP.
+        """
         self.path = Path(path)
         try:
             self._file = self.path.open("rb")
@@ -79,9 +73,9 @@ class McapRecording(ClosingRecording):
         self._schemas: dict[int, Schema] = {}
         self._channels: dict[int, Channel] = {}
         self._counts: dict[int, int] | None = None
-        self._chunks: list[_ChunkRef] = []
+        self._chunks: list[ChunkRef] = []
         self._loose_messages = False
-        self._decoders = McapDecoders()
+        self._decoders = McapDecoders(decoder_factories)
         self._header_first: dict[int, bool] = {}
         self._summary: Summary | None = None
         self.indexed = False
@@ -111,31 +105,16 @@ class McapRecording(ClosingRecording):
     # -- index -----------------------------------------------------------------------------
 
     def _load_index(self) -> None:
-        from mcap.reader import SeekingReader
-
         head = self._file.read(len(MCAP_MAGIC))
         if head != MCAP_MAGIC:
             raise RecordingError(f"{self.path} is not a recording: no MCAP magic at the start")
-        self._file.seek(-len(MCAP_MAGIC), io.SEEK_END)
-        complete = self._file.read(len(MCAP_MAGIC)) == MCAP_MAGIC
-        summary = None
-        if complete:
-            problem = self._summary_problem()
-            if problem is None:
-                try:
-                    self._file.seek(0)
-                    summary = SeekingReader(self._file).get_summary()
-                    if summary is not None:
-                        problem = self._index_problem(summary)
-                except Exception as err:  # a damaged summary section: scan the data instead
-                    problem = f"{type(err).__name__}: {err}"
-            if problem is not None:
-                summary = None
-                self._open_skips.add(
-                    "damaged summary",
-                    f"{self.path.name}: {problem}; the data section was scanned instead",
-                    0,
-                )
+        summary, problem, complete = read_summary(self._file)
+        if problem is not None:
+            self._open_skips.add(
+                "damaged summary",
+                f"{self.path.name}: {problem}; the data section was scanned instead",
+                0,
+            )
         self._summary = summary
         self.indexed = summary is not None and bool(summary.chunk_indexes)
         """True when messages are read through the file's chunk index (a complete file)."""
@@ -145,7 +124,7 @@ class McapRecording(ClosingRecording):
             if summary.statistics is not None:
                 self._counts = dict(summary.statistics.channel_message_counts)
             self._chunks = [
-                _ChunkRef(
+                ChunkRef(
                     ci.chunk_start_offset,
                     ci.message_start_time,
                     ci.message_end_time,
@@ -154,112 +133,12 @@ class McapRecording(ClosingRecording):
                 for ci in summary.chunk_indexes
             ]
             return
-        self._scan(complete)
-
-    def _summary_problem(self) -> str | None:
-        """Check the footer's summary CRC; return what is wrong, or None (also when unset)."""
-        size = self._file.seek(0, io.SEEK_END)
-        footer_at = size - len(MCAP_MAGIC) - _FOOTER_SIZE
-        if footer_at < len(MCAP_MAGIC):
-            return "file too short for a footer"
-        self._file.seek(footer_at)
-        footer = self._file.read(_FOOTER_SIZE)
-        if footer[0] != _FOOTER_OPCODE:
-            return "no footer record before the closing magic"
-        summary_start, _, crc = struct.unpack_from("<QQI", footer, _RECORD_PREFIX)
-        if summary_start == 0 or crc == 0:
-            return None
-        if not len(MCAP_MAGIC) <= summary_start <= footer_at:
-            return f"summary offset {summary_start} outside the file"
-        self._file.seek(summary_start)
-        covered = self._file.read(footer_at + _FOOTER_SIZE - 4 - summary_start)
-        if zlib.crc32(covered) != crc:
-            return "summary CRC mismatch"
-        return None
-
-    def _index_problem(self, summary: Summary) -> str | None:
-        """Check that every chunk index points at a chunk record (a summary without a CRC)."""
-        for ci in summary.chunk_indexes:
-            self._file.seek(ci.chunk_start_offset)
-            if self._file.read(1) != bytes([_CHUNK_OPCODE]):
-                return f"chunk index points at byte {ci.chunk_start_offset}, not at a chunk"
-            if ci.message_start_time > ci.message_end_time:
-                return f"chunk index at byte {ci.chunk_start_offset} has reversed times"
-        for cid, channel in summary.channels.items():
-            if channel.schema_id and channel.schema_id not in summary.schemas:
-                return f"channel {cid} ({channel.topic}) names a missing schema"
-        return None
-
-    def _scan(self, complete: bool) -> None:
-        """Read every record once, keeping chunk positions; stop at the first unreadable one."""
-        from mcap.records import Channel, Chunk, DataEnd, Footer, Schema
-        from mcap.records import Message as McapMessage
-        from mcap.stream_reader import StreamReader, breakup_chunk
-
-        self._file.seek(0)
-        records = StreamReader(self._file, emit_chunks=True).records
-        counts: dict[int, int] = {}
-        offset = len(MCAP_MAGIC)
-        seen_footer = False
-        while True:
-            try:
-                record = next(records)
-            except StopIteration:
-                break
-            except Exception as err:  # cut or garbled mid-record: keep what came before
-                self._open_skips.add(
-                    "truncated file",
-                    f"{self.path.name}: unreadable from byte {offset} "
-                    f"({type(err).__name__}); later messages are lost",
-                    0,
-                )
-                return
-            if isinstance(record, Chunk):
-                try:
-                    inner = breakup_chunk(record, validate_crc=True)
-                except Exception as err:  # bad CRC or compression: skip this chunk only
-                    self._open_skips.add(
-                        "corrupt chunk",
-                        f"{self.path.name}: chunk at byte {offset}: {type(err).__name__}: {err}",
-                        0,
-                    )
-                else:
-                    ids: set[int] = set()
-                    for item in inner:
-                        if isinstance(item, Schema):
-                            self._schemas[item.id] = item
-                        elif isinstance(item, Channel):
-                            self._channels[item.id] = item
-                        elif isinstance(item, McapMessage):
-                            ids.add(item.channel_id)
-                            counts[item.channel_id] = counts.get(item.channel_id, 0) + 1
-                    self._chunks.append(
-                        _ChunkRef(
-                            offset,
-                            record.message_start_time,
-                            record.message_end_time,
-                            frozenset(ids),
-                        )
-                    )
-            elif isinstance(record, Schema):
-                self._schemas[record.id] = record
-            elif isinstance(record, Channel):
-                self._channels[record.id] = record
-            elif isinstance(record, McapMessage):
-                self._loose_messages = True
-                counts[record.channel_id] = counts.get(record.channel_id, 0) + 1
-            elif isinstance(record, Footer | DataEnd):
-                # The summary after the data end repeats schemas and channels; those of the
-                # data section are the ones messages were written with (and a damaged summary
-                # must not override them).
-                seen_footer = True
-                break
-            offset = self._file.tell()
-        self._counts = counts
-        if not (complete and seen_footer):
-            self._open_skips.add(
-                "truncated file", f"{self.path.name}: no footer; the file was cut short", 0
-            )
+        walk = walk_data_section(self._file, self.path, complete)
+        self._schemas, self._channels = walk.schemas, walk.channels
+        self._counts, self._chunks = walk.counts, walk.chunks
+        self._loose_messages = walk.loose_messages
+        for loss in walk.losses:
+            self._open_skips.add(loss.what, loss.detail, 0)
 
     # -- public API ------------------------------------------------------------------------
 
@@ -286,58 +165,32 @@ class McapRecording(ClosingRecording):
                 by_topic[channel.topic] = known._replace(message_count=known.message_count + count)
         return [by_topic[name] for name in sorted(by_topic)]
 
-    def raw_messages(
-        self,
-        topics: Collection[str] | None = None,
-        start_ns: int | None = None,
-        stop_ns: int | None = None,
-    ) -> Iterator[RawMessage]:
-        """Yield undecoded messages in log-time order, ``[start_ns, stop_ns)``."""
-        for channel, msg in self._records(topics, start_ns, stop_ns):
-            schema = self._schemas.get(channel.schema_id)
-            yield RawMessage(
-                channel.topic,
-                msg.log_time,
-                msgtype_name(schema, channel.message_encoding),
-                channel.message_encoding,
-                msg.data,
-            )
+    def _pass_skips(self) -> SkipLog:
+        return self._iter_skips
 
-    def messages(
-        self,
-        topics: Collection[str] | None = None,
-        start_ns: int | None = None,
-        stop_ns: int | None = None,
-    ) -> Iterator[Message]:
-        """Yield decoded messages in log-time order; undecodable ones are counted as skipped."""
-        per_channel: dict[int, tuple[str, Decoder | DecodeFailureError]] = {}
+    def _keyed_raw(
+        self, topics: Collection[str] | None, start_ns: int | None, stop_ns: int | None
+    ) -> Iterator[tuple[Hashable, RawMessage]]:
+        """Yield ``(channel id, raw message)`` in log-time order, ``[start_ns, stop_ns)``."""
+        msgtypes: dict[int, str] = {}
         for channel, msg in self._records(topics, start_ns, stop_ns):
-            known = per_channel.get(channel.id)
-            if known is None:  # look the type and decoder up once per channel, not per message
+            msgtype = msgtypes.get(channel.id)
+            if msgtype is None:
                 schema = self._schemas.get(channel.schema_id)
-                try:
-                    found: Decoder | DecodeFailureError = self._decoders.decoder_for(
-                        channel.message_encoding, schema
-                    )
-                except DecodeFailureError as err:
-                    found = err
-                known = per_channel[channel.id] = (
-                    msgtype_name(schema, channel.message_encoding),
-                    found,
-                )
-            msgtype, decoder = known
-            if isinstance(decoder, DecodeFailureError):
-                self._iter_skips.add("unknown message type", f"{channel.topic}: {decoder}")
-                continue
-            try:
-                data = decoder(msg.data)
-            except Exception as err:  # one bad payload must not end the stream
-                self._iter_skips.add(
-                    "undecodable message",
-                    f"{channel.topic} ({msgtype}): {type(err).__name__}",
-                )
-                continue
-            yield Message(channel.topic, msg.log_time, stamp_ns_of(data), msgtype, data)
+                msgtype = msgtypes[channel.id] = msgtype_name(schema, channel.message_encoding)
+            raw = RawMessage(
+                channel.topic, msg.log_time, msgtype, channel.message_encoding, msg.data
+            )
+            yield channel.id, raw
+
+    def _decoder_for(self, key: Hashable, raw: RawMessage) -> Decode:
+        """Return the decoder of channel ``key`` (mcap decoder factories, then the fallbacks)."""
+        del raw
+        channel = self._channels[cast("int", key)]
+        decode = self._decoders.decoder_for(
+            channel.message_encoding, self._schemas.get(channel.schema_id)
+        )
+        return lambda raw: decode(raw.payload)
 
     def peek_stamp_ns(self, raw: RawMessage) -> int | None:
         """Return the header stamp of ``raw`` (ns) reading as little of it as possible."""
@@ -388,7 +241,7 @@ class McapRecording(ClosingRecording):
         next_chunk = 0
         loader = _ChunkPrefetcher(self.path, candidates)
 
-        def load(ref: _ChunkRef) -> list[McapMessage]:
+        def load(ref: ChunkRef) -> list[McapMessage]:
             return [
                 msg
                 for msg in self._chunk_result(ref, loader.next())
@@ -438,7 +291,7 @@ class McapRecording(ClosingRecording):
         return False
 
     def _chunk_result(
-        self, ref: _ChunkRef, loaded: list[McapMessage] | Exception
+        self, ref: ChunkRef, loaded: list[McapMessage] | Exception
     ) -> list[McapMessage]:
         """Return a loaded chunk's messages; report a damaged chunk and return none."""
         if not isinstance(loaded, Exception):
@@ -451,7 +304,7 @@ class McapRecording(ClosingRecording):
         )
         return []
 
-    def _indexed_count(self, ref: _ChunkRef) -> int:
+    def _indexed_count(self, ref: ChunkRef) -> int:
         """Count a chunk's messages from its message indexes (0 when they cannot be read)."""
         from mcap.records import MessageIndex
         from mcap.stream_reader import StreamReader
@@ -475,34 +328,16 @@ class McapRecording(ClosingRecording):
         self, wanted: set[int], start_ns: int | None, stop_ns: int | None
     ) -> Iterator[tuple[Channel, McapMessage]]:
         """Stream an unchunked (or partly unchunked) file in the order its records lie."""
-        from mcap.records import Chunk
-        from mcap.records import Message as McapMessage
-        from mcap.stream_reader import StreamReader, breakup_chunk
-
-        self._file.seek(0)
-        records = StreamReader(self._file, emit_chunks=True).records
-        while True:
-            try:
-                record = next(records)
-            except Exception:  # StopIteration or the damage already reported at open time
-                return
-            inner: list[Any] = [record]
-            if isinstance(record, Chunk):
-                try:
-                    inner = breakup_chunk(record, validate_crc=True)
-                except Exception:  # reported at open time
-                    continue
-            for item in inner:
-                if (
-                    isinstance(item, McapMessage)
-                    and item.channel_id in wanted
-                    and in_range(item.log_time, start_ns, stop_ns)
-                    and self._storable(item)
-                ):
-                    yield self._channels[item.channel_id], item
+        for item in file_order_messages(self._file):
+            if (
+                item.channel_id in wanted
+                and in_range(item.log_time, start_ns, stop_ns)
+                and self._storable(item)
+            ):
+                yield self._channels[item.channel_id], item
 
 
-def _load_chunk(handle: BinaryIO, ref: _ChunkRef) -> list[McapMessage] | Exception:
+def _load_chunk(handle: BinaryIO, ref: ChunkRef) -> list[McapMessage] | Exception:
     """Read, decompress and CRC-check one chunk; return its messages or the error."""
     from mcap.data_stream import ReadDataStream
     from mcap.records import Chunk
@@ -510,7 +345,7 @@ def _load_chunk(handle: BinaryIO, ref: _ChunkRef) -> list[McapMessage] | Excepti
     from mcap.stream_reader import breakup_chunk
 
     try:
-        handle.seek(ref.offset + _RECORD_PREFIX)
+        handle.seek(ref.offset + RECORD_PREFIX)
         chunk = Chunk.read(ReadDataStream(handle))
         records = breakup_chunk(chunk, validate_crc=True)
     except Exception as err:  # bad CRC, bad compression, cut record
@@ -527,7 +362,7 @@ class _ChunkPrefetcher:
     file handle of its own; at most :data:`PREFETCH_CHUNKS` loaded chunks wait in memory.
     """
 
-    def __init__(self, path: Path, order: list[_ChunkRef]) -> None:
+    def __init__(self, path: Path, order: list[ChunkRef]) -> None:
         self._handles: queue.SimpleQueue[BinaryIO] = queue.SimpleQueue()
         self._opened: list[BinaryIO] = []
         try:
@@ -544,7 +379,7 @@ class _ChunkPrefetcher:
         for _ in range(PREFETCH_CHUNKS):
             self._submit()
 
-    def _load(self, ref: _ChunkRef) -> list[McapMessage] | Exception:
+    def _load(self, ref: ChunkRef) -> list[McapMessage] | Exception:
         handle = self._handles.get()
         try:
             return _load_chunk(handle, ref)

@@ -5,14 +5,15 @@ from __future__ import annotations
 import math
 import os
 import re
-from collections.abc import Collection, Iterator
+from collections.abc import Collection, Hashable, Iterator
 from datetime import UTC, date, datetime
 from pathlib import Path
 from typing import NamedTuple
 
-from superlane_tools.recording.base import ClosingRecording, SkipLog, in_range
+from superlane_tools.recording.base import SkipLog, in_range
+from superlane_tools.recording.decoding import Decode, RawSource
 from superlane_tools.recording.errors import RecordingError
-from superlane_tools.records import Message, RawMessage, Skipped, TopicInfo
+from superlane_tools.records import RawMessage, Skipped, TopicInfo
 
 NAVSATFIX_TYPE = "sensor_msgs/msg/NavSatFix"
 NMEA_TOPIC = "nmea"
@@ -177,7 +178,61 @@ class _Parsed(NamedTuple):
     line: str
 
 
-class NmeaRecording(ClosingRecording):
+def sentence_fix(kind: str, fields: list[str], t_ns: int) -> NmeaFix:
+    """Build the fix of a GGA or RMC sentence's fields at UTC time ``t_ns``.
+
+    Raises:
+        ValueError: If a field does not parse.
+    """
+    if kind == "RMC":
+        return _fix(t_ns, fields[2:6], 1, float("nan"), -1, "nan", "", gga=False)
+    quality = int(fields[5]) if fields[5] else 0
+    if not 0 <= quality <= 255:
+        raise ValueError(f"fix quality {quality} out of range")
+    sats = int(fields[6]) if fields[6] else -1
+    return _fix(t_ns, fields[1:5], quality, _float(fields[7]), sats, fields[8], fields[10])
+
+
+def decode_nmea_message(raw: RawMessage) -> NmeaFix:
+    """Decode a raw message of an NMEA log: a GGA or RMC sentence whose log time is the fix time.
+
+    Raises:
+        ValueError: If the payload is not a sentence whose fields parse.
+    """
+    match = _SENTENCE.search(raw.payload.decode("ascii"))
+    if match is None:
+        raise ValueError("not an NMEA sentence")
+    return sentence_fix(match[2], match[3].split(","), raw.log_time_ns)
+
+
+def _fix(
+    t_ns: int, coords: list[str], quality: int, hdop: float, sats: int,
+    altitude: str, separation: str, gga: bool = True,
+) -> NmeaFix:  # fmt: skip
+    if quality > 0:
+        lat = _degrees(coords[0], coords[1])
+        lon = _degrees(coords[2], coords[3])
+    else:
+        lat = lon = float("nan")
+    alt = _float(altitude) + (_float(separation) if separation else 0.0)
+    covariance, cov_type = _covariance(hdop, quality)
+    status = _QUALITY.get(quality, (-1, 0.0))[0] if gga else 0
+    stamp = Stamp(t_ns // 1_000_000_000, t_ns % 1_000_000_000)
+    return NmeaFix(
+        header=Header(stamp, "gnss"),
+        status=NavSatStatus(status, SERVICE_GPS),
+        latitude=lat,
+        longitude=lon,
+        altitude=alt,
+        position_covariance=covariance,
+        position_covariance_type=cov_type,
+        gga_quality=quality if gga else -1,
+        hdop=hdop,
+        num_satellites=sats,
+    )
+
+
+class NmeaRecording(RawSource):
     """An NMEA 0183 log as a :class:`~superlane_tools.recording.base.Recording`.
 
     One topic, ``nmea``, of type ``sensor_msgs/msg/NavSatFix``: one message per GGA sentence
@@ -256,10 +311,7 @@ class NmeaRecording(ClosingRecording):
                         last_rmc_tod = tod
                     if self._has_gga or fields[1] != "A":
                         continue
-                    rmc = self._fix(
-                        day_start + tod, fields[2:6], 1, float("nan"), -1, "nan", "", gga=False
-                    )
-                    yield rmc, item.line
+                    yield sentence_fix("RMC", fields, day_start + tod), item.line
                     continue
                 if len(fields) < 11:
                     raise ValueError("short GGA")
@@ -267,77 +319,37 @@ class NmeaRecording(ClosingRecording):
                 start = day_start
                 if last_rmc_tod is not None and tod < last_rmc_tod - _DAY_NS // 2:
                     start += _DAY_NS  # GGA after midnight, before the next RMC
-                quality = int(fields[5]) if fields[5] else 0
-                if not 0 <= quality <= 255:
-                    raise ValueError(f"fix quality {quality} out of range")
-                sats = int(fields[6]) if fields[6] else -1
-                fix = self._fix(
-                    start + tod, fields[1:5], quality, _float(fields[7]), sats,
-                    fields[8], fields[10],
-                )  # fmt: skip
-                yield fix, item.line
+                yield sentence_fix("GGA", fields, start + tod), item.line
             except ValueError as err:
                 self._skips.add(
                     f"unparsable NMEA {item.kind}", f"{self.path.name}: {err}: {item.line[:60]}"
                 )
 
-    def _fix(
-        self, t_ns: int, coords: list[str], quality: int, hdop: float, sats: int,
-        altitude: str, separation: str, gga: bool = True,
-    ) -> NmeaFix:  # fmt: skip
-        if quality > 0:
-            lat = _degrees(coords[0], coords[1])
-            lon = _degrees(coords[2], coords[3])
-        else:
-            lat = lon = float("nan")
-        alt = _float(altitude) + (_float(separation) if separation else 0.0)
-        covariance, cov_type = _covariance(hdop, quality)
-        status = _QUALITY.get(quality, (-1, 0.0))[0] if gga else 0
-        stamp = Stamp(t_ns // 1_000_000_000, t_ns % 1_000_000_000)
-        return NmeaFix(
-            header=Header(stamp, "gnss"),
-            status=NavSatStatus(status, SERVICE_GPS),
-            latitude=lat,
-            longitude=lon,
-            altitude=alt,
-            position_covariance=covariance,
-            position_covariance_type=cov_type,
-            gga_quality=quality if gga else -1,
-            hdop=hdop,
-            num_satellites=sats,
-        )
-
     def topics(self) -> list[TopicInfo]:
         """Return the single ``nmea`` topic (its count is unknown before a pass: None)."""
         return [TopicInfo(NMEA_TOPIC, NAVSATFIX_TYPE, "nmea", None)]
 
-    def messages(
-        self,
-        topics: Collection[str] | None = None,
-        start_ns: int | None = None,
-        stop_ns: int | None = None,
-    ) -> Iterator[Message]:
-        """Yield fixes (``data`` is an :class:`NmeaFix`) with log time in the range."""
-        if topics is not None and NMEA_TOPIC not in topics:
-            return
-        for fix, _ in self._fixes():
-            t_ns = fix.header.stamp.sec * 1_000_000_000 + fix.header.stamp.nanosec
-            if in_range(t_ns, start_ns, stop_ns):
-                yield Message(NMEA_TOPIC, t_ns, t_ns, NAVSATFIX_TYPE, fix)
+    def _pass_skips(self) -> SkipLog:
+        return self._skips
 
-    def raw_messages(
-        self,
-        topics: Collection[str] | None = None,
-        start_ns: int | None = None,
-        stop_ns: int | None = None,
-    ) -> Iterator[RawMessage]:
-        """Yield each fix's source sentence as ASCII bytes (encoding ``nmea``)."""
+    def _keyed_raw(
+        self, topics: Collection[str] | None, start_ns: int | None, stop_ns: int | None
+    ) -> Iterator[tuple[Hashable, RawMessage]]:
+        """Yield each fix's source sentence as ASCII bytes (encoding ``nmea``), one key."""
         if topics is not None and NMEA_TOPIC not in topics:
             return
         for fix, line in self._fixes():
             t_ns = fix.header.stamp.sec * 1_000_000_000 + fix.header.stamp.nanosec
             if in_range(t_ns, start_ns, stop_ns):
-                yield RawMessage(NMEA_TOPIC, t_ns, NAVSATFIX_TYPE, "nmea", line.encode("ascii"))
+                yield (
+                    None,
+                    RawMessage(NMEA_TOPIC, t_ns, NAVSATFIX_TYPE, "nmea", line.encode("ascii")),
+                )
+
+    def _decoder_for(self, key: Hashable, raw: RawMessage) -> Decode:
+        """Return the sentence parser: messages are :class:`NmeaFix` objects."""
+        del key, raw
+        return decode_nmea_message
 
     def close(self) -> None:
         """Nothing stays open between iterations; present for the protocol."""

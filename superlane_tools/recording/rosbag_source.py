@@ -4,22 +4,17 @@ from __future__ import annotations
 
 import contextlib
 import heapq
-from collections.abc import Collection, Iterator
+from collections.abc import Collection, Hashable, Iterator
 from contextlib import ExitStack
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
 from superlane_tools.config_files import load_document
 from superlane_tools.errors import ConfigError
-from superlane_tools.recording.base import (
-    ClosingRecording,
-    SkipLog,
-    raw_header_stamp_ns,
-    stamp_ns_of,
-    storable_time,
-)
+from superlane_tools.recording.base import SkipLog, raw_header_stamp_ns, storable_time
+from superlane_tools.recording.decoding import Decode, DecodeFailureError, RawSource
 from superlane_tools.recording.errors import RecordingError
-from superlane_tools.records import Message, RawMessage, Skipped, TopicInfo
+from superlane_tools.records import RawMessage, Skipped, TopicInfo
 
 if TYPE_CHECKING:
     from rosbags.interfaces import Connection
@@ -43,7 +38,7 @@ def _read_ros2_metadata(folder: Path) -> dict[str, Any]:
     return info
 
 
-class RosbagRecording(ClosingRecording):
+class RosbagRecording(RawSource):
     """A ROS 1 ``.bag`` file, a ROS 2 bag folder or a single ``.db3`` file, for streaming.
 
     Message types are registered from the definitions stored in the bag; types the bag does not
@@ -62,8 +57,6 @@ class RosbagRecording(ClosingRecording):
         Raises:
             RecordingError: If the bag cannot be opened.
         """
-        from rosbags.rosbag2 import Reader as Reader2
-
         self.path = Path(path)
         self._skips = SkipLog()
         self._iter_skips = SkipLog()
@@ -77,7 +70,7 @@ class RosbagRecording(ClosingRecording):
             elif self.path.is_dir():
                 readers = self._ros2_folder_readers()
             else:
-                readers = [Reader2(self.path)]
+                readers = [self._ros2_file_reader(self.path)]
             for reader in readers:
                 self._stack.enter_context(reader)
         except RecordingError:
@@ -106,7 +99,7 @@ class RosbagRecording(ClosingRecording):
         for db3 in files:
             try:
                 with contextlib.closing(
-                    sqlite3.connect(f"{db3.resolve().as_uri()}?mode=ro", uri=True)
+                    sqlite3.connect(f"{db3.resolve().as_uri()}?mode=ro&immutable=1", uri=True)
                 ) as db:
                     (orphans,) = db.execute(_ORPHANS).fetchone()
             except sqlite3.Error:
@@ -162,7 +155,17 @@ class RosbagRecording(ClosingRecording):
             return [Reader2(self.path)]  # rosbags decompresses; one reader for the folder
         if missing := [f.name for f in files if not f.exists()]:
             raise RecordingError(f"{self.path}: bag files are missing: {', '.join(missing)}")
-        return [Reader2(f) for f in files]
+        return [self._ros2_file_reader(f, info) for f in files]
+
+    def _ros2_file_reader(self, path: Path, info: dict[str, Any] | None = None) -> Any:
+        """Return a reader of one storage file; ``.db3`` files are salvaged around damage."""
+        from rosbags.rosbag2 import Reader as Reader2
+
+        from superlane_tools.recording.sqlite_salvage import Ros2SqliteReader
+
+        if path.suffix == ".db3":
+            return Ros2SqliteReader(path, self._skips, self._iter_skips, info)
+        return Reader2(path)
 
     def _build_typestore(self) -> Typestore:
         from rosbags.interfaces import MessageDefinitionFormat
@@ -296,6 +299,8 @@ class RosbagRecording(ClosingRecording):
 
     def start_ns(self) -> int | None:
         """Return the earliest log time of the bag (ns) from its index, None when empty."""
+        if not all(hasattr(r, "start_time") for r in self._readers):  # a reindexing scan
+            return next((t for _, t, _ in self._streams(None, None, None)), None)
         times = [int(r.start_time) for r in self._readers if getattr(r, "message_count", 1)]
         return min(times) if times else None
 
@@ -313,44 +318,36 @@ class RosbagRecording(ClosingRecording):
         self._iter_skips.clear()
         yield from self._streams(topics, start_ns, stop_ns)
 
-    def raw_messages(
-        self,
-        topics: Collection[str] | None = None,
-        start_ns: int | None = None,
-        stop_ns: int | None = None,
-    ) -> Iterator[RawMessage]:
-        """Yield undecoded messages in log-time order, ``[start_ns, stop_ns)``."""
-        self._iter_skips.clear()
-        for conn, log_time, data in self._streams(topics, start_ns, stop_ns):
-            yield RawMessage(conn.topic, log_time, conn.msgtype, self._encoding, bytes(data))
+    def _pass_skips(self) -> SkipLog:
+        return self._iter_skips
 
-    def messages(
-        self,
-        topics: Collection[str] | None = None,
-        start_ns: int | None = None,
-        stop_ns: int | None = None,
-    ) -> Iterator[Message]:
-        """Yield decoded messages in log-time order; undecodable ones are counted as skipped."""
+    def _keyed_raw(
+        self, topics: Collection[str] | None, start_ns: int | None, stop_ns: int | None
+    ) -> Iterator[tuple[Hashable, RawMessage]]:
+        """Yield ``(type name, raw message)`` in log-time order, ``[start_ns, stop_ns)``."""
         self._iter_skips.clear()
-        store = self._store
-        deserialize = store.deserialize_ros1 if self.kind == "ros1" else store.deserialize_cdr
         for conn, log_time, data in self._streams(topics, start_ns, stop_ns):
-            if conn.msgtype not in store.fielddefs:
-                self._iter_skips.add(
-                    "unknown message type", f"{conn.topic}: no definition for {conn.msgtype}"
-                )
-                continue
+            yield conn.msgtype, RawMessage(conn.topic, log_time, conn.msgtype, self._encoding, data)
+
+    def _decoder_for(self, key: Hashable, raw: RawMessage) -> Decode:
+        """Return the decoder of type name ``key``: the bag's definition, then the typestore's."""
+        del raw
+        msgtype = str(key)
+        store = self._store
+        if msgtype not in store.fielddefs:
+            raise DecodeFailureError(f"no definition for {msgtype}")
+        deserialize = store.deserialize_ros1 if self.kind == "ros1" else store.deserialize_cdr
+
+        def decode(raw: RawMessage) -> Any:
             try:
-                msg = deserialize(data, conn.msgtype)
-            except Exception as err:  # one bad payload must not end the stream
-                msg = self._fallback_decode(data, conn.msgtype)
+                return deserialize(raw.payload, msgtype)
+            except Exception:  # a placeholder definition: try the standard one of that name
+                msg = self._fallback_decode(raw.payload, msgtype)
                 if msg is None:
-                    self._iter_skips.add(
-                        "undecodable message",
-                        f"{conn.topic} ({conn.msgtype}): {type(err).__name__}",
-                    )
-                    continue
-            yield Message(conn.topic, log_time, stamp_ns_of(msg), conn.msgtype, msg)
+                    raise
+                return msg
+
+        return decode
 
     def _fallback_decode(self, data: bytes, msgtype: str) -> Any:
         """Decode with the project typestore when the bag's own definition does not fit.

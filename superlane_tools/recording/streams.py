@@ -26,6 +26,7 @@ RAW_IMAGE_TYPES = frozenset({"sensor_msgs/msg/Image", "foxglove.RawImage"})
 CAMERA_INFO_TYPES = frozenset({"sensor_msgs/msg/CameraInfo", "foxglove.CameraCalibration"})
 CAN_TYPES = frozenset({"can_msgs/msg/Frame"})
 GNSS_TYPES = frozenset({"sensor_msgs/msg/NavSatFix", "foxglove.LocationFix"})
+IMU_TYPES = frozenset({"sensor_msgs/msg/Imu"})
 TF_TYPES = frozenset({"tf2_msgs/msg/TFMessage"})
 STREAM_KINDS = ("frames", "camera_info", "can", "gnss")
 _KIND_TYPES = {
@@ -34,6 +35,47 @@ _KIND_TYPES = {
     "can": CAN_TYPES,
     "gnss": GNSS_TYPES,
 }
+TOPIC_KIND_TYPES: Mapping[str, frozenset[str]] = {**_KIND_TYPES, "imu": IMU_TYPES}
+"""Message types each configurable topic (a stream kind, or ``imu``) accepts."""
+
+
+def _ros2_name(msgtype: str) -> str:
+    """Return a message type in ROS 2 form (``sensor_msgs/NavSatFix`` -> ``.../msg/...``)."""
+    package, sep, name = msgtype.partition("/")
+    return f"{package}/msg/{name}" if sep and "/" not in name else msgtype
+
+
+def check_topic_kinds(
+    topics: Sequence[TopicInfo], wanted: Mapping[str, Sequence[str]], where: str = ""
+) -> None:
+    """Check that each named topic has a message type its kind can read.
+
+    Args:
+        topics: The recording's topics.
+        wanted: Kind (a stream kind or ``imu``) -> topics named for it; topics missing from
+            the recording are left to the caller.
+        where: Prefix naming the option or config, e.g. ``"--config c.yaml: "``.
+
+    Raises:
+        UsageError: If a topic's type is not one its kind reads (``can: /fix`` on a NavSatFix).
+    """
+    available = {t.topic: t.msgtype for t in topics}
+    for kind, names in wanted.items():
+        expected = TOPIC_KIND_TYPES.get(kind)
+        if expected is None:
+            raise ConfigError(f"{where}unknown topic kind {kind!r}: use {tuple(TOPIC_KIND_TYPES)}")
+        for name in names:
+            msgtype = available.get(name)
+            if msgtype is None or _ros2_name(msgtype) in expected:
+                continue
+            takes = (
+                " ".join(expected)
+                if len(expected) == 1
+                else f"one of {', '.join(sorted(expected))}"
+            )
+            raise UsageError(
+                f"{where}{kind} topic {name} has type {msgtype or 'unknown'}; {kind} takes {takes}"
+            )
 
 
 class Streams(NamedTuple):
@@ -69,6 +111,14 @@ def load_stream_config(path: str | os.PathLike[str]) -> dict[str, tuple[str, ...
     return streams
 
 
+def _check_present(topics: Sequence[TopicInfo], wanted: Collection[str]) -> None:
+    available = sorted(t.topic for t in topics)
+    missing = sorted(set(wanted) - set(available))
+    if missing:
+        listing = ", ".join(available) or "none"
+        raise UsageError(f"topics not in the recording: {', '.join(missing)} (it has: {listing})")
+
+
 def select_streams(
     topics: Sequence[TopicInfo],
     only: Collection[str] = (),
@@ -85,18 +135,16 @@ def select_streams(
         Kind -> topics, for every kind of :data:`STREAM_KINDS`.
 
     Raises:
-        UsageError: If a requested topic is not in the recording.
+        UsageError: If a requested topic is not in the recording, or a kind's topic has a
+            message type that kind cannot read.
     """
     explicit = dict(streams or {})
     unknown = set(explicit) - set(STREAM_KINDS)
     if unknown:
         raise ConfigError(f"unknown stream kinds {sorted(unknown)}: use {STREAM_KINDS}")
     available = {t.topic: t.msgtype for t in topics}
-    wanted = [*only, *(t for ts in explicit.values() for t in ts)]
-    missing = sorted({t for t in wanted if t not in available})
-    if missing:
-        listing = ", ".join(sorted(available)) or "none"
-        raise UsageError(f"topics not in the recording: {', '.join(missing)} (it has: {listing})")
+    _check_present(topics, [*only, *(t for ts in explicit.values() for t in ts)])
+    check_topic_kinds(topics, explicit)
     allowed = set(only) if only else set(available)
     selected: dict[str, tuple[str, ...]] = {}
     claimed = {t for ts in explicit.values() for t in ts}
@@ -132,12 +180,19 @@ def select_one_each(topics: Sequence[TopicInfo], wanted: Mapping[str, str]) -> S
 
     Args:
         topics: The recording's topics.
-        wanted: Kind -> configured topic ("" or absent: found by message type).
+        wanted: Kind -> configured topic ("" or absent: found by message type); an ``imu`` key
+            is checked too (it exists and is an IMU topic) but not selected here.
 
     Raises:
-        UsageError: If a configured topic is missing from the recording.
+        UsageError: If a configured topic is missing from the recording or has a message type
+            its kind cannot read.
     """
-    selected = select_streams(topics, streams={k: (t,) for k, t in wanted.items() if t})
+    named = {k: (t,) for k, t in wanted.items() if t}
+    imu = named.pop("imu", ())
+    selected = select_streams(topics, streams=named)
+    if imu:
+        _check_present(topics, imu)
+        check_topic_kinds(topics, {"imu": imu})
     notes = []
     picked: dict[str, str] = {}
     for kind in STREAM_KINDS:

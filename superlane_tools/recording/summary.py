@@ -17,6 +17,31 @@ _NS = 1e9
 _RATE_WINDOW_NS = 10_000_000_000
 PROGRESS_EVERY = 2000
 """Messages between two progress callbacks."""
+MIN_RATE_SPAN_NS = 1_000_000
+"""Shortest time span a rate is computed over (1 ms; ``slt info`` shows spans to the ms).
+
+Messages closer together than that were logged as one burst (or share one log time): dividing
+their count by a span of a few nanoseconds gives hundreds of MHz, not a rate."""
+
+
+def rate_hz(count: int, span_ns: int) -> tuple[float | None, str | None]:
+    """Return the mean rate ``(count - 1) / span`` in Hz, or None and why there is none.
+
+    Args:
+        count: Messages.
+        span_ns: Last minus first log time, ns.
+    """
+    if count == 0:
+        return None, "no messages"
+    if count == 1:
+        return None, "one message"
+    if span_ns == 0:
+        return None, f"all {count} messages share one log time (span 0 s)"
+    if span_ns < MIN_RATE_SPAN_NS:
+        return None, (
+            f"all {count} messages within {span_ns} ns (span < 1 ms): logged as one burst"
+        )
+    return (count - 1) * _NS / span_ns, None
 
 
 @dataclass(frozen=True)
@@ -38,6 +63,7 @@ class TopicSummary:
         duration_s: ``last - first``, seconds.
         median_stamp_offset_ms: Median of header stamp minus log time, ms, over the messages
             that have a stamp (None when none has).
+        rate_note: Why ``median_rate_hz`` is None (None when there is a rate).
     """
 
     topic: str
@@ -50,6 +76,7 @@ class TopicSummary:
     last_ns: int | None
     duration_s: float
     median_stamp_offset_ms: float | None
+    rate_note: str | None = None
 
 
 @dataclass(frozen=True)
@@ -105,28 +132,29 @@ class _TopicStats:
         if stamp_ns is not None:
             self.offsets.append(stamp_ns - log_time_ns)
 
-    def median_rate_hz(self) -> float | None:
-        """Return the median per-second message count (see :class:`TopicSummary`)."""
-        if self.first is None or self.last is None or self.last == self.first:
-            return None
+    def median_rate_hz(self) -> tuple[float | None, str | None]:
+        """Return the median per-second message count (see :class:`TopicSummary`), or why none."""
+        if self.first is None or self.last is None:
+            return None, "no messages"
         duration_ns = self.last - self.first
         if duration_ns < 2 * _RATE_WINDOW_NS:
-            return (self.count - 1) * _NS / duration_ns
+            return rate_hz(self.count, duration_ns)
         offsets = np.concatenate([[0], np.cumsum(np.frombuffer(self.intervals, dtype=np.int64))])
         window = offsets // _RATE_WINDOW_NS
         whole = int(window[-1])  # windows 0 .. whole-1 are complete; the last one is partial
         # counts of the non-empty windows only: memory follows the message count, not the
         # time span (a clock jump of years would otherwise allocate one counter per 10 s)
         ids, counts = np.unique(window[window < whole], return_counts=True)
-        return median_with_zeros(counts, whole - ids.size) * _NS / _RATE_WINDOW_NS
+        return median_with_zeros(counts, whole - ids.size) * _NS / _RATE_WINDOW_NS, None
 
     def result(self, topic: str, msgtype: str, encoding: str) -> TopicSummary:
+        rate, why = self.median_rate_hz()
         return TopicSummary(
             topic=topic,
             msgtype=msgtype,
             encoding=encoding,
             count=self.count,
-            median_rate_hz=self.median_rate_hz(),
+            median_rate_hz=rate,
             largest_gap_s=max(self.intervals) / _NS if self.intervals else None,
             first_ns=self.first,
             last_ns=self.last,
@@ -134,6 +162,7 @@ class _TopicStats:
             if self.first is not None and self.last is not None
             else 0.0,
             median_stamp_offset_ms=statistics.median(self.offsets) / 1e6 if self.offsets else None,
+            rate_note=why,
         )
 
 

@@ -11,10 +11,8 @@ from collections.abc import Iterator
 from pathlib import Path
 
 from superlane_tools.errors import UsageError
-from superlane_tools.recording import open_recording
-from superlane_tools.recording.images import decode_frame
-from superlane_tools.recording.streams import FRAME_TYPES
-from superlane_tools.recording.video import decode_video
+from superlane_tools.recording import FRAME_TYPES, decode_frame, decode_video, open_recording
+from superlane_tools.recording.streams import check_topic_kinds
 from superlane_tools.records import Skipped
 from superlane_tools.scene.image_folder import InputFrame, folder_frames, list_images
 
@@ -40,7 +38,10 @@ class RecordingFrames:
         self.path = path
         self.skipped: list[Skipped] = []
         with open_recording(path) as rec:
-            topics = sorted(t for t in rec.topics() if t.msgtype in FRAME_TYPES)
+            listed = rec.topics()
+        if topic is not None:
+            check_topic_kinds(listed, {"frames": [topic]}, "--topic: ")
+        topics = sorted(t for t in listed if t.msgtype in FRAME_TYPES)
         if not topics:
             raise UsageError(f"{path.name}: no camera image topic")
         names = [t.topic for t in topics]

@@ -32,6 +32,7 @@ from superlane_tools.scene.model_card import (
 )
 from superlane_tools.training._blocks import count_parameters
 from superlane_tools.training.augment import RealAugment, affine_theta, jpeg, photometric, warp
+from superlane_tools.training.checkpoint import load_checkpoint
 from superlane_tools.training.corridor_net import EgoCorridorNet, PaperCorridorNet
 from superlane_tools.training.data import INDEX_NAME
 from superlane_tools.training.datasets import DatasetSpec, LoadedSet, load_set
@@ -467,19 +468,24 @@ def _fit(
     first = 0
     ckpt = _checkpoint_path(params.out)
     if params.resume and ckpt.is_file():
-        state = torch.load(ckpt, map_location=device, weights_only=False)
-        model.load_state_dict(state["model"])
-        optimizer.load_state_dict(state["optimizer"])
-        scheduler.load_state_dict(state["scheduler"])
-        gen.set_state(state["generator"])
-        step_losses = list(state["losses"])
-        first = int(state["step"])
+        state = load_checkpoint(ckpt, f"--resume {ckpt}", device)
+        try:
+            model.load_state_dict(state["model"])
+            optimizer.load_state_dict(state["optimizer"])
+            scheduler.load_state_dict(state["scheduler"])
+            gen.set_state(state["generator"])
+            step_losses = list(state["losses"])
+            first = int(state["step"])
+        except (KeyError, RuntimeError, TypeError, ValueError) as err:
+            raise TrainingError(f"--resume {ckpt}: not a checkpoint of this run: {err}") from err
     elif params.init is not None:
-        if not params.init.is_file():
-            raise TrainingError(f"--init {params.init}: no such checkpoint")
-        model.load_state_dict(
-            torch.load(params.init, map_location=device, weights_only=False)["model"]
-        )
+        state = load_checkpoint(params.init, f"--init {params.init}", device)
+        try:
+            model.load_state_dict(state["model"])
+        except (RuntimeError, TypeError, ValueError) as err:
+            raise TrainingError(
+                f"--init {params.init}: weights do not fit this {params.task} model"
+            ) from err
     model.train()
     for step in range(first, total):
         x, y, heads = _batch(sets, probs, params, gen, out_size)

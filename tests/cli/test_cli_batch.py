@@ -55,7 +55,7 @@ def test_cli_manifest_run_and_rerun(tmp_path: Path, make_drives: Callable[..., l
     )
     assert res.exit_code == 3, res.output  # type: ignore[attr-defined]
     assert "ok 2, partial 0, failed 1, skipped 0" in res.output  # type: ignore[attr-defined]
-    assert "slt: failed: corrupt_0-" in res.output  # type: ignore[attr-defined]
+    assert "slt: skipped: failed recordings (1): corrupt_0-" in res.output  # type: ignore[attr-defined]
     fleet = pd.read_parquet(out / "summary" / "fleet_status.parquet").set_index("category")
     assert fleet.loc["city", "failed"] == 1
     assert fleet.loc["highway", "ok"] == 1
@@ -123,3 +123,17 @@ def test_batch_help_imports_nothing_heavy() -> None:
     ).stdout
     assert "HEAVY []" in out, out
     assert "--manifest" in out
+
+
+def test_cli_manifest_path_list_is_usage_error(
+    tmp_path: Path, make_drives: Callable[..., list[Path]]
+) -> None:
+    (path,) = make_drives(1)
+    manifest = tmp_path / "m.yaml"
+    manifest.write_text(f"- path: {path}\n- path: [{path.name}]\n")
+    out = tmp_path / "out"
+    res = _run("--manifest", manifest, "--out", out, "--job", "extract")
+    assert res.exit_code == 2, res.output  # type: ignore[attr-defined]
+    assert "row 2: path must be one recording path (text), not a list" in res.output  # type: ignore[attr-defined]
+    assert "cannot read" not in res.output  # type: ignore[attr-defined]
+    assert not (out / "summary").exists()

@@ -6,6 +6,7 @@ import json
 import tracemalloc
 from pathlib import Path
 
+import pytest
 from typer.testing import CliRunner
 
 from superlane_tools.cli.app import app
@@ -82,7 +83,7 @@ def test_rate_memory_does_not_grow_with_the_time_span() -> None:
         stats.add(T0 + i * 100_000_000, None)
     stats.add(T0 + 10 * 365 * 86_400 * 1_000_000_000, None)  # a clock jump of ten years
     tracemalloc.start()
-    rate = stats.median_rate_hz()
+    rate, _ = stats.median_rate_hz()
     _, peak = tracemalloc.get_traced_memory()
     tracemalloc.stop()
     assert rate == 0.0  # nearly all 10 s windows of ten years are empty
@@ -99,3 +100,33 @@ def test_info_lists_can_ids_of_a_real_candump_log(realdata: Path) -> None:
     assert sum(r["count"] for r in ids.values()) == doc["message_count"]
     assert ids[0x47]["dlcs"] == [8]
     assert abs(ids[0x47]["rate_hz"] - 50.0) < 1.0
+
+
+@pytest.mark.parametrize("scan", [False, True], ids=["summary", "scan"])
+def test_no_rate_for_messages_at_one_time(tmp_path: Path, scan: bool) -> None:
+    path = tmp_path / "burst.mcap"
+    with open_writer(path, "mcap") as w:
+        w.add_topic("/burst", "sensor_msgs/msg/NavSatFix")
+        w.add_topic("/near", "sensor_msgs/msg/NavSatFix")
+        for i in range(5):
+            w.write("/burst", T0, m.navsatfix(T0, "gnss", 48.0, 11.0, 500.0 + i))
+        for i in range(3):  # 400 ns in all: 5 MHz by (count - 1) / span
+            w.write("/near", T0 + 200 * i, m.navsatfix(T0, "gnss", 48.0, 11.0, 500.0))
+    args = ["info", str(path), *(["--scan"] if scan else [])]
+    result = runner.invoke(app, [*args, "--json"])
+    assert result.exit_code == 0, result.output
+    topics = {t["topic"]: t for t in json.loads(result.stdout)["topics"]}
+    for name in ("/burst", "/near"):
+        assert topics[name]["median_rate_hz"] is None, topics[name]
+        assert topics[name]["rate_note"], topics[name]
+    if scan:
+        assert "share one log time" in topics["/burst"]["rate_note"]
+        assert "within 400 ns" in topics["/near"]["rate_note"]
+    text = runner.invoke(app, args)
+    assert text.exit_code == 0, text.output
+    assert "rate -: /burst: all 5 messages" in text.stdout
+    assert "rate -: /near: all 3 messages" in text.stdout
+    assert "MHz" not in text.stdout
+    for line in text.stdout.splitlines():
+        if line.startswith(("│ /burst", "│ /near")):
+            assert line.split("│")[5].strip() == "-", line

@@ -54,6 +54,21 @@ def test_select_one_each_notes_a_choice_and_finds_tf() -> None:
     assert select_one_each(TOPICS, {"frames": "/cam/b"}).notes == ()
 
 
+def test_wrong_kind_topics_are_usage_errors() -> None:
+    with pytest.raises(UsageError, match="can topic /fix has type sensor_msgs/msg/NavSatFix"):
+        select_streams(TOPICS, streams={"can": ["/fix"]})
+    with pytest.raises(UsageError, match=r"frames topic /info has type .*; frames takes one of"):
+        select_one_each(TOPICS, {"frames": "/info"})
+    imu = [*TOPICS, TopicInfo("/imu", "sensor_msgs/Imu", "ros1msg", 10)]  # ROS 1 spelling
+    assert select_one_each(imu, {"imu": "/imu", "can": "/can"}).can == "/can"
+    with pytest.raises(
+        UsageError, match=r"imu topic /fix has type .*; imu takes sensor_msgs/msg/Imu"
+    ):
+        select_one_each(imu, {"imu": "/fix"})
+    with pytest.raises(UsageError, match="not in the recording: /nope"):
+        select_one_each(imu, {"imu": "/nope"})
+
+
 def test_camera_metadata_round_trip() -> None:
     camera = load_camera("sim_default")
     record = camera_metadata(camera, "base_link", "camera_optical")

@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import datetime
 import hashlib
 import math
+import numbers
 import os
 import re
+import reprlib
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -100,14 +103,54 @@ def expand_inputs(inputs: Sequence[Path]) -> list[BatchEntry]:
     return entries
 
 
-def _text(value: Any) -> str:
-    if value is None or (isinstance(value, float) and math.isnan(value)):
+_LABEL_TYPES = (str, numbers.Real, datetime.date)
+"""Cell types a label column may hold (a YAML date or number is written as text)."""
+
+
+def _kind(value: Any) -> str:
+    """Name a manifest cell's type and value for an error message (``a list (['a.mcap'])``)."""
+    if isinstance(value, Mapping):
+        kind = "a mapping"
+    elif isinstance(value, list | tuple | set | frozenset):
+        kind = "a list"
+    elif isinstance(value, bool):
+        kind = "a boolean"
+    else:
+        kind = f"a {type(value).__name__}"
+    return f"{kind} ({reprlib.repr(value)})"
+
+
+def _missing(value: Any) -> bool:
+    return value is None or (isinstance(value, float) and math.isnan(value))
+
+
+def _text(value: Any, column: str, where: str) -> str:
+    """Return a label cell as stripped text; ``""`` when empty.
+
+    Raises:
+        ConfigError: If the cell is not a scalar (a list, a mapping, a boolean...).
+    """
+    if _missing(value):
         return ""
+    if isinstance(value, bool) or not isinstance(value, _LABEL_TYPES):
+        raise ConfigError(f"{where}: {column} must be text, not {_kind(value)}")
+    if isinstance(value, datetime.date):
+        return value.isoformat()
     return str(value).strip()
 
 
+def _path_text(value: Any, where: str) -> str:
+    if _missing(value):
+        return ""
+    if not isinstance(value, str):
+        raise ConfigError(f"{where}: path must be one recording path (text), not {_kind(value)}")
+    return value.strip()
+
+
 def _seconds(value: Any, column: str, where: str) -> float | None:
-    text = _text(value)
+    if isinstance(value, bool) or not (_missing(value) or isinstance(value, str | numbers.Real)):
+        raise ConfigError(f"{where}: {column} must be a number of seconds, not {_kind(value)}")
+    text = _text(value, column, where)
     if not text:
         return None
     try:
@@ -119,7 +162,7 @@ def _seconds(value: Any, column: str, where: str) -> float | None:
     return seconds
 
 
-def _rows(path: Path) -> list[Mapping[str, Any]]:
+def _rows(path: Path) -> list[Any]:
     suffix = path.suffix.lower()
     try:
         if suffix in {".yaml", ".yml"}:
@@ -128,7 +171,7 @@ def _rows(path: Path) -> list[Mapping[str, Any]]:
             raw = load_document(path, "manifest")
             if isinstance(raw, dict):
                 raw = raw.get("recordings")
-            if not isinstance(raw, list) or not all(isinstance(r, dict | str) for r in raw):
+            if not isinstance(raw, list):
                 raise ConfigError(
                     f"{path}: a YAML manifest is a list of {{path: ...}} mappings "
                     "(or a mapping with a 'recordings' list)"
@@ -146,6 +189,7 @@ def _rows(path: Path) -> list[Mapping[str, Any]]:
         raise
     except Exception as err:  # pandas/pyarrow/yaml raise many types for unreadable files
         raise ConfigError(f"{path}: cannot read manifest: {err}") from err
+    frame = frame.astype(object).where(frame.notna(), None)  # pd.NA, NaT, NaN: empty
     return [{str(k): v for k, v in r.items()} for r in frame.to_dict(orient="records")]
 
 
@@ -166,10 +210,14 @@ def read_manifest(path: str | os.PathLike[str]) -> list[BatchEntry]:
     entries: list[BatchEntry] = []
     for number, row in enumerate(rows, start=1):
         where = f"{src}: row {number}"
-        unknown = set(row) - set(MANIFEST_COLUMNS)
+        if not isinstance(row, Mapping):
+            raise ConfigError(
+                f"{where}: a row is a path or a {{path: ...}} mapping, not {_kind(row)}"
+            )
+        unknown = {str(key) for key in row} - set(MANIFEST_COLUMNS)
         if unknown:
             raise ConfigError(f"{where}: unknown columns {sorted(unknown)}; use {MANIFEST_COLUMNS}")
-        text = _text(row.get("path"))
+        text = _path_text(row.get("path"), where)
         if not text:
             raise ConfigError(f"{where}: missing path")
         rec = Path(text).expanduser()
@@ -182,10 +230,10 @@ def read_manifest(path: str | os.PathLike[str]) -> list[BatchEntry]:
         entries.append(
             BatchEntry(
                 path=rec,
-                category=_text(row.get("category")),
-                vehicle=_text(row.get("vehicle")),
-                date=_text(row.get("date")),
-                sequence=_text(row.get("sequence")),
+                category=_text(row.get("category"), "category", where),
+                vehicle=_text(row.get("vehicle"), "vehicle", where),
+                date=_text(row.get("date"), "date", where),
+                sequence=_text(row.get("sequence"), "sequence", where),
                 start_s=start,
                 end_s=end,
             )

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import os
 import shutil
 import socket
 from collections.abc import Iterator
@@ -17,26 +18,68 @@ LOCK_FILE = ".batch.lock"
 
 @contextlib.contextmanager
 def root_lock(root: Path) -> Iterator[None]:
-    """Hold an exclusive lock on ``root`` for one batch (released when the process dies).
+    """Hold an exclusive lock on ``root`` for one batch; remove the lock file when done.
+
+    The lock is an ``flock`` on ``root/.batch.lock``, so the kernel releases it when the process
+    dies, however it dies: a file that a killed batch (SIGKILL, power loss) left behind is
+    stale, and the next batch takes it over. On every other exit, error included, the file is
+    removed while the lock is still held. A batch that opened the file just before another
+    removed it would lock a deleted file: after locking, the path must still name the locked
+    file, otherwise the lock is taken again on the new one.
 
     Raises:
         BatchError: If the root cannot be created or another batch holds the lock.
     """
     import fcntl
 
-    try:
-        root.mkdir(parents=True, exist_ok=True)
-        handle = (root / LOCK_FILE).open("a+")
-    except OSError as err:
-        raise BatchError(f"output root {root} is not writable: {err.strerror}") from err
-    try:
+    path = root / LOCK_FILE
+    for _ in range(_LOCK_ATTEMPTS):
         try:
-            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError as err:
-            raise BatchError(f"another slt batch is running on {root}") from err
-        yield
-    finally:
-        handle.close()
+            root.mkdir(parents=True, exist_ok=True)
+            handle = path.open("a+")
+        except OSError as err:
+            raise BatchError(f"output root {root} is not writable: {err.strerror}") from err
+        try:
+            try:
+                fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError as err:
+                raise BatchError(f"another slt batch is running on {root}{_owner(path)}") from err
+            if not _same_file(handle.fileno(), path):
+                continue  # removed by the batch that just finished: lock the new one
+            handle.seek(0)
+            handle.truncate()
+            handle.write(f"pid {os.getpid()} on {socket.gethostname()}\n")
+            handle.flush()
+            try:
+                yield
+            finally:
+                path.unlink(missing_ok=True)
+            return
+        finally:
+            handle.close()
+    raise BatchError(f"could not take the lock {path}: it keeps being replaced")
+
+
+_LOCK_ATTEMPTS = 10
+
+
+def _same_file(fd: int, path: Path) -> bool:
+    """Return True if ``path`` exists and is the file open as ``fd``."""
+    try:
+        named = path.stat()
+    except FileNotFoundError:
+        return False
+    held = os.fstat(fd)
+    return (named.st_dev, named.st_ino) == (held.st_dev, held.st_ino)
+
+
+def _owner(path: Path) -> str:
+    """Return `` (pid N on HOST)`` from a held lock file, or nothing if it cannot be read."""
+    try:
+        text = path.read_text(errors="replace").strip()
+    except OSError:
+        return ""
+    return f" ({text})" if text else ""
 
 
 def clean_stale_tmp(root: Path) -> list[Path]:

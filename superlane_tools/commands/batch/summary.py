@@ -17,6 +17,7 @@ import pandas as pd
 from superlane_tools.commands.batch.status import read_status
 from superlane_tools.evaluation.curvature import curvature_errors
 from superlane_tools.reporting import Provenance, write_table
+from superlane_tools.reporting.names import UNCATEGORISED
 from superlane_tools.reporting.report import Section, write_report
 from superlane_tools.reporting.run_layout import (
     AVAILABILITY_SEQUENCES_FILE,
@@ -26,7 +27,6 @@ from superlane_tools.reporting.run_layout import (
     SummaryLayout,
 )
 
-UNCATEGORISED = "uncategorised"
 TRUTH_COLUMN = "rtk_curvature"
 
 
@@ -173,13 +173,17 @@ def _paper_tables(root: Path, status: pd.DataFrame) -> list[tuple[str, pd.DataFr
     from superlane_tools.commands.tables import availability_table, curvature_table
     from superlane_tools.reporting import OutputError
 
-    runs = [root / str(r) for r in _done(root, status)["recording_id"]]
+    done = _done(root, status)
+    runs = [root / str(r) for r in done["recording_id"]]
+    categories = dict(
+        zip(done["recording_id"].astype(str), done["category"].astype(str), strict=True)
+    )
     sections = []
     with_avail = [r for r in runs if (r / AVAILABILITY_SEQUENCES_FILE).is_file()]
     with_curv = [r for r in runs if (r / CURVATURE_SUMMARY_FILE).is_file()]
     try:
         if with_avail:
-            table = availability_table(with_avail, by="category")
+            table = availability_table(with_avail, by="category", categories=categories)
             sections.append(("Availability, corridor paper Table II layout", table, ""))
         if with_curv:
             sections.append(

@@ -6,7 +6,7 @@ from superlane_tools.commands.extract.config import (
     ExtractResult,
 )
 from superlane_tools.commands.extract.run import extract
-from superlane_tools.recording.streams import STREAM_KINDS, load_stream_config, select_streams
+from superlane_tools.recording import STREAM_KINDS, load_stream_config, select_streams
 
 __all__ = [
     "FRAME_FORMATS",

@@ -10,7 +10,7 @@ from pathlib import Path
 from superlane_tools.can import Coverage
 from superlane_tools.errors import ConfigError, UsageError
 from superlane_tools.geo import GeodeticOrigin
-from superlane_tools.recording.streams import STREAM_KINDS
+from superlane_tools.recording import STREAM_KINDS
 from superlane_tools.records import Skipped
 
 MAX_OFFSET_S = 9e9

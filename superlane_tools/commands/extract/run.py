@@ -11,10 +11,14 @@ from typing import Any
 from superlane_tools.can import LoadedDbc, load_dbcs
 from superlane_tools.commands.errors import PipelineError
 from superlane_tools.commands.extract.config import ExtractConfig, ExtractResult
-from superlane_tools.recording.base import SkipLog, time_range_ns
-from superlane_tools.recording.open import open_recording
-from superlane_tools.recording.streams import message_total, select_streams
-from superlane_tools.recording.video import read_with_video
+from superlane_tools.recording import (
+    SkipLog,
+    message_total,
+    open_recording,
+    read_with_video,
+    select_streams,
+    time_range_ns,
+)
 from superlane_tools.records import Skipped
 from superlane_tools.reporting.atomic import remove_stale_temps
 from superlane_tools.reporting.can_sink import CanSink

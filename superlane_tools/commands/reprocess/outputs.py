@@ -4,15 +4,16 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 from superlane_tools.drive.config import ReprocessConfig
 from superlane_tools.drive.examples import example_indices
-from superlane_tools.drive.finalize import DriveTables, ReportFacts, report_sections
+from superlane_tools.drive.finalize import DriveTables, report_sections
 from superlane_tools.drive.loop import DrivePass, DriveTopics, FrameSink
 from superlane_tools.drive.sinks import AnnotationSink, ExampleSink, FrameTablesSink, VideoSink
 from superlane_tools.drive.stages import FrameStages
 from superlane_tools.reporting import Provenance, input_identity, write_table
+from superlane_tools.reporting.drive_sections import ReportFacts
 from superlane_tools.reporting.plots import ExampleFrame
 from superlane_tools.reporting.report import write_report
 from superlane_tools.reporting.run_layout import RunLayout
@@ -101,7 +102,7 @@ def open_sinks(
     """
     layout = RunLayout(out)
     out_cfg = config.output
-    opened: list[Any] = []
+    opened: list[FrameSink] = []
     try:
         tables = FrameTablesSink(
             layout.streamed(), provenance, stages.corridor_unavailable, config.corridor.mean_frames

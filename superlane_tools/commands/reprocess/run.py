@@ -24,12 +24,13 @@ from superlane_tools.commands.reprocess.outputs import (
 from superlane_tools.commands.reprocess.result import Progress, ReprocessResult, RunClock
 from superlane_tools.corridor import TimeSegment
 from superlane_tools.drive.config import ReprocessConfig
-from superlane_tools.drive.finalize import ReportFacts, drive_tables, kpi_segments
+from superlane_tools.drive.finalize import drive_tables, kpi_segments
 from superlane_tools.drive.loop import drive_topics, frame_total, run_frames
 from superlane_tools.drive.stages import FrameStages
 from superlane_tools.recording.calibration import resolve_camera
 from superlane_tools.recording.open import open_recording
 from superlane_tools.records import Skipped
+from superlane_tools.reporting.drive_sections import ReportFacts
 
 
 @single_native_threads()  # BLAS and OpenCV pools at one thread: our workers fill the cores

@@ -105,6 +105,43 @@ def test_manifest_errors(tmp_path: Path, text: str, match: str) -> None:
         read_manifest(tmp_path / "m.csv")
 
 
+@pytest.mark.parametrize(
+    ("yaml", "match"),
+    [
+        ("- path: [a.mcap]\n", r"row 1: path must be one recording path \(text\), not a list"),
+        ("- a.mcap\n- path: {x: 1}\n", "row 2: path must be one recording path.*a mapping"),
+        ("- path: 7\n", "row 1: path must be one recording path.*an? int"),
+        ("- path: true\n", "row 1: path must be .*a boolean"),
+        ("- {path: a.mcap, category: [city]}\n", "row 1: category must be text, not a list"),
+        ("- {path: a.mcap, vehicle: {id: 3}}\n", "row 1: vehicle must be text, not a mapping"),
+        ("- {path: a.mcap, sequence: false}\n", "row 1: sequence must be text, not a boolean"),
+        ("- {path: a.mcap, start_s: [1]}\n", "row 1: start_s must be a number of seconds"),
+        ("- {path: a.mcap, end_s: true}\n", "row 1: end_s must be a number of seconds"),
+        ("- a.mcap\n- [b.mcap]\n", r"row 2: a row is a path or a \{path: ...\} mapping"),
+        ("- a.mcap\n- null\n", "row 2: a row is a path"),
+        ("- {path: a.mcap, 3: x}\n", "unknown columns"),
+    ],
+)
+def test_manifest_field_types(tmp_path: Path, yaml: str, match: str) -> None:
+    (tmp_path / "m.yaml").write_text(yaml)
+    with pytest.raises(ConfigError, match=match):
+        read_manifest(tmp_path / "m.yaml")
+
+
+def test_manifest_scalar_labels_become_text(tmp_path: Path) -> None:
+    (tmp_path / "m.yaml").write_text(
+        "- {path: a.mcap, vehicle: 7, date: 2024-05-01, sequence: 2, start_s: 1, end_s: 2.5}\n"
+    )
+    (entry,) = read_manifest(tmp_path / "m.yaml")
+    assert entry == BatchEntry(tmp_path / "a.mcap", "", "7", "2024-05-01", "2", 1.0, 2.5)
+
+
+def test_manifest_parquet_list_column_is_refused(tmp_path: Path) -> None:
+    pd.DataFrame({"path": [["a.mcap"]]}).to_parquet(tmp_path / "m.parquet")
+    with pytest.raises(ConfigError, match="row 1: path must be one recording path"):
+        read_manifest(tmp_path / "m.parquet")
+
+
 def test_manifest_bad_format(tmp_path: Path) -> None:
     (tmp_path / "m.yaml").write_text("just: [a, mapping]\n")
     with pytest.raises(ConfigError, match="YAML manifest"):

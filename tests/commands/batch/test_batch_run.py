@@ -5,6 +5,8 @@ from __future__ import annotations
 import json
 import os
 import socket
+import subprocess
+import sys
 from collections.abc import Callable
 from pathlib import Path
 
@@ -26,7 +28,8 @@ from superlane_tools.commands.batch import (
 )
 from superlane_tools.commands.batch.root import root_lock
 from superlane_tools.commands.batch.status import StatusRow, StatusTable
-from superlane_tools.reporting import read_provenance
+from superlane_tools.reporting import Provenance, read_provenance, write_table
+from superlane_tools.reporting.run_folder import write_run_manifest
 
 EXTRACT = {"frame_format": "none"}
 
@@ -92,7 +95,7 @@ def test_batch_ok_failed_and_idempotent(
     rid = next(r for r in stamp if r.startswith("drive_00-"))
     assert len(list((root / rid / "frames").rglob("*.png"))) == 10
     assert sorted(p.name for p in root.iterdir()) == sorted(
-        [*stamp, "batch_status.parquet", "summary", ".batch.lock"]  # failed: no folder
+        [*stamp, "batch_status.parquet", "summary"]  # failed: no folder; no lock left
     )
     forced = run_batch(drive, _params(root, config={"frame_format": "png"}, force=True))
     assert forced.counts["ok"] == 1
@@ -134,6 +137,44 @@ def test_stale_tmp_is_cleaned_and_root_locked(tmp_path: Path) -> None:
         pass
 
 
+def test_lock_file_is_removed_on_exit_and_after_an_error(tmp_path: Path) -> None:
+    root = tmp_path / "out"
+    with root_lock(root):
+        held = (root / ".batch.lock").read_text()
+        assert f"pid {os.getpid()} on {socket.gethostname()}" in held
+        refused = pytest.raises(BatchError, match=rf"running on .*\(pid {os.getpid()} on ")
+        with refused, root_lock(root):
+            pass
+        assert (root / ".batch.lock").exists()  # the refused batch leaves the holder's file
+    assert not (root / ".batch.lock").exists()
+    with pytest.raises(RuntimeError), root_lock(root):
+        raise RuntimeError("the batch failed")
+    assert not (root / ".batch.lock").exists()
+
+
+def test_lock_of_a_killed_batch_is_taken_over(tmp_path: Path) -> None:
+    root = tmp_path / "out"
+    code = (
+        "import sys, time; from pathlib import Path; "
+        "from superlane_tools.commands.batch.root import root_lock\n"
+        "with root_lock(Path(sys.argv[1])):\n print('locked', flush=True); time.sleep(60)"
+    )
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[3])}
+    argv = [sys.executable, "-c", code, str(root)]
+    with subprocess.Popen(argv, stdout=subprocess.PIPE, text=True, env=env) as proc:
+        try:
+            assert proc.stdout is not None
+            assert proc.stdout.readline().strip() == "locked"
+            with pytest.raises(BatchError, match="another slt batch"), root_lock(root):
+                pass
+        finally:
+            proc.kill()  # SIGKILL: no clean-up runs, the file stays
+    assert f"pid {proc.pid}" in (root / ".batch.lock").read_text()
+    with root_lock(root):
+        assert f"pid {os.getpid()}" in (root / ".batch.lock").read_text()
+    assert not (root / ".batch.lock").exists()
+
+
 def test_unwritable_root(tmp_path: Path, make_drives: Callable[..., list[Path]]) -> None:
     make_drives(1)
     (tmp_path / "file").write_text("x")
@@ -158,7 +199,7 @@ def test_summary_from_reprocess_tables(tmp_path: Path) -> None:
                 "method_available": [True, True, True, True],
             }
         )
-        seqs.to_parquet(root / rid / "availability_sequences.parquet")
+        write_table(seqs, root / rid / "availability_sequences.parquet", Provenance("test"))
         truth = np.full(20, 1e-3)
         truth[0] = np.nan
         pd.DataFrame(
@@ -168,6 +209,7 @@ def test_summary_from_reprocess_tables(tmp_path: Path) -> None:
                 "mobileye_curvature": np.full(20, np.nan),
             }
         ).to_parquet(root / rid / "curvature.parquet")
+        write_run_manifest(root / rid)  # a complete run: the paper-table layout reads it
         rows.append({"recording_id": rid, "category": category, "status": "ok", "result": "ok"})
     table = StatusTable(root, "test", {})
     for row in rows:
@@ -216,6 +258,11 @@ def test_summary_from_reprocess_tables(tmp_path: Path) -> None:
     assert "## Availability by category" in md
     assert "| highway | super | 2 | 4 | 28 | 40 |" in md
     assert "<table>" in (root / "summary" / "report.html").read_text()
+    # Table II layout: the category column holds the recordings' categories, never run ids.
+    table_ii = md.split("## Availability, corridor paper Table II layout")[1].split("## ")[0]
+    rows = [line for line in table_ii.splitlines() if line.startswith("|")][2:]
+    groups = [row.split("|")[1].strip() for row in rows]
+    assert groups == ["highway", "rain", "total"]
 
 
 def test_status_rows_with_sha256_identities_are_not_reused(tmp_path: Path) -> None:

@@ -101,11 +101,13 @@ def test_every_output_exists_with_provenance(run_dir: Path) -> None:
     # The report's run section states what this run resolved, line for line.
     resolved = read_provenance(run_dir / "frames.parquet")["config"]["resolved"]
     report = (run_dir / "report.md").read_text(encoding="utf-8").splitlines()
-    assert "- frames: 60" in report
+    assert "- camera frames: 60" in report
     assert f"- segmentation backend: {resolved['segmentation_backend']}" in report
-    assert f"- corridor network: {resolved['corridor_unavailable'] or 'available'}" in report
+    assert f"- corridor network: {resolved['corridor_unavailable'] or 'ran'}" in report
     corridor = pd.read_parquet(run_dir / "corridor.parquet")
     assert set(corridor["status"]) == {resolved["corridor_unavailable"]}
+    if not resolved["corridor_unavailable"]:  # its headline row: availability only
+        assert any(line.startswith("| Corridor net | - | - | - |") for line in report)
 
 
 def test_annotations_are_foxglove_messages(run_dir: Path) -> None:
@@ -223,9 +225,8 @@ def test_without_can_and_rtk_degrades_with_statements(drive: Path, tmp_path: Pat
     cfg = FAST.with_overrides({"output.plots": False, "output.annotations": False})
     result = reprocess(rec, tmp_path / "out", cfg)
     assert result.status == "ok"
-    text = " ".join(result.notes)
-    assert "no CAN stream" in text
-    assert "no GNSS/RTK stream" in text
+    assert "no CAN stream: no CAN speed, yaw rate or Mobileye lane messages" in result.notes
+    assert "no curvature ground truth: no GNSS stream" in result.notes
     report = (tmp_path / "out" / "report.md").read_text(encoding="utf-8")
     assert "no CAN stream" in report
     assert "no curvature ground truth" in report
