@@ -9,7 +9,8 @@ really differ); then each root gets ``--drives`` recording folders, copies of th
 folders, and a ``batch_status.parquet`` in ``slt batch``'s schema where every copy has its own
 content hash (so each is a distinct drive and base and candidate copies pair up). Times
 ``compare_runs`` in-process (imports warm, median of ``--rounds``, with and without plots) and
-the whole ``slt compare`` command in a fresh process once. Writes
+the whole ``slt compare`` command in a fresh process once, wall and CPU time (on a shared,
+loaded machine the wall time mostly waits for a core). Writes
 ``benchmarks/results/compare.json``.
 """
 
@@ -18,6 +19,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import shutil
 import statistics
 import subprocess
@@ -120,14 +122,17 @@ def main() -> None:
             _root(work / f"root_{name}", runs[name], args.drives)
         base, cand = work / "root_base", work / "root_candidate"
         timings: dict[str, list[float]] = {"with_plots": [], "no_plots": []}
+        cpu: dict[str, list[float]] = {"with_plots": [], "no_plots": []}
         result = None
         for _ in range(args.rounds):
             for key, plots in (("with_plots", True), ("no_plots", False)):
-                t = time.perf_counter()
+                t, c = time.perf_counter(), time.process_time()
                 result = compare_runs(base, cand, work / f"out_{key}", CompareParams(plots=plots))
                 timings[key].append(time.perf_counter() - t)
+                cpu[key].append(time.process_time() - c)
         assert result is not None
         t = time.perf_counter()
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
         proc = subprocess.run(
             [
                 sys.executable,
@@ -144,6 +149,8 @@ def main() -> None:
             check=False,
         )
         cli_s = time.perf_counter() - t
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        cli_cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
         fleet = result.comparison.fleet_rows().set_index("kpi")
         out = {
             "command": f"python benchmarks/bench_compare.py --drives {args.drives} "
@@ -165,6 +172,11 @@ def main() -> None:
                 statistics.median(timings["no_plots"]), 2
             ),
             "compare_in_process_s_all": [round(v, 2) for v in timings["with_plots"]],
+            "compare_in_process_cpu_s_median": round(statistics.median(cpu["with_plots"]), 2),
+            "compare_in_process_no_plots_cpu_s_median": round(
+                statistics.median(cpu["no_plots"]), 2
+            ),
+            "slt_compare_fresh_process_cpu_s": round(cli_cpu, 2),
             "slt_compare_fresh_process_s": round(cli_s, 2),
             "slt_compare_exit_code": proc.returncode,
             "fleet_verdict_availability_frames_super": fleet.at[

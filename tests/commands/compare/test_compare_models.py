@@ -86,36 +86,13 @@ def test_a_wrong_camera_pitch_is_worse(fleets: dict[str, Path], tmp_path: Path) 
 
 
 def test_a_run_without_truth_has_unavailable_truth_kpis(oracle_runs: Any, tmp_path: Path) -> None:
-    from mcap.reader import make_reader
-    from mcap.writer import Writer
+    from typer.testing import CliRunner
+
+    from superlane_tools.cli.app import app
 
     src, dst = oracle_runs.recording, tmp_path / "no_gnss.mcap"
-    with src.open("rb") as fin, dst.open("wb") as fout:  # the drive without its RTK topic
-        writer = Writer(fout)
-        writer.start()
-        channels: dict[int, int] = {}
-        schemas: dict[int, int] = {}
-        reader = make_reader(fin)
-        for record in reader.iter_metadata():
-            writer.add_metadata(record.name, record.metadata)
-        for schema, channel, message in reader.iter_messages(log_time_order=True):
-            if channel.topic == "/gnss/fix":
-                continue
-            if channel.id not in channels:
-                if schema is not None and schema.id not in schemas:
-                    schemas[schema.id] = writer.register_schema(
-                        schema.name, schema.encoding, schema.data
-                    )
-                channels[channel.id] = writer.register_channel(
-                    channel.topic,
-                    channel.message_encoding,
-                    schemas[schema.id] if schema is not None else 0,
-                    channel.metadata,
-                )
-            writer.add_message(
-                channels[channel.id], message.log_time, message.data, message.publish_time
-            )
-        writer.finish()
+    cut = CliRunner().invoke(app, ["filter", str(src), "--exclude", "^/gnss/fix$", "-o", str(dst)])
+    assert cut.exit_code == 0, cut.output  # the drive without its RTK topic
     config = ReprocessConfig().with_overrides(
         {
             "segmentation.backend": "oracle",

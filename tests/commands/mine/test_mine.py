@@ -16,7 +16,8 @@ from superlane_tools.evaluation.tusimple import load_jsonl
 runner = CliRunner()
 
 
-def test_mining_picks_the_frames_where_two_runs_disagree(oracle_runs: Any, tmp_path: Path) -> None:
+def _mine_span(oracle_runs: Any, tmp_path: Path, criteria: str, frames: int, gap: str) -> Path:
+    """Compare the base run with the blind one, then mine the base run with the spans."""
     cmp = runner.invoke(
         app,
         [
@@ -38,18 +39,23 @@ def test_mining_picks_the_frames_where_two_runs_disagree(oracle_runs: Any, tmp_p
             "-o",
             str(out),
             "--criteria",
-            "span",
+            criteria,
             "--compare",
             str(tmp_path / "cmp"),
             "--recordings",
             str(oracle_runs.recording.parent),
             "--max-frames",
-            "3",
+            str(frames),
             "--min-gap-s",
-            "0.3",
+            gap,
         ],
     )
     assert mined.exit_code == 0, mined.output
+    return out
+
+
+def test_mining_picks_the_frames_where_two_runs_disagree(oracle_runs: Any, tmp_path: Path) -> None:
+    out = _mine_span(oracle_runs, tmp_path, "span", 3, "0.3")
     manifest = pd.read_parquet(out / "manifest.parquet")
     assert len(manifest) == 3
     blind = oracle_runs.blind_frames
@@ -65,39 +71,7 @@ def test_mining_picks_the_frames_where_two_runs_disagree(oracle_runs: Any, tmp_p
 def test_a_mined_set_is_what_slt_train_reads(oracle_runs: Any, tmp_path: Path) -> None:
     from superlane_tools.training.datasets import DatasetSpec, load_set
 
-    cmp = runner.invoke(
-        app,
-        [
-            "compare",
-            str(oracle_runs.base),
-            str(oracle_runs.blind),
-            "-o",
-            str(tmp_path / "cmp"),
-            "--no-plots",
-        ],
-    )
-    assert cmp.exit_code == 0, cmp.output
-    out = tmp_path / "set"
-    mined = runner.invoke(
-        app,
-        [
-            "mine",
-            str(oracle_runs.base),
-            "-o",
-            str(out),
-            "--criteria",
-            "span,disagree",
-            "--compare",
-            str(tmp_path / "cmp"),
-            "--recordings",
-            str(oracle_runs.recording.parent),
-            "--max-frames",
-            "4",
-            "--min-gap-s",
-            "0.2",
-        ],
-    )
-    assert mined.exit_code == 0, mined.output
+    out = _mine_span(oracle_runs, tmp_path, "span,disagree", 4, "0.2")
     records = load_jsonl(out / "labels.json")
     assert len(records) == len(pd.read_parquet(out / "manifest.parquet")) == 4
     loaded = load_set(DatasetSpec("tusimple", out, split="all"), "segmentation", (160, 96))
