@@ -27,8 +27,8 @@ from superlane_tools.drive.config import ReprocessConfig
 from superlane_tools.drive.finalize import drive_tables, kpi_segments
 from superlane_tools.drive.loop import drive_topics, frame_total, run_frames
 from superlane_tools.drive.stages import FrameStages
+from superlane_tools.recording import open_recording
 from superlane_tools.recording.calibration import resolve_camera
-from superlane_tools.recording.open import open_recording
 from superlane_tools.records import Skipped
 from superlane_tools.reporting.drive_sections import ReportFacts
 
