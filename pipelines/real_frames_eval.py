@@ -67,6 +67,7 @@ from superlane_tools.hierarchy import leaf_ids_under
 from superlane_tools.lanes.project import columns_at_rows
 from superlane_tools.lanes.table import lanes_from_row
 from superlane_tools.reporting.atomic import write_text_atomic
+from superlane_tools.reporting.run_layout import TUSIMPLE_LABELS_FILE
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from culane_night import culane_chain, estimate_camera
@@ -523,7 +524,7 @@ def main(argv: list[str] | None = None) -> int:
         print("--update-cards needs the classical backend in --backends", file=sys.stderr)
         return 2
     frames_src = args.data / "tusimple" / "frames"
-    if not (frames_src / "labels.json").is_file():
+    if not (frames_src / TUSIMPLE_LABELS_FILE).is_file():
         print(f"no real data at {args.data}", file=sys.stderr)
         return 1
     with tempfile.TemporaryDirectory() as tmp:

@@ -43,6 +43,7 @@ RANKS = {
     "simulation": 3,
     "training": 3,
     "drive": 3,
+    "fleet": 3,
     "commands": 4,
     "cli": 5,
     "__init__": 6,
@@ -59,6 +60,8 @@ COMMAND_RANKS = {
     "tables": 1,
     "corridor": 1,
     "segment": 1,
+    "compare": 1,
+    "mine": 1,
     "recover": 1,
     "batch": 2,
 }
