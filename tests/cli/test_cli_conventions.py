@@ -277,6 +277,7 @@ BAD_VALUES: dict[str, list[str]] = {
     # checked by the command itself, once its inputs are there
     "dbc show": ["--message", "nosuch", str(DBC)],
     "filter": ["--topics", "(", str(SAMPLE), "-o", "unused.mcap"],
+    "recover": ["-o", str(SAMPLE), str(SAMPLE)],  # an existing output is refused
     "tables availability": ["--by", "nosuch", str(REPO)],
 }
 """Bad values the issue reports, and those of commands without a number option (the others get
@@ -376,6 +377,7 @@ PARTIAL: dict[str, Any] = {
     "batch": _batch_with_a_corrupt_recording,
     "camera calibrate": _udacity_chessboards,
     "filter": lambda tmp, _: [str(_truncated_mcap(tmp)), "-o", str(tmp / "f.mcap")],
+    "recover": lambda tmp, _: [str(_truncated_mcap(tmp)), "-o", str(tmp / "r.mcap")],
 }
 """Builders ``(tmp_path, request) -> arguments`` of a partial input of each command whose
 inputs can be partial."""
