@@ -406,9 +406,7 @@ NOT_PARTIAL = {
     "train": "training data is read whole; a bad sample is an error",
 }
 SLOW_PARTIAL = {"batch", "camera calibrate"}
-KNOWN_BROKEN = {
-    "filter": "a truncated MCAP is refused (exit 1): filter_mcap needs a non-seeking fallback"
-}
+KNOWN_BROKEN: dict[str, str] = {}
 
 
 def test_every_command_has_a_partial_case_or_a_reason() -> None:
