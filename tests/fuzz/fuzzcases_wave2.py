@@ -295,7 +295,6 @@ MANIFEST_EXITS = {
     "duplicate-rows": 0,  # run once
     "missing-path": 1,
     "missing-path-csv": 1,
-    "csv-binary": 1,  # a path of control characters: no such recording
 }
 """Exit codes of the manifests that are not usage errors."""
 

@@ -145,6 +145,8 @@ def _path_text(value: Any, where: str) -> str:
         return ""
     if not isinstance(value, str):
         raise ConfigError(f"{where}: path must be one recording path (text), not {_kind(value)}")
+    if "\x00" in value:  # the OS refuses it: an internal ValueError otherwise
+        raise ConfigError(f"{where}: path holds a NUL byte ({reprlib.repr(value)})")
     return value.strip()
 
 

@@ -197,6 +197,7 @@ def test_job_units_split_or_grouped() -> None:
         ),
         ("m.csv", "path,category\nd.mcap,a,b,c\n", "cannot read manifest: Length of header"),
         ("m.yaml", "- path: 12\n", "path must be one recording path (text), not an int (12)"),
+        ("m.csv", "path\n\x00\x01\n", "row 1: path holds a NUL byte"),
     ],
 )
 def test_manifest_nan_window_and_ragged_csv_row_are_refused(
