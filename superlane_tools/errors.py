@@ -26,6 +26,9 @@ class ExitCode(IntEnum):
     """Wrong command line: unknown option, bad value, missing argument."""
     PARTIAL = 3
     """Outputs were written, but some input data was lost or skipped (reported)."""
+    REGRESSION = 4
+    """``slt compare --fail-on-regression``: a gated KPI of the candidate is worse (outputs
+    written)."""
 
 
 def message_line(kind: MessageKind, text: str) -> str:

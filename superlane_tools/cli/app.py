@@ -10,12 +10,14 @@ from superlane_tools._version import __version__
 from superlane_tools.cli import (
     batch,
     camera,
+    compare,
     convert,
     corridor,
     dbc,
     extract,
     info,
     lanes,
+    mine,
     recover,
     reprocess,
     segment,
@@ -80,6 +82,8 @@ convert.register(app)
 tools.register(app)
 recover.register(app)
 dbc.register(app)
+compare.register(app)
+mine.register(app)
 
 
 def main() -> None:

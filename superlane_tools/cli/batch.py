@@ -14,6 +14,7 @@ from superlane_tools.cli._common import (
     command_line,
     console,
     exit_with,
+    note,
     progress,
     report_skipped,
 )
@@ -127,6 +128,8 @@ def batch_cmd(
     console.print(f"status: {report.status_path}", markup=False)
     if report.summary:
         console.print(f"summary: {report.summary[0].parent}", markup=False)
+    if report.engine_log is not None:
+        note(f"Ray's messages (node deaths, worker crashes) are in {report.engine_log}")
     lost = [Skipped("failed recordings", f"{rid}: {reason}", 1) for rid, reason in report.failures]
     if report.counts.get("partial", 0):
         detail = f"see the status table {report.status_path.name}"

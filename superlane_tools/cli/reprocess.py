@@ -152,7 +152,7 @@ def reprocess_cmd(
                 f"({sum(added.values())} messages)",
                 markup=False,
             )
-    for line in result.notes:
+    for line in result.notes:  # with the "Lanes not plausible" warning when there is one
         note(line)
     from superlane_tools.reporting.drive_notes import timing_line
 

@@ -66,12 +66,15 @@ def _run(
     overlays: bool,
 ) -> ExitCode:
     from superlane_tools.camera.profiles import load_camera
-    from superlane_tools.scene import backend_from_name, segment_images
+    from superlane_tools.commands.segment import segment_backend
+    from superlane_tools.scene import segment_images
     from superlane_tools.scene.recording_frames import InputFrames
 
     frames = InputFrames(input_path, out)
     cam = load_camera(camera_name) if camera_name else None
-    seg_backend = backend_from_name(backend_name, model=model, camera=cam)
+    seg_backend, chosen = segment_backend(input_path, out, backend_name, model, cam)
+    for line in chosen:
+        note(line)
     skipped: list[Skipped] = []
     written = seen = 0
     with progress("segment", frames.total, "images") as bar:

@@ -76,6 +76,20 @@ def why_no_dynamics(facts: DriveFacts) -> str:
     return "; ".join(missing) or "too few yaw-rate / speed samples"
 
 
+UNLIKE_TRAINING_DATA = (
+    "this camera looks unlike the training data; check the camera profile with "
+    "`slt camera estimate`"
+)
+
+
+def unlike_training_data(reason: str) -> str:
+    """The warning when no segmentation backend gave plausible lanes (``reason``: why)."""
+    return (
+        f"Lanes not plausible: {UNLIKE_TRAINING_DATA} ({reason}). The lane, curvature and "
+        "availability numbers below come from implausible lanes: do not read them as results."
+    )
+
+
 def inputs_line(facts: DriveFacts) -> str:
     """The headline's first line: which inputs the drive had, which numbers therefore exist."""
     had = [f"camera ({facts.n_instants} frames)" if facts.camera else NO_CAMERA]

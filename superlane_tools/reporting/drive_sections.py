@@ -14,7 +14,12 @@ from typing import TYPE_CHECKING, NamedTuple
 
 from superlane_tools.records import Skipped
 from superlane_tools.reporting.drive_facts import DriveFacts
-from superlane_tools.reporting.drive_notes import availability_gaps, curvature_gaps, inputs_line
+from superlane_tools.reporting.drive_notes import (
+    availability_gaps,
+    curvature_gaps,
+    inputs_line,
+    unlike_training_data,
+)
 from superlane_tools.reporting.headline import headline_table
 from superlane_tools.reporting.report import Section
 
@@ -33,6 +38,8 @@ class ReportFacts:
         corridor_unavailable: Why the corridor network is unavailable ("" when available).
         notes: Stream choice, camera, fallbacks and the drive's notes, in order.
         skipped: What was lost.
+        implausible: Why no segmentation backend gave plausible lanes on this drive (the
+            per-drive self-check; "" when one did, or when it did not run).
     """
 
     recording: Path
@@ -41,6 +48,7 @@ class ReportFacts:
     corridor_unavailable: str
     notes: tuple[str, ...]
     skipped: tuple[Skipped, ...]
+    implausible: str = ""
 
 
 @dataclass(frozen=True)
@@ -99,6 +107,7 @@ def drive_sections(
     headline = Section(
         "Headline",
         [
+            *([f"**{unlike_training_data(run.implausible)}**", ""] if run.implausible else []),
             inputs_line(facts),
             "",
             "One number per method that ran: curvature RMSE against the same truth (1/m; the "

@@ -75,6 +75,10 @@ AVAILABILITY_BY_CATEGORY_FILE = "availability_by_category.parquet"
 CURVATURE_BY_RECORDING_FILE = "curvature_by_recording.parquet"
 SUMMARY_DIR = "summary"
 """``slt batch``'s fleet summary folder under the output root."""
+NIGHTLY_COMPARE_DIR = "compare"
+"""``pipelines/nightly.py --baseline``: the comparison with the baseline, under the summary."""
+NIGHTLY_MINED_DIR = "mined"
+"""``pipelines/nightly.py --baseline``: the frames worth labelling, under the summary."""
 BATCH_STATUS_FILE = "batch_status.parquet"
 """``slt batch``'s status table at the output root, one row per recording."""
 
@@ -167,6 +171,50 @@ class SummaryLayout(_Layout):
     availability_by_category = _File(AVAILABILITY_BY_CATEGORY_FILE)
     curvature_by_recording = _File(CURVATURE_BY_RECORDING_FILE)
     report = _File(REPORT_FILE)
+    comparison = _File(NIGHTLY_COMPARE_DIR)
+    mined = _File(NIGHTLY_MINED_DIR)
+
+
+# ---- slt compare and slt mine -------------------------------------------------------------
+COMPARE_FILE = "compare.parquet"
+"""``slt compare``: one row per sequence, drive, category and the fleet for every KPI."""
+COMPARE_SPANS_FILE = "compare_spans.parquet"
+COMPARE_DRIVES_FILE = "compare_drives.parquet"
+COMPARE_REPORT_FILE = "compare.md"
+"""The comparison report; ``compare.html`` is written beside it."""
+COMPARE_DELTAS_PLOT = "deltas.png"
+MINE_MANIFEST_FILE = "manifest.parquet"
+MINE_IMAGES_DIR = "images"
+TUSIMPLE_LABELS_FILE = "labels.json"
+"""A TuSimple label folder's label lines (``slt mine`` writes it, ``slt train`` reads it)."""
+
+
+@dataclass(frozen=True)
+class CompareLayout(_Layout):
+    """The paths of one ``slt compare`` output folder."""
+
+    table = _File(COMPARE_FILE)
+    spans = _File(COMPARE_SPANS_FILE)
+    drives = _File(COMPARE_DRIVES_FILE)
+    report = _File(COMPARE_REPORT_FILE)
+    plots = _File(PLOTS_DIR)
+
+    def deltas_plot(self) -> Path:
+        """Return the path of the per-drive delta plot."""
+        return self.plots / COMPARE_DELTAS_PLOT
+
+    def timeline_plot(self, k: int) -> Path:
+        """Return the path of the ``k``-th worst drive's availability timelines."""
+        return self.plots / f"timeline_{k}.png"
+
+
+@dataclass(frozen=True)
+class MineLayout(_Layout):
+    """The paths of one ``slt mine`` label set."""
+
+    manifest = _File(MINE_MANIFEST_FILE)
+    labels = _File(TUSIMPLE_LABELS_FILE)
+    images = _File(MINE_IMAGES_DIR)
 
 
 def example_plot_name(frame_index: int) -> str:

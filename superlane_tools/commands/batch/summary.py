@@ -194,17 +194,26 @@ def _paper_tables(root: Path, status: pd.DataFrame) -> list[tuple[str, pd.DataFr
     return sections
 
 
-def _report(out: Path, sections: Sequence[tuple[str, pd.DataFrame, str]], title: str) -> list[Path]:
-    """Write ``report.md`` and ``report.html`` with one table per section."""
+def _report(
+    out: Path,
+    sections: Sequence[tuple[str, pd.DataFrame, str]],
+    title: str,
+    extra: Sequence[Section] = (),
+) -> list[Path]:
+    """Write ``report.md`` and ``report.html`` with one table per section, then ``extra``."""
     return write_report(
         SummaryLayout(out).report,
         title,
-        [Section(heading, [note] if note else [], [frame]) for heading, frame, note in sections],
+        [Section(heading, [note] if note else [], [frame]) for heading, frame, note in sections]
+        + list(extra),
     )
 
 
-def write_summary(root: str | Path, command: str = "") -> list[Path]:
+def write_summary(root: str | Path, command: str = "", extra: Sequence[Section] = ()) -> list[Path]:
     """Write ``ROOT/summary/``: Parquet tables plus ``report.md`` and ``report.html``.
+
+    ``extra``: report sections appended after the fleet's own (the nightly comparison with a
+    baseline and the mined frames, ``pipelines/nightly.py --baseline``).
 
     Returns:
         The files written.
@@ -226,5 +235,5 @@ def write_summary(root: str | Path, command: str = "") -> list[Path]:
     sections[2:2] = _paper_tables(base, status)
     total = len(status)
     title = f"Fleet summary: {total} recording{'s' if total != 1 else ''} in {base.name}"
-    written += _report(out, sections, title)
+    written += _report(out, sections, title, extra)
     return written

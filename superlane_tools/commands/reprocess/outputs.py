@@ -10,6 +10,7 @@ from superlane_tools.drive.config import ReprocessConfig
 from superlane_tools.drive.examples import example_indices
 from superlane_tools.drive.finalize import DriveTables, report_sections
 from superlane_tools.drive.loop import DrivePass, DriveTopics, FrameSink
+from superlane_tools.drive.selfcheck import SelfCheck
 from superlane_tools.drive.sinks import AnnotationSink, ExampleSink, FrameTablesSink, VideoSink
 from superlane_tools.drive.stages import FrameStages
 from superlane_tools.reporting import Provenance, input_identity, write_table
@@ -32,6 +33,7 @@ def run_provenance(
     resolved: tuple[DriveTopics, CameraModel, FrameStages],
     segments: Sequence[TimeSegment] | None,
     command: str,
+    check: SelfCheck | str = "",
 ) -> Provenance:
     """Return the provenance of every output: inputs, the configuration and what it resolved to.
 
@@ -42,6 +44,7 @@ def run_provenance(
         resolved: The topics read, the camera and the stages built from the configuration.
         segments: KPI sequences given by the caller (recorded when given).
         command: Command line (default: ``reprocess('<name>')``).
+        check: The segmentation self-check, or why it was skipped.
     """
     topics, camera, stages = resolved
     config_data = config.to_dict()
@@ -50,6 +53,7 @@ def run_provenance(
         "camera": camera.to_dict(),
         "segmentation_backend": stages.backend_name,
         "corridor_unavailable": stages.corridor_unavailable,
+        "segmentation_self_check": check.to_dict() if isinstance(check, SelfCheck) else check,
     }
     if segments is not None:
         config_data["resolved"]["segments"] = [s._asdict() for s in segments]
