@@ -382,6 +382,8 @@ PARTIAL: dict[str, Any] = {
 """Builders ``(tmp_path, request) -> arguments`` of a partial input of each command whose
 inputs can be partial."""
 PARTIAL_ELSEWHERE = {
+    "compare": "tests/commands/compare/test_compare.py::test_unmatched_drives_are_listed",
+    "mine": "tests/commands/mine/test_mine.py::test_mining_without_the_recording_is_partial",
     "reprocess": "tests/cli/test_cli_reprocess.py (a truncated drive, slow)",
     "corridor": "tests/cli/test_cli_corridor_train.py (needs a trained model, slow)",
     "lanes fit": "tests/cli/test_cli_lanes.py::test_partial_when_a_png_is_unreadable",
