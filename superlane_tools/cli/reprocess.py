@@ -106,7 +106,11 @@ def reprocess_cmd(
         # First: on a cold kernel cache the compiler is this run's critical path.
         compiler = start_compiling()
         try:
-            from superlane_tools.commands.reprocess import ReprocessConfig, load_config
+            from superlane_tools.commands.reprocess import (
+                ReprocessConfig,
+                load_config,
+                reprocess_run,
+            )
 
             cfg = load_config(config) if config is not None else ReprocessConfig()
             overrides: dict[str, Any] = {}
@@ -130,8 +134,6 @@ def reprocess_cmd(
                 overrides["workers"] = workers
             cfg = cfg.with_overrides(overrides)
             target = out if out is not None else Path("runs") / _recording_name(recording)
-            from superlane_tools.commands.reprocess import reprocess_run
-
             with progress("reprocess", unit="frames") as bar:
                 result = reprocess_run(
                     recording, target, cfg, bar.update, command_line(), with_signals, compiler

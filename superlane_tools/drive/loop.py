@@ -39,7 +39,8 @@ class FrameSink(Protocol):
 
     ``run_frames`` calls :meth:`add` once per frame and :meth:`close` once at the end: with
     ``ok=True`` after the last frame, with ``ok=False`` when the pass failed (discard partial
-    output). ``close`` returns the files written (none when discarded).
+    output). ``close`` returns the files written (none when discarded). Not to be confused with
+    ``reporting.frame_sink.FrameSink``, which writes ``slt extract``'s image files.
     """
 
     def add(self, done: Finished) -> None:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 from superlane_tools.drive.config import ReprocessConfig
 from superlane_tools.drive.examples import example_indices
@@ -101,7 +101,7 @@ def open_sinks(
     """
     layout = RunLayout(out)
     out_cfg = config.output
-    opened: list[Any] = []
+    opened: list[FrameSink] = []
     try:
         tables = FrameTablesSink(
             layout.streamed(), provenance, stages.corridor_unavailable, config.corridor.mean_frames
