@@ -1,12 +1,8 @@
-"""The lane fit's compiled kernels: where they are cached, compiling and loading them.
+"""Where the lane fit's compiled kernels are cached, and compiling them in a child process.
 
-The one place that starts and awaits the kernels' compile: :func:`start_compiling` (a child
-process on a cold cache), :func:`warm_up` (await it, then load the kernels in this process),
-:func:`warm_up_in_background` (the same on a side thread) and :func:`kernels_ready` /
-:func:`kernels_loading` (where that stands). Light on purpose (no numba, no scipy at import):
-``slt reprocess`` asks :func:`cache_is_cold` and calls :func:`start_compiling` first thing, so
-that on the first run after an install the compiler, which is that run's critical path, starts
-before the command's own imports instead of after.
+Light on purpose (no numba, no scipy): ``slt reprocess`` asks :func:`cache_is_cold` and calls
+:func:`start_compiling` first thing, so that on the first run after an install the compiler,
+which is that run's critical path, starts before the command's own imports instead of after.
 """
 
 from __future__ import annotations
@@ -17,8 +13,6 @@ import os
 import subprocess
 import sys
 import tempfile
-import threading
-import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -104,7 +98,7 @@ def start_compiling() -> subprocess.Popen[bytes] | None:
     numba's compiler is Python holding the GIL: in a child it runs on the other core instead
     of slowing this process. The child prints the one :data:`COMPILE_NOTE` line to the shared
     stderr. Wait for it, then load the kernels with
-    :func:`warm_up` (which compiles in process, or raises,
+    :func:`superlane_tools.lanes.multilane_fit.warm_up` (which compiles in process, or raises,
     should the child have failed).
     """
     if not cache_is_cold():
@@ -152,92 +146,3 @@ def one_cpu_for(compiler: subprocess.Popen[bytes]) -> Iterator[None]:
         yield
     finally:
         _set_threads_affinity(everything)  # also the threads started meanwhile
-
-
-_WARM_BACKENDS: set[str] = set()
-_READY_BACKENDS: set[str] = set()
-_LOADING_BACKENDS: set[str] = set()
-_WARM_LOCK = threading.RLock()  # re-entered by the warm-up's own fit_frame call
-
-
-def kernels_ready(backend: str = "numba") -> bool:
-    """Return whether the lane fit can run on ``backend`` now, without loading kernels.
-
-    True for the numpy reference and once :func:`warm_up` has finished (on any thread). A
-    pipeline asks :func:`kernels_loading` instead, to keep its other stages busy meanwhile.
-    """
-    return backend != "numba" or backend in _READY_BACKENDS
-
-
-def kernels_loading(backend: str = "numba") -> bool:
-    """Return whether a :func:`warm_up_in_background` of ``backend`` is still running."""
-    return backend in _LOADING_BACKENDS
-
-
-def warm_up_in_background(
-    backend: str = "numba", compiler: subprocess.Popen[bytes] | None = None
-) -> None:
-    """Load the kernels on a side thread (compiling them first in a child on a cold cache).
-
-    The first run after an install compiles them (seconds, with a ``note:`` line) in a child
-    process (``compiler`` when the caller started it, else started here); the side thread
-    waits for it and loads the result while the caller's image stages run ahead. Nothing
-    happens when ``backend`` needs no kernels or a warm-up already ran or runs; a failure is
-    left to the fit itself to report.
-    """
-    if backend != "numba" or backend in _READY_BACKENDS or backend in _LOADING_BACKENDS:
-        if compiler is not None and backend != "numba":
-            compiler.terminate()  # the numpy reference needs no kernels
-            compiler.wait()
-        return
-    _LOADING_BACKENDS.add(backend)
-    compiler = compiler if compiler is not None else start_compiling()
-
-    def warm() -> None:
-        try:
-            with contextlib.suppress(Exception):  # the fit raises the same error, with context
-                warm_up(backend, compiler=compiler)
-        finally:
-            _LOADING_BACKENDS.discard(backend)
-
-    threading.Thread(target=warm, name="slt-kernel-warm-up", daemon=True).start()
-
-
-def warm_up(
-    backend: str = "numba",
-    *,
-    compiler: subprocess.Popen[bytes] | None = None,
-) -> float:
-    """Load (or compile) the fit's kernels once per process by fitting a small synthetic frame.
-
-    :func:`~superlane_tools.lanes.multilane_fit.fit_frame` calls this before it starts its
-    clock, so ``fit_time_s`` (and the TuSimple ``run_time`` derived from it) is the per-frame
-    cost, not numba's one-off kernel loading (about 0.4 s from its cache, seconds when it must
-    compile). Thread-safe: a call made while another thread warms up (``slt reprocess`` starts
-    one early, on a side thread) waits for it, outside the caller's clock.
-
-    Args:
-        backend: ``numba`` or ``numpy``.
-        compiler: A child already compiling the kernels into the cache
-            (:func:`start_compiling`): waited for, then its result is loaded.
-
-    Returns:
-        Seconds spent, 0 when the backend was already warm.
-    """
-    with _WARM_LOCK:
-        if backend in _WARM_BACKENDS:
-            return 0.0
-        t0 = time.perf_counter()
-        if compiler is not None:
-            with one_cpu_for(compiler):
-                try:
-                    compiler.wait(timeout=900)
-                except subprocess.TimeoutExpired:
-                    compiler.kill()  # and compile here instead
-                    compiler.wait()
-        _WARM_BACKENDS.add(backend)
-        from superlane_tools.lanes.multilane_fit import fit_sample_frame
-
-        fit_sample_frame(backend)
-        _READY_BACKENDS.add(backend)
-        return time.perf_counter() - t0

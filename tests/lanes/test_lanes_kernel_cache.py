@@ -15,7 +15,7 @@ from superlane_tools.lanes import _kernels
 from superlane_tools.lanes._kernels import COMPILE_NOTE, kernel_cache_dir
 
 PACKAGE = Path(_kernels.__file__).resolve().parents[1]
-WARM = "from superlane_tools.lanes.kernel_cache import warm_up; warm_up()"
+WARM = "from superlane_tools.lanes.multilane_fit import warm_up; warm_up()"
 
 
 def test_cache_dir_follows_env(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
