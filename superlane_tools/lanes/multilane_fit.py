@@ -528,19 +528,7 @@ def _refit(
     """Two rounds of point assignment and weighted least-squares refit of the shared model."""
     for _ in range(2):
         if p.backend == "numba":
-            _x, _res, labels = kernels().assign_points(
-                iqs,
-                rs,
-                model.a1,
-                model.a2,
-                model.b,
-                model.c,
-                1.0 / height,
-                1.0 / p.max_range_m,
-                np.ascontiguousarray(model.offsets),
-                p.assign_radius_m,
-                ASSIGN_ANGLE_RAD,
-            )
+            _x, _res, labels = _assign_compiled(iqs, rs, model, height, p)
         else:
             x_c, y_c, _ok = ray_points(iqs, rs, model.b, height, p.max_range_m, model.c)
             resid = y_c - x_c * (model.a1 + model.a2 * x_c)
@@ -563,6 +551,26 @@ def _refit(
         merged = merge_close(np.sort(model.offsets), 0.5 * p.min_peak_separation_m)
         model = model._replace(offsets=merged)
     return model
+
+
+def _assign_compiled(
+    iq: FloatArray, r: FloatArray, model: SharedModel, height: float, p: FitParams
+) -> tuple[FloatArray, FloatArray, IntArray]:
+    """Assign rays to the model's lines with the compiled kernel: ``x``, residual, labels."""
+    out: tuple[FloatArray, FloatArray, IntArray] = kernels().assign_points(
+        iq,
+        r,
+        model.a1,
+        model.a2,
+        model.b,
+        model.c,
+        1.0 / height,
+        1.0 / p.max_range_m,
+        np.ascontiguousarray(model.offsets, dtype=np.float64),
+        p.assign_radius_m,
+        ASSIGN_ANGLE_RAD,
+    )
+    return out
 
 
 def _refit_kept(
@@ -660,19 +668,7 @@ def _build_lanes_compiled(
     """:func:`_build_lanes` with single-pass kernels over the points (same results)."""
     k = kernels()
     offsets = np.ascontiguousarray(model.offsets, dtype=np.float64)
-    x, resid, labels = k.assign_points(
-        lane.iq,
-        lane.r,
-        model.a1,
-        model.a2,
-        model.b,
-        model.c,
-        1.0 / height,
-        1.0 / p.max_range_m,
-        offsets,
-        p.assign_radius_m,
-        ASSIGN_ANGLE_RAD,
-    )
+    x, resid, labels = _assign_compiled(lane.iq, lane.r, model, height, p)
     sums_x, sums_r = k.line_sums(x, resid, labels, offsets, NEAR_WEIGHT_M)
     if p.local_correction:
         coef = local_corrections_compiled(sums_x, sums_r, p.order, p.local_bound_m)
