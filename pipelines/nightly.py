@@ -6,17 +6,24 @@ for the next night), or reads ``--manifest``; runs the batch into ``--out``; wri
 ``OUT/summary/``. Recordings already done are skipped by the batch itself, so overlapping or
 repeated runs are harmless.
 
+With ``--baseline ROOT`` (an earlier output root, e.g. the production model's), the night's
+root is compared with it (``slt compare``: ``OUT/summary/compare/``), the frames worth labelling
+are mined (``slt mine`` with the comparison's spans: ``OUT/summary/mined/``) and both go into
+the fleet summary report. ``--fail-on-regression KPI[:THRESHOLD]`` (repeatable) gates on it.
+
 Exit codes: 0 when the night's work was done, even if some recordings were corrupt (they are
 listed in ``OUT/batch_status.parquet`` and the report); 1 on a systemic failure: more than
 ``--max-failed`` of the attempted recordings failed, or the output root is unwritable or locked
-by another run; 2 on a bad command line. The watermark only advances after a run without
-systemic failure.
+by another run; 2 on a bad command line; 4 when a KPI named by ``--fail-on-regression`` is
+worse than in the baseline (the night's outputs and reports are written). The watermark only
+advances after a run without systemic failure.
 
 Usage:
     python pipelines/nightly.py --source /data/drives --out /data/runs
         [--manifest FILE] [--state FILE] [--engine local|ray] [--workers N]
         [--ray-address auto] [--job reprocess|extract] [--config FILE] [--retries 1]
         [--settle-min 10] [--max-failed 0.5]
+        [--baseline ROOT [--fail-on-regression KPI[:THRESHOLD]] [--mine 50]]
 """
 
 from __future__ import annotations
@@ -39,6 +46,7 @@ from superlane_tools.commands.batch import (
 )
 from superlane_tools.commands.batch.manifest import fingerprint
 from superlane_tools.errors import SltError, UsageError
+from superlane_tools.fleet import verdict_table
 from superlane_tools.reporting import write_text_atomic
 
 STATE_FILE = "nightly_state.json"
@@ -69,7 +77,80 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         default=0.5,
         help="failed fraction above which the night counts as a systemic failure",
     )
+    ap.add_argument("--baseline", type=Path, help="output root to compare tonight's fleet with")
+    ap.add_argument(
+        "--fail-on-regression",
+        action="append",
+        default=[],
+        metavar="KPI[:THRESHOLD]",
+        help="exit 4 when this KPI is worse than in the baseline (see slt compare)",
+    )
+    ap.add_argument("--mine", type=int, default=50, help="frames to mine (0: none)")
     return ap.parse_args(argv)
+
+
+def compare_with_baseline(args: argparse.Namespace) -> int:
+    """Compare the night's root with ``--baseline``, mine frames, rewrite the fleet summary."""
+    from superlane_tools.commands.batch import write_summary
+    from superlane_tools.commands.compare import CompareParams, compare_runs
+    from superlane_tools.commands.mine import mine_runs
+    from superlane_tools.fleet import parse_rule
+    from superlane_tools.fleet.mining import MineParams
+    from superlane_tools.reporting.report import Section
+    from superlane_tools.reporting.run_layout import SUMMARY_DIR, CompareLayout, SummaryLayout
+
+    layout = SummaryLayout(args.out / SUMMARY_DIR)
+    command = " ".join(["nightly.py", *sys.argv[1:]])
+    params = CompareParams(
+        gate=tuple(parse_rule(r) for r in args.fail_on_regression), command=command
+    )
+    result = compare_runs(args.baseline, args.out, layout.comparison, params)
+    report = CompareLayout(layout.comparison).report.relative_to(layout.root).as_posix()
+    fleet = result.comparison.fleet_rows()
+    sections = [
+        Section(
+            f"Comparison with the baseline {args.baseline}",
+            [
+                f"Full comparison: `{report}` "
+                f"({len(result.comparison.matched)} matched drives; "
+                f"{(fleet['verdict'] == 'worse').sum()} KPIs worse, "
+                f"{(fleet['verdict'] == 'better').sum()} better).",
+                *[
+                    f"- differs: {r.what} {r.key}: {r.base} -> {r.candidate}"
+                    for r in result.differences.itertuples(index=False)
+                ],
+                *[f"- regression: {line}" for line in result.regressions],
+            ],
+            [verdict_table(fleet)],
+        )
+    ]
+    if args.mine > 0:
+        mined = mine_runs(
+            [args.out],
+            layout.mined,
+            MineParams(max_frames=args.mine),
+            compare_dir=layout.comparison,
+            command=command,
+        )
+        manifest = mined.manifest
+        shown = (
+            manifest[["drive", "frame_index", "reasons", "score"]] if len(manifest) else manifest
+        )
+        sections.append(
+            Section(
+                "Frames worth labelling",
+                [
+                    f"{len(manifest)} frames with pre-annotations in `{layout.mined.name}/` "
+                    "(TuSimple labels.json, CULane .lines.txt, manifest.parquet)."
+                ],
+                [shown.head(20)],
+            )
+        )
+    write_summary(args.out, command, sections)
+    print(f"nightly: compared with {args.baseline}: {len(result.regressions)} regressions")
+    for line in result.regressions:
+        print(f"nightly: regression: {line}", file=sys.stderr)
+    return 4 if result.regressions else 0
 
 
 def read_state(path: Path) -> dict[str, object]:
@@ -95,6 +176,13 @@ def new_recordings(source: Path, after_ns: int, before_ns: int) -> list[BatchEnt
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.baseline is not None:  # bad gate rules or a missing baseline: before any work
+        from superlane_tools.fleet import parse_rule
+
+        for rule in args.fail_on_regression:
+            parse_rule(rule)
+        if not args.baseline.is_dir():
+            raise UsageError(f"--baseline {args.baseline}: no such folder")
     state_path = args.state or args.out / STATE_FILE
     state = read_state(state_path)
     cutoff_ns = time.time_ns() - int(args.settle_min * 60e9)
@@ -135,7 +223,7 @@ def run(args: argparse.Namespace) -> int:
     if args.manifest is None:
         state["watermark_ns"] = cutoff_ns
     write_text_atomic(state_path, json.dumps(state, indent=1))
-    return 0
+    return compare_with_baseline(args) if args.baseline is not None else 0
 
 
 def main(argv: list[str] | None = None) -> int:

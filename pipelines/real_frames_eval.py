@@ -27,10 +27,18 @@ precision = predicted marking pixels within 10 px of a labelled lane polyline.
 Usage:
     python pipelines/real_frames_eval.py [--data ../shared/data] [--work DIR]
         [--backends classical,onnx] [--report reports/real_frames.md] [--json out.json]
-        [--update-cards]
+        [--update-cards] [--reuse earlier.json]
 
-``--update-cards`` writes each ONNX model's end-to-end numbers (and the classical backend's from
-the same run) into its model card, where ``--backend auto`` reads them.
+``--reuse`` takes the backends found in an earlier run's ``--json`` from it instead of running
+them again (the chains are deterministic; only the official score's run-time gate depends on
+the machine's load): a new model is then compared with the earlier backends' numbers.
+
+The same chain runs on the 10 CULane night frames (another, unknown camera, estimated from the
+frames without their labels; ``pipelines/culane_night.py``), scored with ``slt eval culane``
+(F1 at IoU 0.5), and every ONNX model is scored on CamVid ``val`` (level-1 / level-2 mIoU).
+
+``--update-cards`` writes each ONNX model's numbers on every real set (and the classical
+backend's from the same run) into its model card, where ``--backend auto`` reads them.
 """
 
 from __future__ import annotations
@@ -59,6 +67,10 @@ from superlane_tools.hierarchy import leaf_ids_under
 from superlane_tools.lanes.project import columns_at_rows
 from superlane_tools.lanes.table import lanes_from_row
 from superlane_tools.reporting.atomic import write_text_atomic
+from superlane_tools.reporting.run_layout import TUSIMPLE_LABELS_FILE
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from culane_night import culane_chain, estimate_camera
 
 REPO = Path(__file__).resolve().parents[1]
 SLT = str(Path(sys.executable).with_name("slt"))
@@ -334,17 +346,21 @@ def render_report(results: dict[str, Any], data: Path, work: Path, backends: str
         "WORK = the work folder.",
         "",
         "| backend | LaneEval acc | FP | FN | F1 | acc without run-time gate | marking recall 3 px"
-        " | marking precision 10 px | KITTI ego IoU | KITTI F / P / R |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        " | marking precision 10 px | KITTI ego IoU | KITTI F / P / R | CULane night F1@50"
+        " | CamVid val mIoU L1 / L2 |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for name, res in results.items():
         off, ung, k = res["tusimple"]["official"], res["tusimple"]["ungated"], res["kitti"]["score"]
         t = res["tusimple"]
+        camvid = res.get("camvid")
         lines.append(
             f"| {name} | {off['accuracy']:.3f} | {off['fp']:.3f} | {off['fn']:.3f} "
             f"| {off['f1']:.3f} | {ung['accuracy']:.3f} | {t['marking_recall_3px']:.3f} "
             f"| {t['marking_precision_10px']:.3f} | {k['iou']:.3f} "
-            f"| {k['f_measure']:.3f} / {k['precision']:.3f} / {k['recall']:.3f} |"
+            f"| {k['f_measure']:.3f} / {k['precision']:.3f} / {k['recall']:.3f} "
+            f"| {culane_f1(res):.3f} | "
+            + ("- |" if camvid is None else f"{camvid['miou_l1']:.3f} / {camvid['miou_l2']:.3f} |")
         )
     lines += ["", "## Per frame (run-time gate off) and fit run times", ""]
     for name, res in results.items():
@@ -357,7 +373,8 @@ def render_report(results: dict[str, Any], data: Path, work: Path, backends: str
     lines += ["", "## Exact commands", ""]
     for name, res in results.items():
         lines += [f"{name}:", "", "```"]
-        lines += res["tusimple"]["commands"] + res["kitti"]["commands"] + ["```", ""]
+        lines += res["tusimple"]["commands"] + res["kitti"]["commands"]
+        lines += res["culane"]["commands"] + ["```", ""]
     lines += ["", NOTES]
     text = "\n".join(lines)
     return text.replace(f"{work}/", "WORK/").replace(f"{data}/", "DATA/")
@@ -372,15 +389,52 @@ CHAIN_TEXT = (
 )
 
 
+def culane_f1(result: dict[str, Any]) -> float:
+    """Return a backend's CULane night F1 at IoU 0.5."""
+    scores = result["culane"]["score"]  # {"all": {"f1_50": ...}}: one set, all 10 frames
+    return float(next(iter(scores.values()))["f1_50"])
+
+
+def real_sets(result: dict[str, Any], classical: dict[str, Any]) -> dict[str, Any]:
+    """Return the per-real-set scores that ``auto`` compares (``scene/backends.py``).
+
+    Each lane set gives the model's score and the classical backend's from the same run: TuSimple
+    dev end to end (LaneEval accuracy without the 200 ms run-time gate: on a loaded machine the
+    gate scores the fit's wall time, not the lanes), KITTI ``um_000000`` fitted ego lane (F),
+    CULane night (F1@50). CamVid val (level-2 mIoU) has no classical number (the classical
+    backend finds markings only).
+    """
+    sets = {
+        "tusimple_dev_laneeval": (
+            result["tusimple"]["ungated"]["accuracy"],
+            classical["tusimple"]["ungated"]["accuracy"],
+        ),
+        "kitti_um_000000_f": (
+            result["kitti"]["score"]["f_measure"],
+            classical["kitti"]["score"]["f_measure"],
+        ),
+    }
+    if "culane" in result and "culane" in classical:
+        sets["culane_night_f1"] = (culane_f1(result), culane_f1(classical))
+    out: dict[str, Any] = {
+        name: {"model": round(float(m), 4), "classical": round(float(c), 4)}
+        for name, (m, c) in sets.items()
+    }
+    if result.get("camvid") is not None:
+        out["camvid_val_miou_l2"] = {"model": round(float(result["camvid"]["miou_l2"]), 4)}
+    return out
+
+
 def card_metrics(result: dict[str, Any], classical: dict[str, Any]) -> dict[str, Any]:
     """Return one ONNX backend's end-to-end card metrics, with the classical backend's beside.
 
-    ``auto`` (``scene/backends.py``) compares ``laneeval_accuracy`` with
-    ``classical_laneeval_accuracy``: both must come from the same run of the same code.
+    ``auto`` (``scene/backends.py``) compares the worst of ``real_sets`` with the classical
+    backend's worst: both must come from the same run of the same code.
     """
     tus, cls = result["tusimple"], classical["tusimple"]["official"]
     off, kit = tus["official"], result["kitti"]["score"]
     return {
+        "real_sets": real_sets(result, classical),
         "tusimple_val_end_to_end": {
             "laneeval_accuracy": round(off["accuracy"], 4),
             "fp": round(off["fp"], 4),
@@ -399,6 +453,19 @@ def card_metrics(result: dict[str, Any], classical: dict[str, Any]) -> dict[str,
         "kitti_um_000000_fitted_ego_lane": {
             key: round(kit[key], 4) for key in ("f_measure", "precision", "recall", "iou")
         },
+        **({"camvid_val": result["camvid"]} if result.get("camvid") is not None else {}),
+        **(
+            {
+                "culane_night_end_to_end": {
+                    "f1_iou50": round(culane_f1(result), 4),
+                    "classical_f1_iou50": round(culane_f1(classical), 4),
+                    "frames": 10,
+                    "camera": "estimated from the frames, labels unused (culane_night.py)",
+                }
+            }
+            if "culane" in result and "culane" in classical
+            else {}
+        ),
     }
 
 
@@ -418,6 +485,19 @@ def update_cards(results: dict[str, Any], specs: list[str]) -> list[str]:
     return written
 
 
+def camvid_val(spec: str, data: Path) -> dict[str, float]:
+    """Return an ONNX backend's CamVid ``val`` level-1 / level-2 mIoU."""
+    from superlane_tools.scene.onnx_backend import (
+        DEFAULT_SEGMENTATION_MODEL,
+        OnnxSegmentationBackend,
+    )
+    from superlane_tools.training.evaluate import camvid_scores
+
+    model = spec.partition("=")[2] or DEFAULT_SEGMENTATION_MODEL
+    scores = camvid_scores(OnnxSegmentationBackend(model, threads=1), data / "camvid", "val")
+    return {"miou_l1": scores["miou_level1"], "miou_l2": scores["miou_level2"]}
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the evaluation; write the report, overlays and optional JSON."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
@@ -432,30 +512,49 @@ def main(argv: list[str] | None = None) -> int:
         action="store_true",
         help="write each ONNX model's end-to-end metrics into its card (needs classical too)",
     )
+    ap.add_argument(
+        "--reuse",
+        type=Path,
+        default=None,
+        help="--json of an earlier run: its backends are taken from it, not run again",
+    )
     args = ap.parse_args(argv)
     specs = args.backends.split(",")
     if args.update_cards and "classical" not in specs:
         print("--update-cards needs the classical backend in --backends", file=sys.stderr)
         return 2
     frames_src = args.data / "tusimple" / "frames"
-    if not (frames_src / "labels.json").is_file():
+    if not (frames_src / TUSIMPLE_LABELS_FILE).is_file():
         print(f"no real data at {args.data}", file=sys.stderr)
         return 1
     with tempfile.TemporaryDirectory() as tmp:
         work = args.work or Path(tmp)
         work.mkdir(parents=True, exist_ok=True)
         groups, labels, frame_paths = validation_frames(args.data, work)
+        culane_camera = estimate_camera(args.data, work / "culane_night.yaml")
         results: dict[str, Any] = {}
+        if args.reuse is not None:
+            # the chains are deterministic (only the official score's run-time gate depends on
+            # the machine's load): an earlier run's backends need not run again
+            results.update(json.loads(args.reuse.read_text(encoding="utf-8")))
         for spec in specs:
-            backend = backend_args(spec)[0]
+            backend, options = backend_args(spec)
+            if backend in results:
+                print(f"{backend}: reused from {args.reuse}", flush=True)
+                continue
             tus = tusimple_chain(spec, groups, labels, work)
             kit = kitti_chain(spec, args.data, work)
-            results[backend] = {"tusimple": tus, "kitti": kit}
+            cul = culane_chain(options, backend, args.data, work, culane_camera, slt)
+            results[backend] = {"tusimple": tus, "kitti": kit, "culane": cul}
+            if spec.startswith("onnx"):
+                results[backend]["camvid"] = camvid_val(spec, args.data)
             off = tus["official"]
             print(
                 f"{backend}: LaneEval acc {off['accuracy']:.4f} FP {off['fp']:.4f} "
                 f"FN {off['fn']:.4f} (no run-time gate: {tus['ungated']['accuracy']:.4f}); "
-                f"KITTI ego IoU {kit['score']['iou']:.4f}",
+                f"KITTI ego IoU {kit['score']['iou']:.4f} F {kit['score']['f_measure']:.4f}; "
+                f"CULane night F1 {culane_f1(results[backend]):.4f}; "
+                f"CamVid {results[backend].get('camvid')}",
                 flush=True,
             )
             if args.overlays is not None:

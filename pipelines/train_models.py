@@ -25,12 +25,19 @@ Steps, all seeded:
    (``--update-cards`` writes its numbers into the cards).
 4. ``--ship``: copy models and cards into ``superlane_tools/models/``.
 
+``--recipe lite0`` trains the segmentation on the ImageNet-pretrained EfficientNet-Lite0 encoder
+instead (``super_seg_v5``): one stage, TuSimple with the marking expansion (weight 0.45), CamVid
+(0.2) and 160 simulator frames (0.35), camera-geometry augmentation (``--augment camera``),
+random 320x192 windows, 8 per step, lr 0.002 (encoder 0.0005), a wall-clock budget of
+``--budget-s`` seconds (4500 by default; the learning-rate schedule follows it) capped at 6000
+steps. ``--no-camvid`` leaves CamVid (CC BY-NC) out: a model for commercial use.
+
 ``--quick`` runs the same steps on a few frames and steps (CI). ``--device cuda`` trains on a GPU.
 
 Usage:
     python pipelines/train_models.py [--quick] [--work DIR] [--out DIR] [--ship]
         [--task segmentation|corridor|both] [--no-train] [--no-eval] [--device cpu|cuda]
-        [--realdata DIR] [--json results.json]
+        [--realdata DIR] [--json results.json] [--recipe v4|lite0] [--budget-s S] [--no-camvid]
 """
 
 from __future__ import annotations
@@ -52,6 +59,10 @@ REPO = Path(__file__).resolve().parents[1]
 SLT = str(Path(sys.executable).with_name("slt"))
 TEST_SEED, TRAIN_SEED, MODEL_SEED = 99, 11, 0
 SEG_NAME, COR_NAME = "super_seg_v4", "ego_corridor_v3"
+TASKS = ("segmentation", "corridor")
+LITE_NAME, LITE_NC_NAME = "super_seg_v5", "super_seg_v5_nc"
+"""The lite0 recipe's model, and its variant without CamVid (no non-commercial data)."""
+LITE_SIM_FRAMES, LITE_STEPS, LITE_BUDGET_S = 160, 6000, 4500.0
 EXPAND_M = 0.6
 """Road band on each side of a TuSimple marking in the second segmentation stage, metres."""
 
@@ -135,6 +146,37 @@ def train_commands(
     return {"segmentation": seg_stages, "corridor": [cor]}
 
 
+def lite0_list(realdata: Path | None, sim: Path, work: Path, camvid: bool) -> Path:
+    """Write the lite0 recipe's dataset list (TuSimple with ``expand_m``, CamVid, simulator)."""
+    path = work / ("datasets_lite0.yaml" if camvid else "datasets_lite0_nc.yaml")
+    rows = [f"  - {{reader: sim, folder: {sim.resolve()}, weight: 0.35}}"]
+    if realdata is not None:
+        tusimple = realdata.resolve() / "tusimple" / "train_frames"
+        rows.insert(
+            0, f"  - {{reader: tusimple, folder: {tusimple}, weight: 0.45, expand_m: {EXPAND_M}}}"
+        )
+        if camvid:
+            rows.insert(
+                1, f"  - {{reader: camvid, folder: {realdata.resolve() / 'camvid'}, weight: 0.2}}"
+            )
+    path.write_text("datasets:\n" + "\n".join(rows) + "\n", encoding="utf-8")
+    return path
+
+
+def lite0_command(
+    listing: Path, out: Path, plan: Plan, device: str, budget_s: float, steps: int
+) -> list[str]:
+    """Return the lite0 recipe's ``slt train`` arguments."""
+    args = ["train", "segmentation", "--arch", "lite0", "--augment", "camera"]
+    args += ["--datasets", str(listing), "--out", str(out), "--steps", str(steps)]
+    args += ["--budget-s", f"{budget_s:g}", "--lr", "0.002", "--size", "512x288"]
+    args += ["--crop", "320x192", "--dice-bands", "3", "--seed", str(MODEL_SEED)]
+    args += ["--batch", str(plan.batch), "--threads", "1", "--device", device]
+    if plan.max_frames is not None:
+        args += ["--max-frames", str(plan.max_frames)]
+    return args
+
+
 def _run_stages(task: str, stages: list[list[str]], work: Path, env: dict[str, str]) -> int:
     """Run one model's training commands in order into ``work/train_<task>.log``."""
     with (work / f"train_{task}.log").open("w", encoding="utf-8") as log:
@@ -167,8 +209,10 @@ def run_training(commands: dict[str, list[list[str]]], work: Path) -> dict[str, 
     return timings
 
 
-def evaluate(seg: Path, cor: Path, test: Path, realdata: Path | None) -> dict[str, Any]:
-    """Evaluate both models; write metrics and timings into their cards; return them."""
+def evaluate(
+    seg: Path, cor: Path, test: Path, realdata: Path | None, tasks: tuple[str, ...] = TASKS
+) -> dict[str, Any]:
+    """Evaluate the models of ``tasks``; write metrics and timings into their cards; return them."""
     from superlane_tools.scene.onnx_backend import OnnxSegmentationBackend
     from superlane_tools.training.evaluate import (
         backend_marking_hit_rate,
@@ -181,21 +225,28 @@ def evaluate(seg: Path, cor: Path, test: Path, realdata: Path | None) -> dict[st
         update_card,
     )
 
-    seg_metrics: dict[str, Any] = {"sim_heldout": evaluate_segmentation_on_dataset(seg, test)}
-    cor_metrics: dict[str, Any] = {"sim_heldout": evaluate_corridor_on_dataset(cor, test)}
-    if realdata is not None:
-        backend = OnnxSegmentationBackend(seg)
-        tus = realdata / "tusimple"
-        seg_metrics["tusimple_frames"] = backend_marking_hit_rate(backend, tus / "frames")
-        seg_metrics["camvid_val"] = camvid_scores(backend, realdata / "camvid", "val")
-        cor_metrics["tusimple_val_ego_lane"] = tusimple_corridor_scores(
-            cor, [(tus / "train_frames", "val"), (tus / "frames", "val")]
-        )
-        cor_metrics["kitti_road_um_000000"] = kitti_ego_lane_iou(cor, realdata / "kitti_road")
-    results = {
-        "segmentation": update_card(seg, seg_metrics, time_model(seg, "segmentation", threads=1)),
-        "corridor": update_card(cor, cor_metrics, time_model(cor, "corridor", threads=1)),
-    }
+    seg_metrics: dict[str, Any] = {}
+    cor_metrics: dict[str, Any] = {}
+    tus = None if realdata is None else realdata / "tusimple"
+    if "segmentation" in tasks:
+        seg_metrics["sim_heldout"] = evaluate_segmentation_on_dataset(seg, test)
+        if realdata is not None and tus is not None:
+            backend = OnnxSegmentationBackend(seg)
+            seg_metrics["tusimple_frames"] = backend_marking_hit_rate(backend, tus / "frames")
+            seg_metrics["camvid_val"] = camvid_scores(backend, realdata / "camvid", "val")
+    if "corridor" in tasks:
+        cor_metrics["sim_heldout"] = evaluate_corridor_on_dataset(cor, test)
+        if realdata is not None and tus is not None:
+            cor_metrics["tusimple_val_ego_lane"] = tusimple_corridor_scores(
+                cor, [(tus / "train_frames", "val"), (tus / "frames", "val")]
+            )
+            cor_metrics["kitti_road_um_000000"] = kitti_ego_lane_iou(cor, realdata / "kitti_road")
+    results = {}
+    if "segmentation" in tasks:
+        timing = time_model(seg, "segmentation", threads=1)
+        results["segmentation"] = update_card(seg, seg_metrics, timing)
+    if "corridor" in tasks:
+        results["corridor"] = update_card(cor, cor_metrics, time_model(cor, "corridor", threads=1))
     return {k: {"metrics": v.metrics, "ms_per_frame": v.ms_per_frame} for k, v in results.items()}
 
 
@@ -237,6 +288,9 @@ def main(argv: list[str] | None = None) -> int:
         help="real data folder (TuSimple, CamVid, KITTI); simulator only when absent",
     )
     ap.add_argument("--json", type=Path, help="write the results here too")
+    ap.add_argument("--recipe", choices=("v4", "lite0"), default="v4", help="segmentation recipe")
+    ap.add_argument("--budget-s", type=float, default=LITE_BUDGET_S, help="lite0 time budget, s")
+    ap.add_argument("--no-camvid", action="store_true", help="lite0 without CamVid (CC BY-NC)")
     args = ap.parse_args(argv)
 
     from superlane_tools.training import TrainingError, require_torch
@@ -248,34 +302,46 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     plan = QUICK if args.quick else FULL
     size = _size(plan.image_size)
-    sim = args.work / f"sim_train_s{TRAIN_SEED}_{plan.sim_frames}_{size}"
+    sim_frames = plan.sim_frames
+    if args.recipe == "lite0" and not args.quick:
+        sim_frames = LITE_SIM_FRAMES
+    sim = args.work / f"sim_train_s{TRAIN_SEED}_{sim_frames}_{size}"
     test = args.work / f"sim_test_s{TEST_SEED}_{plan.test_frames}_{size}"
     args.work.mkdir(parents=True, exist_ok=True)
     args.out.mkdir(parents=True, exist_ok=True)
     results: dict[str, Any] = {
         "commands": {
-            "train_dataset_0": make_dataset(sim, plan.sim_frames, TRAIN_SEED, plan.image_size),
+            "train_dataset_0": make_dataset(sim, sim_frames, TRAIN_SEED, plan.image_size),
             "test_dataset": make_dataset(test, plan.test_frames, TEST_SEED, plan.image_size),
         }
     }
     realdata = args.realdata if (args.realdata / "tusimple" / "train_frames").is_dir() else None
     commands = train_commands(sim, realdata, args.out, args.work, plan, args.device)
+    seg = args.out / f"{SEG_NAME}.onnx"
+    if args.recipe == "lite0":
+        seg = args.out / f"{LITE_NC_NAME if args.no_camvid else LITE_NAME}.onnx"
+        listing = lite0_list(realdata, sim, args.work, camvid=not args.no_camvid)
+        steps = plan.seg_steps if args.quick else LITE_STEPS
+        budget = 60.0 if args.quick else args.budget_s
+        commands["segmentation"] = [lite0_command(listing, seg, plan, args.device, budget, steps)]
     commands = {t: c for t, c in commands.items() if args.task in (t, "both")}
     results["commands"].update(
         {t: " && ".join(shlex.join(["slt", *c]) for c in stages) for t, stages in commands.items()}
     )
-    seg, cor = args.out / f"{SEG_NAME}.onnx", args.out / f"{COR_NAME}.onnx"
+    cor = args.out / f"{COR_NAME}.onnx"
     if not args.no_train:
         print("training: " + " ; ".join(results["commands"][t] for t in commands), flush=True)
         timings = run_training(commands, args.work)
         for task, timing in timings.items():
             if task == "segmentation":
-                record_pipeline(seg, timing, args.work / f"{SEG_NAME}_stage1.onnx")
+                first = args.work / f"{SEG_NAME}_stage1.onnx" if args.recipe == "v4" else None
+                record_pipeline(seg, timing, first)
             else:
                 record_pipeline(cor, timing)
         results["training"] = timings
     if not args.no_eval:
-        results.update(evaluate(seg, cor, test, realdata))
+        tasks = tuple(t for t in TASKS if args.task in (t, "both"))
+        results.update(evaluate(seg, cor, test, realdata, tasks))
     print(json.dumps(results, indent=2, default=str))
     if args.json:
         args.json.write_text(json.dumps(results, indent=2, default=str), encoding="utf-8")

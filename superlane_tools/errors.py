@@ -9,6 +9,10 @@ code; anything else is a bug.
 from __future__ import annotations
 
 from enum import IntEnum
+from typing import Literal
+
+MessageKind = Literal["error", "skipped", "note", "progress"]
+"""The kinds of message a command writes to stderr, each line ``slt: KIND: text``."""
 
 
 class ExitCode(IntEnum):
@@ -22,6 +26,20 @@ class ExitCode(IntEnum):
     """Wrong command line: unknown option, bad value, missing argument."""
     PARTIAL = 3
     """Outputs were written, but some input data was lost or skipped (reported)."""
+    REGRESSION = 4
+    """``slt compare --fail-on-regression``: a gated KPI of the candidate is worse (outputs
+    written)."""
+
+
+def message_line(kind: MessageKind, text: str) -> str:
+    """Return the one stderr line of a message: ``slt: KIND: text``, whitespace collapsed.
+
+    Every message of every command and of the layers below (the lane fit's compile note) is
+    built here, so a log collector can sort lines by prefix: ``error`` (the command failed or
+    refused a value), ``skipped`` (input data lost, one line per kind with a count), ``note``
+    (facts worth knowing, nothing lost) and ``progress``.
+    """
+    return f"slt: {kind}: {' '.join(text.split())}"
 
 
 class SltError(Exception):

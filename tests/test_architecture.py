@@ -34,6 +34,7 @@ RANKS = {
     "lanes": 1,
     "evaluation": 1,
     "corridor": 1,
+    "segment": 1,
     "recording": 2,
     "can": 2,
     "reporting": 2,
@@ -42,6 +43,7 @@ RANKS = {
     "simulation": 3,
     "training": 3,
     "drive": 3,
+    "fleet": 3,
     "commands": 4,
     "cli": 5,
     "__init__": 6,
@@ -57,6 +59,10 @@ COMMAND_RANKS = {
     "camera_estimate": 1,
     "tables": 1,
     "corridor": 1,
+    "segment": 1,
+    "compare": 1,
+    "mine": 1,
+    "recover": 1,
     "batch": 2,
 }
 """Second level of ``commands``: the commands are peers (rank 1) and never import each other;

@@ -102,7 +102,7 @@ def calibrate_chessboard(
         if size is None:
             size = this
         if this != size:
-            rejected.append((path, f"size {this[0]}x{this[1]} differs from {size[0]}x{size[1]}"))
+            rejected.append((path, f"size differs from the first photo's {size[0]}x{size[1]}"))
             continue
         found, corners = cv2.findChessboardCorners(gray, (cols, rows))
         if not found:

@@ -71,6 +71,9 @@ class ExtrinsicsEstimate:
         lane_width_m: Lane width the height was scaled with, metres.
         roll_sigma_rad: Spread of the per-frame roll, radians; None when it was not estimated.
         roll_method: How the roll was obtained.
+        vp_height_m: Height from the vanishing-point lines alone, metres, when the height was
+            then scaled so that the lane fit measures ``lane_width_m`` (None: not scaled).
+        fit_frames: Frames whose fitted ego lane width set that scale.
     """
 
     extrinsics: Extrinsics
@@ -82,6 +85,8 @@ class ExtrinsicsEstimate:
     lane_width_m: float
     roll_sigma_rad: float | None = None
     roll_method: str = "given"
+    vp_height_m: float | None = None
+    fit_frames: int = 0
 
     def summary(self) -> dict[str, float | int | str]:
         """Return a YAML-ready mapping with degrees for the angles."""
@@ -110,6 +115,16 @@ class ExtrinsicsEstimate:
                     "roll_median_sigma_deg": round(
                         math.degrees(self.roll_sigma_rad) / math.sqrt(n), 4
                     ),
+                }
+            ),
+            **(
+                {}
+                if self.vp_height_m is None
+                else {
+                    "height_method": "scaled so that the lane fit (slt reprocess) measures "
+                    "lane_width_m as the median ego-lane width of these frames",
+                    "height_vanishing_point_m": round(self.vp_height_m, 4),
+                    "height_fit_frames": self.fit_frames,
                 }
             ),
         }

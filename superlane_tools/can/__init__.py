@@ -34,7 +34,9 @@ from superlane_tools.can.mobileye import (
     Latency,
     MobileyeMapping,
     latency_by_xcorr,
+    line_latency,
     mobileye_table,
+    unwrap_relabels,
 )
 from superlane_tools.can.units import SPEED_UNITS, YAW_RATE_UNITS, si_factor, to_si
 
@@ -62,6 +64,7 @@ __all__ = [
     "empty_signal_table",
     "frames_to_arrays",
     "latency_by_xcorr",
+    "line_latency",
     "load_dbc",
     "load_dbc_text",
     "load_dbcs",
@@ -71,4 +74,5 @@ __all__ = [
     "shipped_dbcs",
     "si_factor",
     "to_si",
+    "unwrap_relabels",
 ]

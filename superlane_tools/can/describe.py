@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 from superlane_tools.can.dbc import LoadedDbc
-from superlane_tools.can.errors import CanError
+from superlane_tools.errors import UsageError
 
 
 def _number(value: Any) -> float | int | None:
@@ -22,7 +22,7 @@ def describe_dbc(loaded: LoadedDbc, message: str | None = None) -> dict[str, Any
         message: Only this message: its name, or its id in decimal or ``0x`` hex.
 
     Raises:
-        CanError: If ``message`` names no message of the DBC.
+        UsageError: If ``message`` names no message of the DBC (a bad value: exit 2).
     """
     messages = sorted(loaded.database.messages, key=lambda m: m.frame_id)
     if message is not None:
@@ -33,7 +33,7 @@ def describe_dbc(loaded: LoadedDbc, message: str | None = None) -> dict[str, Any
             as_id = None
         messages = [m for m in messages if m.name == wanted or m.frame_id == as_id]
         if not messages:
-            raise CanError(f"no message {message!r} in the DBC")
+            raise UsageError(f"--message: no message {message!r} in the DBC")
     out = []
     for m in messages:
         signals = []

@@ -11,14 +11,15 @@ from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from types import TracebackType
-from typing import TYPE_CHECKING, Any, NoReturn, get_args, get_origin
+from typing import IO, TYPE_CHECKING, Any, NoReturn, get_args, get_origin
 
 import typer
 from rich.console import Console
+from typer._click.exceptions import NoArgsIsHelpError, UsageError
 from typer._click.globals import get_current_context
 from typer.core import TyperArgument, TyperGroup
 
-from superlane_tools.errors import ExitCode, SltError
+from superlane_tools.errors import ExitCode, MessageKind, SltError, message_line
 from superlane_tools.records import Skipped
 
 if TYPE_CHECKING:
@@ -106,17 +107,76 @@ class _PlainArgument(TyperArgument):
 
 
 class SltGroup(TyperGroup):
-    """The root ``slt`` group: applies :func:`apply_conventions` to the whole command tree."""
+    """The root ``slt`` group: applies :func:`apply_conventions` to the whole command tree.
+
+    It also renders every usage error of every command (unknown option, bad value, missing
+    argument) as one ``slt: error:`` line with exit 2: the root's own arguments are parsed in
+    :meth:`make_context`, every subcommand's inside :meth:`invoke`.
+    """
 
     def __init__(self, **attrs: Any) -> None:
         super().__init__(**attrs)
         apply_conventions(self)
 
+    def make_context(
+        self,
+        info_name: str | None,
+        args: list[str],
+        parent: Context | None = None,
+        **extra: Any,
+    ) -> Context:
+        """Parse the root's arguments; a usage error becomes one line."""
+        try:
+            return super().make_context(info_name, args, parent, **extra)
+        except UsageError as err:
+            raise _one_line(err) from err
+
+    def invoke(self, ctx: Context) -> Any:
+        """Run the subcommand; a usage error anywhere below becomes one line."""
+        try:
+            return super().invoke(ctx)
+        except UsageError as err:
+            raise _one_line(err) from err
+
+
+def say(kind: MessageKind, text: str) -> None:
+    """Print one message line ``slt: KIND: text`` to stderr (:func:`~.errors.message_line`)."""
+    err_console.print(message_line(kind, text), markup=False)
+
+
+def note(text: str) -> None:
+    """Print one ``slt: note: ...`` line to stderr: a fact worth knowing, nothing was lost."""
+    say("note", text)
+
 
 def fail(message: str, code: ExitCode = ExitCode.ERROR) -> NoReturn:
     """Print one ``slt: error: ...`` line to stderr and exit with ``code``."""
-    err_console.print(f"slt: error: {message}", markup=False)
+    say("error", message)
     raise typer.Exit(int(code))
+
+
+class OneLineUsageError(UsageError):
+    """A click usage error shown as one ``slt: error:`` line (exit 2), not click's usage block."""
+
+    def show(self, file: IO[Any] | None = None) -> None:  # noqa: ARG002 (stderr console)
+        """Print the error as one line naming the command and its ``-h``."""
+        where = ""
+        hint = ""
+        if self.ctx is not None:
+            path = self.ctx.command_path
+            where = path.partition(" ")[2]
+            hint = f" (see '{path} -h')"
+        text = self.format_message()
+        say("error", f"{where}: {text}{hint}" if where else f"{text}{hint}")
+
+
+def _one_line(err: UsageError) -> UsageError:
+    """Return ``err`` as a :class:`OneLineUsageError` (help requested by no arguments stays)."""
+    if isinstance(err, (NoArgsIsHelpError, OneLineUsageError)):
+        return err
+    one = OneLineUsageError(err.format_message(), err.ctx)
+    one.exit_code = int(ExitCode.USAGE)
+    return one
 
 
 @contextmanager
@@ -145,7 +205,7 @@ def report_skipped(skipped: Sequence[Skipped]) -> ExitCode:
         count = f" ({n})" if n else ""
         more = f"; and {len(items) - 1} more" if len(items) > 1 else ""
         detail = " ".join(items[0].detail.split())
-        err_console.print(f"slt: skipped: {what}{count}: {detail}{more}", markup=False)
+        say("skipped", f"{what}{count}: {detail}{more}")
     return ExitCode.PARTIAL if skipped else ExitCode.OK
 
 
@@ -290,7 +350,9 @@ class ProgressLine:
         unit = f" {self.unit}" if self.unit else ""
         elapsed = time.perf_counter() - self._start
         note = f" {self.note}" if self.note else ""
-        return f"slt: progress: {self.label} {self.done}{of}{unit}{pct}{note} {elapsed:.0f} s"
+        return message_line(
+            "progress", f"{self.label} {self.done}{of}{unit}{pct}{note} {elapsed:.0f} s"
+        )
 
     def echo(self, message: str) -> None:
         """Print one message line to stderr (above the bar on a terminal)."""

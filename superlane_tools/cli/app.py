@@ -10,12 +10,15 @@ from superlane_tools._version import __version__
 from superlane_tools.cli import (
     batch,
     camera,
+    compare,
     convert,
     corridor,
     dbc,
     extract,
     info,
     lanes,
+    mine,
+    recover,
     reprocess,
     segment,
     simulate,
@@ -29,7 +32,7 @@ from superlane_tools.cli._common import (
     EXIT_CODES_HELP,
     SltGroup,
     debug_enabled,
-    err_console,
+    say,
 )
 from superlane_tools.errors import ExitCode
 
@@ -77,7 +80,10 @@ eval_cmd.register(app)
 tables.register(app)
 convert.register(app)
 tools.register(app)
+recover.register(app)
 dbc.register(app)
+compare.register(app)
+mine.register(app)
 
 
 def main() -> None:
@@ -87,14 +93,10 @@ def main() -> None:
     except SystemExit:
         raise
     except KeyboardInterrupt:
-        err_console.print("slt: interrupted")
+        say("error", "interrupted")
         sys.exit(130)
     except Exception as err:  # last line of defence against tracebacks
         if debug_enabled():
             raise
-        err_console.print(
-            f"slt: internal error: {type(err).__name__}: {err} (set SLT_DEBUG=1 for a traceback)",
-            markup=False,
-            soft_wrap=True,  # one line, whatever the terminal width
-        )
+        say("error", f"internal error: {type(err).__name__}: {err} (SLT_DEBUG=1: traceback)")
         sys.exit(int(ExitCode.ERROR))

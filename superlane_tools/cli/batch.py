@@ -13,11 +13,13 @@ from superlane_tools.cli._common import (
     cli_errors,
     command_line,
     console,
-    err_console,
     exit_with,
+    note,
     progress,
+    report_skipped,
 )
-from superlane_tools.errors import ExitCode, UsageError
+from superlane_tools.errors import ExitCode, UsageError, message_line
+from superlane_tools.records import Skipped
 
 
 def batch_cmd(
@@ -111,7 +113,10 @@ def batch_cmd(
                 last = p.last
                 if last is not None and last.status == "failed":
                     bar.echo(
-                        f"slt: {last.recording_id}: attempt {last.attempt} failed: {last.error}"
+                        message_line(
+                            "note",
+                            f"{last.recording_id}: attempt {last.attempt} failed: {last.error}",
+                        )
                     )
 
             report = run_batch(entries, params, progress=tick)
@@ -120,16 +125,20 @@ def batch_cmd(
         f"batch: {counts} in {report.wall_s:.1f} s ({report.engine}, {report.workers} workers)",
         markup=False,
     )
-    for rid, reason in report.failures:
-        err_console.print(f"slt: failed: {rid}: {reason}", markup=False)
     console.print(f"status: {report.status_path}", markup=False)
     if report.summary:
         console.print(f"summary: {report.summary[0].parent}", markup=False)
+    if report.engine_log is not None:
+        note(f"Ray's messages (node deaths, worker crashes) are in {report.engine_log}")
+    lost = [Skipped("failed recordings", f"{rid}: {reason}", 1) for rid, reason in report.failures]
+    if report.counts.get("partial", 0):
+        detail = f"see the status table {report.status_path.name}"
+        lost.append(Skipped("recordings with data lost", detail, report.counts["partial"]))
+    code = report_skipped(lost)
     done = report.counts.get("ok", 0) + report.counts.get("skipped", 0)
     if report.counts.get("failed", 0) and not done and not report.counts.get("partial", 0):
         exit_with(ExitCode.ERROR)
-    if report.counts.get("failed", 0) or report.counts.get("partial", 0):
-        exit_with(ExitCode.PARTIAL)
+    exit_with(code)
 
 
 def register(app: typer.Typer) -> None:

@@ -8,7 +8,16 @@ from typing import Annotated
 
 import typer
 
-from superlane_tools.cli._common import cli_errors, command_line, err_console
+from superlane_tools.cli._common import (
+    check_camera,
+    cli_errors,
+    command_line,
+    exit_with,
+    note,
+    report_skipped,
+)
+from superlane_tools.errors import SltError
+from superlane_tools.records import Skipped
 
 camera_app = typer.Typer(
     name="camera",
@@ -38,7 +47,10 @@ def list_cmd() -> None:
 
 @camera_app.command("show")
 def show_cmd(
-    camera: Annotated[str, typer.Argument(help="Bundled profile name or camera YAML file.")],
+    camera: Annotated[
+        str,
+        typer.Argument(help="Bundled profile name or camera YAML file.", callback=check_camera),
+    ],
 ) -> None:
     """Print a camera profile as YAML, with derived values (horizon, field of view) as comments."""
     from superlane_tools.camera import camera_to_yaml, load_camera
@@ -86,7 +98,7 @@ def from_kitti_cmd(
             typer.echo(text, nl=False)
         else:
             write_text_atomic(out, text)
-            err_console.print(f"wrote {out}", markup=False)
+            note(f"wrote {out}")
 
 
 def _image_list(images: list[Path]) -> list[Path]:
@@ -108,7 +120,18 @@ def _write_profile(out: Path | None, text: str) -> None:
         typer.echo(text, nl=False)
     else:
         write_text_atomic(out, text)
-        err_console.print(f"wrote {out}", markup=False)
+        note(f"wrote {out}")
+
+
+def _check_board(value: str) -> str:
+    """Typer callback for ``--board``: ``9by6`` is a bad value (exit 2), before any work."""
+    from superlane_tools.camera.calibration import parse_board
+
+    try:
+        parse_board(value)
+    except SltError as err:
+        raise typer.BadParameter(str(err)) from err
+    return value
 
 
 @camera_app.command("calibrate")
@@ -118,7 +141,10 @@ def calibrate_cmd(
         typer.Argument(help="Chessboard photos, or folders of them.", show_default=False),
     ],
     board: Annotated[
-        str, typer.Option(metavar="COLSxROWS", help="Inner corners per row x per column.")
+        str,
+        typer.Option(
+            metavar="COLSxROWS", help="Inner corners per row x per column.", callback=_check_board
+        ),
     ] = "9x6",
     square: Annotated[float, typer.Option(help="Square side, metres.", min=1e-6)] = 0.025,
     height_m: Annotated[
@@ -160,12 +186,12 @@ def calibrate_cmd(
             {"calibration": result.summary()}, sort_keys=False
         )
         _write_profile(out, text)
+    note(f"reprojection error {result.rms_px:.3f} px RMS over {len(result.used)} views")
+    names: dict[str, list[str]] = {}
     for path, reason in result.rejected:
-        err_console.print(f"slt: skipped: {path.name}: {reason}", markup=False)
-    err_console.print(
-        f"reprojection error {result.rms_px:.3f} px RMS over {len(result.used)} views",
-        markup=False,
-    )
+        names.setdefault(f"photos, {reason}", []).append(path.name)
+    lost = [Skipped(kind, ", ".join(photos), len(photos)) for kind, photos in names.items()]
+    exit_with(report_skipped(lost))
 
 
 @camera_app.command("estimate")
@@ -252,13 +278,12 @@ def estimate_cmd(
     roll = f"roll {math.degrees(e.roll_rad):.2f} deg ({est.roll_method})"
     if est.roll_sigma_rad is not None:
         roll = f"roll {math.degrees(e.roll_rad):.2f} +- {math.degrees(est.roll_sigma_rad):.2f} deg"
-    err_console.print(
+    note(
         f"pitch {math.degrees(e.pitch_rad):.2f} +- {math.degrees(est.pitch_sigma_rad):.2f} deg, "
         f"yaw {math.degrees(e.yaw_rad):.2f} +- {math.degrees(est.yaw_sigma_rad):.2f} deg, "
         f"{roll}, "
         f"height {e.height_m:.3f} +- {est.height_sigma_m:.3f} m (per-frame spread; "
-        f"{est.frames_used} frames); intrinsics: {result.intrinsics_source}",
-        markup=False,
+        f"{est.frames_used} frames); intrinsics: {result.intrinsics_source}"
     )
 
 

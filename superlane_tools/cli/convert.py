@@ -12,7 +12,9 @@ from superlane_tools.cli._common import (
     camera_option,
     cli_errors,
     command_line,
-    err_console,
+    exit_with,
+    note,
+    report_skipped,
 )
 from superlane_tools.errors import UsageError
 
@@ -99,11 +101,12 @@ def convert_cmd(
             items, out, ConvertConfig(video_start, fps, camera=camera), command=command_line()
         )
     for topic, count in sorted(result.counts.items()):
-        err_console.print(f"{topic}: {count} messages", markup=False)
-    for note in result.notes:
-        err_console.print(f"note: {note}", markup=False)
-    err_console.print(f"time alignment: {result.alignment.get('clock', '')}", markup=False)
-    err_console.print(f"wrote {result.path}", markup=False)
+        note(f"{topic}: {count} messages")
+    for line in result.notes:
+        note(line)
+    note(f"time alignment: {result.alignment.get('clock', '')}")
+    note(f"wrote {result.path}")
+    exit_with(report_skipped(result.skipped))
 
 
 def register(app: typer.Typer) -> None:

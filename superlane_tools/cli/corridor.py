@@ -13,7 +13,7 @@ from superlane_tools.cli._common import (
     camera_option,
     cli_errors,
     command_line,
-    err_console,
+    note,
     progress,
     report_skipped,
 )
@@ -87,9 +87,7 @@ def _run(
     if result.table is None:
         report_skipped(result.skipped)
         return ExitCode.ERROR
-    err_console.print(
-        f"slt: wrote {result.maps} corridor maps with {result.model} into {out}", markup=False
-    )
+    note(f"wrote {result.maps} corridor maps with {result.model} into {out}")
     return report_skipped(result.skipped)
 
 

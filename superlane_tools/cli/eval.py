@@ -3,13 +3,23 @@
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from dataclasses import asdict
 from pathlib import Path
 from typing import Annotated, Any
 
 import typer
 
-from superlane_tools.cli._common import EXIT_CODES_HELP, cli_errors, command_line, err_console
+from superlane_tools.cli._common import (
+    EXIT_CODES_HELP,
+    cli_errors,
+    command_line,
+    exit_with,
+    note,
+    report_skipped,
+)
+from superlane_tools.errors import ExitCode
+from superlane_tools.records import Skipped
 
 eval_app = typer.Typer(
     name="eval",
@@ -64,7 +74,33 @@ def _save(
         ground_truth=file_ref(gt),
         extra=extra or {},
     )
-    err_console.print(f"wrote {save_record(record, save)}", markup=False)
+    note(f"wrote {save_record(record, save)}")
+
+
+def _check_category(value: str) -> str:
+    """Typer callback: a KITTI category that does not exist is a bad value (exit 2)."""
+    from superlane_tools.evaluation.kitti_files import CATEGORIES
+
+    if value not in CATEGORIES:
+        raise typer.BadParameter(f"use one of {', '.join(CATEGORIES)}, not {value!r}")
+    return value
+
+
+def _check_clips(values: list[str] | None) -> list[str] | None:
+    """Typer callback: a Caltech clip that does not exist is a bad value (exit 2)."""
+    from superlane_tools.evaluation.caltech import CLIPS
+
+    for value in values or []:
+        if value not in CLIPS:
+            raise typer.BadParameter(f"use one of {', '.join(CLIPS)}, not {value!r}")
+    return values
+
+
+def _report_missing(missing: Sequence[object]) -> ExitCode:
+    """Report the frames without a prediction (scored as empty) as one skipped line."""
+    first = f"first: {missing[0]}" if missing else ""
+    lost = [Skipped("frames without a prediction, scored as empty", first, len(missing))]
+    return report_skipped(lost if missing else [])
 
 
 def _print(values: dict[str, Any], as_json: bool) -> None:
@@ -106,8 +142,7 @@ def tusimple_cmd(
 ) -> None:
     """Print TuSimple accuracy, FP, FN and F1 (official LaneEval rules, or an ego mode)."""
     from superlane_tools.errors import UsageError
-    from superlane_tools.evaluation import evaluate, load_jsonl
-    from superlane_tools.evaluation.lane_modes import MODES, evaluate_mode
+    from superlane_tools.evaluation import MODES, evaluate, evaluate_mode, load_jsonl
 
     with cli_errors():
         if mode not in MODES:
@@ -148,8 +183,7 @@ def attributes_cmd(
 ) -> None:
     """Print lane colour and style accuracy over the ground-truth lines found by a prediction."""
     from superlane_tools.errors import UsageError
-    from superlane_tools.evaluation import load_jsonl
-    from superlane_tools.evaluation.lane_modes import MODES, attribute_accuracy
+    from superlane_tools.evaluation import MODES, attribute_accuracy, load_jsonl
 
     with cli_errors():
         if mode not in MODES:
@@ -173,9 +207,10 @@ def kitti_cmd(
     kitti_root: Annotated[
         Path, typer.Argument(help="KITTI road folder (training/gt_image_2 + calib, or flat).")
     ],
-    category: Annotated[str, typer.Option(help="um_lane, um_road, umm_road or uu_road.")] = (
-        "um_lane"
-    ),
+    category: Annotated[
+        str,
+        typer.Option(help="um_lane, um_road, umm_road or uu_road.", callback=_check_category),
+    ] = "um_lane",
     as_json: AsJson = False,
     save: Save = None,
     row: Row = "SUPER",
@@ -187,15 +222,8 @@ def kitti_cmd(
         run = evaluate_folder(pred_dir, kitti_root, category)
         values: dict[str, Any] = run.score.as_dict()
         _save(save, "kitti", row, "", values, pred_dir, kitti_root, {"category": category})
-    if run.missing:
-        err_console.print(
-            f"slt: {len(run.missing)} frame(s) without a prediction scored as empty "
-            f"(first: {run.missing[0]})",
-            markup=False,
-        )
     _print(values, as_json)
-    if run.missing:
-        raise typer.Exit(3)
+    exit_with(_report_missing(run.missing))
 
 
 @eval_app.command("culane")
@@ -243,12 +271,7 @@ def culane_cmd(
                 f"{name:<20}{s['frames']:>7}{s['precision_50']:>8.4f}{s['recall_50']:>8.4f}"
                 f"{s['f1_50']:>8.4f}{s['f1_75']:>8.4f}{s['mf1']:>8.4f}"
             )
-    if run.missing:
-        err_console.print(
-            f"slt: {len(run.missing)} frame(s) without a prediction scored as empty",
-            markup=False,
-        )
-        raise typer.Exit(3)
+    exit_with(_report_missing(run.missing))
 
 
 @eval_app.command("caltech")
@@ -260,7 +283,10 @@ def caltech_cmd(
         Path, typer.Argument(help="Caltech Lanes root: <clip>/labels.ccvl for each clip.")
     ],
     clips: Annotated[
-        list[str] | None, typer.Option("--clip", help="Clip to score (default: all four found).")
+        list[str] | None,
+        typer.Option(
+            "--clip", help="Clip to score (default: all four found).", callback=_check_clips
+        ),
     ] = None,
     as_json: AsJson = False,
     save: Save = None,
@@ -293,11 +319,7 @@ def caltech_cmd(
                 f"{s.name:<14}{s.n_frames:>7}{s.n_truth:>7}{s.correct:>8}{s.false:>7}"
                 f"{s.tpr:>8.4f}{s.fp_per_frame:>9.3f}"
             )
-    if missing:
-        err_console.print(
-            f"slt: {len(missing)} frame(s) without a prediction scored as empty", markup=False
-        )
-        raise typer.Exit(3)
+    exit_with(_report_missing(missing))
 
 
 def register(app: typer.Typer) -> None:

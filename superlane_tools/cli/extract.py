@@ -14,8 +14,8 @@ from superlane_tools.cli._common import (
     cli_errors,
     command_line,
     console,
-    err_console,
     exit_with,
+    note,
     progress,
     report_skipped,
 )
@@ -136,11 +136,9 @@ def extract_cmd(
         def show_dbc(name: str, loaded: object) -> None:
             repairs = getattr(loaded, "repairs", [])
             hint = " (--verbose or `slt dbc show` lists them)" if repairs and not verbose else ""
-            err_console.print(
-                f"slt: dbc {name}: loaded with {len(repairs)} repair(s){hint}", markup=False
-            )
+            note(f"dbc {name}: loaded with {len(repairs)} repair(s){hint}")
             for line in repairs if verbose else []:
-                err_console.print(f"slt: dbc {name}: {line}", markup=False)
+                note(f"dbc {name}: {line}")
 
         with progress("extract", unit="messages") as bar:
             result = extract(
@@ -155,7 +153,7 @@ def extract_cmd(
         if names:
             console.print(f"{kind}: {', '.join(names)}", markup=False)
     if result.can_coverage is not None:
-        err_console.print(f"slt: {result.can_coverage.line()}", markup=False, soft_wrap=True)
+        note(result.can_coverage.line())
     counts = ", ".join(f"{k} {v}" for k, v in result.counts.items() if v)
     console.print(f"extracted: {counts or 'nothing'} -> {out}", markup=False)
     for path in result.outputs:

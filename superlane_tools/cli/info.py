@@ -9,7 +9,13 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from superlane_tools.cli._common import EXIT_CODES_HELP, cli_errors, console, progress
+from superlane_tools.cli._common import (
+    EXIT_CODES_HELP,
+    cli_errors,
+    console,
+    progress,
+    report_skipped,
+)
 from superlane_tools.errors import ExitCode
 
 if TYPE_CHECKING:
@@ -138,7 +144,6 @@ def info(
     ] = False,
 ) -> None:
     """Show topics, types, counts, median rates, largest gaps and header-stamp offsets."""
-    from superlane_tools.cli._common import report_skipped
     from superlane_tools.recording import open_recording, summarize
     from superlane_tools.recording.inspect import (
         CAN_MSGTYPES,

@@ -12,8 +12,8 @@ from superlane_tools.cli._common import (
     camera_option,
     cli_errors,
     command_line,
-    err_console,
     exit_with,
+    note,
     progress,
     report_skipped,
 )
@@ -83,9 +83,7 @@ def fit_cmd(
                 progress=bar.update,
                 images_dir=images,
             )
-        err_console.print(
-            f"fitted {result.n_fitted} of {result.n_frames} frames -> {result.out}", markup=False
-        )
+        note(f"fitted {result.n_fitted} of {result.n_frames} frames -> {result.out}")
     exit_with(report_skipped(result.skipped))
 
 
@@ -128,7 +126,7 @@ def export_cmd(
     from superlane_tools.camera import load_camera
     from superlane_tools.commands.lanes.export import export_tusimple, parse_h_samples
     from superlane_tools.errors import UsageError
-    from superlane_tools.evaluation.tusimple_export import ExportOptions
+    from superlane_tools.evaluation import ExportOptions
 
     with cli_errors():
         if max_lines < 1 or (lanes is not None and lanes < 1):
@@ -137,7 +135,7 @@ def export_cmd(
         cam = load_camera(camera)
         options = ExportOptions(max_lines=max_lines, n_lanes=lanes, raw_ext=raw_ext)
         result = export_tusimple(lanes_parquet, cam, out, options, h_samples=rows, tasks=tasks)
-        err_console.print(f"wrote {result.n_records} frames -> {result.out}", markup=False)
+        note(f"wrote {result.n_records} frames -> {result.out}")
 
 
 @lanes_app.command("export-kitti")
@@ -152,7 +150,7 @@ def export_kitti_cmd(
 
     with cli_errors():
         result = export_kitti_ego_lane(lanes_parquet, load_camera(camera), out)
-        err_console.print(f"wrote {result.n_records} frames -> {result.out}", markup=False)
+        note(f"wrote {result.n_records} frames -> {result.out}")
 
 
 def register(app: typer.Typer) -> None:

@@ -16,6 +16,7 @@ from superlane_tools.cli._common import (
     command_line,
     console,
     exit_with,
+    note,
     progress,
     report_skipped,
 )
@@ -151,16 +152,18 @@ def reprocess_cmd(
                 f"({sum(added.values())} messages)",
                 markup=False,
             )
-    for note in result.notes:
-        console.print(f"note: {note}", markup=False, soft_wrap=True)
+    for line in result.notes:  # with the "Lanes not plausible" warning when there is one
+        note(line)
+    from superlane_tools.reporting.drive_notes import timing_line
+
     t = result.timings
-    stages = ", ".join(f"{k} {v:.1f} s" for k, v in t.items() if k != "total")
     console.print(
         f"reprocessed {result.frames} frames in {t.get('total', 0):.1f} s "
         f"({result.frames_per_s:.1f} frames/s) -> {target}",
         markup=False,
     )
-    console.print(f"stages: {stages}", markup=False, soft_wrap=True)
+    if stages := timing_line(t):
+        console.print(f"times: {stages}", markup=False, soft_wrap=True)
     exit_with(report_skipped(result.skipped))
 
 

@@ -11,7 +11,7 @@ from superlane_tools.cli._common import (
     EXIT_CODES_HELP,
     camera_option,
     cli_errors,
-    err_console,
+    note,
     progress,
     report_skipped,
 )
@@ -66,12 +66,15 @@ def _run(
     overlays: bool,
 ) -> ExitCode:
     from superlane_tools.camera.profiles import load_camera
-    from superlane_tools.scene import backend_from_name, segment_images
+    from superlane_tools.commands.segment import segment_backend
+    from superlane_tools.scene import segment_images
     from superlane_tools.scene.recording_frames import InputFrames
 
     frames = InputFrames(input_path, out)
     cam = load_camera(camera_name) if camera_name else None
-    seg_backend = backend_from_name(backend_name, model=model, camera=cam)
+    seg_backend, chosen = segment_backend(input_path, out, backend_name, model, cam)
+    for line in chosen:
+        note(line)
     skipped: list[Skipped] = []
     written = seen = 0
     with progress("segment", frames.total, "images") as bar:
@@ -83,10 +86,7 @@ def _run(
                 written += 1
             bar.advance()
     skipped.extend(frames.skipped)
-    err_console.print(
-        f"slt: segmented {written} of {seen} images with the {seg_backend.name} backend into {out}",
-        markup=False,
-    )
+    note(f"segmented {written} of {seen} images with the {seg_backend.name} backend into {out}")
     if written == 0:
         report_skipped(skipped)
         return ExitCode.ERROR

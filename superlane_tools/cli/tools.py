@@ -11,8 +11,8 @@ import typer
 from superlane_tools.cli._common import (
     EXIT_CODES_HELP,
     cli_errors,
-    err_console,
     exit_with,
+    note,
     report_skipped,
 )
 
@@ -98,12 +98,11 @@ def filter_cmd(
     with cli_errors():
         result = filter_recording(recording, out, topics, exclude, start, end)
     for topic, count in sorted(result.counts.items()):
-        err_console.print(f"{topic}: {count} messages", markup=False)
+        note(f"{topic}: {count} messages")
     kind = {"ros1": "ROS 1 bag", "ros2": "ROS 2 bag"}.get(result.output_format, "MCAP")
-    err_console.print(
+    note(
         f"wrote {result.path} ({kind}, {sum(result.counts.values())} messages, "
-        f"{result.metadata} metadata records, {result.attachments} attachments)",
-        markup=False,
+        f"{result.metadata} metadata records, {result.attachments} attachments)"
     )
     exit_with(report_skipped(result.skipped))
 

@@ -13,7 +13,7 @@ from superlane_tools.cli._common import (
     EXIT_CODES_HELP,
     cli_errors,
     command_line,
-    err_console,
+    note,
     progress,
 )
 from superlane_tools.errors import UsageError
@@ -74,8 +74,24 @@ def train(
     ] = "superlane",
     threads: Annotated[int, typer.Option("--threads", min=1, help="torch CPU threads.")] = 2,
     arch: Annotated[
-        str, typer.Option("--arch", help="Network: super (seg.); fast or paper (corridor).")
+        str,
+        typer.Option(
+            "--arch", help="Network: super or lite0 (segmentation); fast or paper (corridor)."
+        ),
     ] = "",
+    augment: Annotated[
+        str,
+        typer.Option(
+            "--augment",
+            help="Augmentation: real (default), camera (wider camera geometry, night), none.",
+        ),
+    ] = "real",
+    budget_s: Annotated[
+        float | None,
+        typer.Option(
+            "--budget-s", min=1, help="Wall-clock budget, s: the LR schedule follows it; stop then."
+        ),
+    ] = None,
     dice_bands: Annotated[
         int, typer.Option("--dice-bands", min=1, help="Row bands of the lane-marking Dice.")
     ] = 1,
@@ -91,9 +107,12 @@ def train(
     with cli_errors():
         if task not in TASKS:
             raise UsageError(f"TASK must be one of {', '.join(TASKS)}, got {task!r}")
+        if augment not in ("real", "camera", "none"):
+            raise UsageError(f"--augment must be real, camera or none, got {augment!r}")
         from superlane_tools.training import require_torch
 
         require_torch()
+        from superlane_tools.training.augment import CAMERA_AUGMENT, RealAugment
         from superlane_tools.training.datasets import load_dataset_list, parse_data_arg
         from superlane_tools.training.train import TrainParams
         from superlane_tools.training.train import train as run_training
@@ -117,6 +136,8 @@ def train(
             device=device,
             resume=resume,
             init=init,
+            budget_s=budget_s,
+            augment={"real": RealAugment(), "camera": CAMERA_AUGMENT, "none": None}[augment],
             batch=batch,
             lr=lr,
             size=_size(size),
@@ -133,11 +154,10 @@ def train(
                 bar.update(step, total, note=f"loss {loss:.4f}")
 
             result = run_training(params, update)
-        err_console.print(
-            f"slt: trained {task} model ({result.card.parameters} parameters, "
+        note(
+            f"trained {task} model ({result.card.parameters} parameters, "
             f"{result.seconds:.0f} s, final loss {result.epoch_losses[-1]:.4f}) -> "
-            f"{result.model_path} + {result.card_path.name}",
-            markup=False,
+            f"{result.model_path} + {result.card_path.name}"
         )
 
 

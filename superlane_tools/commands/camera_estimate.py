@@ -7,9 +7,6 @@ from dataclasses import dataclass, replace
 from itertools import pairwise
 from pathlib import Path
 
-import numpy as np
-from numpy.typing import NDArray
-
 from superlane_tools.camera.extrinsics_estimate import (
     ExtrinsicsEstimate,
     estimate_extrinsics,
@@ -23,21 +20,11 @@ from superlane_tools.camera.focal_motion import (
     too_far,
 )
 from superlane_tools.camera.model import CameraModel, Intrinsics
+from superlane_tools.drive.config import DEFAULT_FIT
 from superlane_tools.errors import UsageError
-from superlane_tools.hierarchy import LEAF_IDS
-from superlane_tools.lanes import CODE_OF
-
-
-def _lane_lut() -> NDArray[np.bool_]:
-    lut = np.zeros(256, dtype=bool)
-    for node in CODE_OF:
-        leaf = LEAF_IDS.get(node)
-        if leaf is not None:
-            lut[leaf] = True
-    return lut
-
-
-_LANE_LUT = _lane_lut()
+from superlane_tools.lanes import FitParams
+from superlane_tools.lanes.fit_height import LanePixels, fit_height
+from superlane_tools.lanes.points import lane_points
 
 
 @dataclass(frozen=True)
@@ -103,6 +90,7 @@ def estimate_camera(
     track = None if lens_known else gnss_track(recording)
     backend = OnnxSegmentationBackend(threads=1)
     sampled: list[SampledLines] = []
+    pixels: list[LanePixels] = []
     successors: dict[int, SampledLines] = {}
     used_k: Intrinsics | None = None
     source = ""
@@ -122,14 +110,14 @@ def estimate_camera(
         height, width = frame.image.shape[:2]
         if used_k is None:
             used_k, source = frame_intrinsics(width, height, intrinsics, focal_px, hfov_deg)
-        labels = backend.segment(frame.image)
-        rows, cols = np.nonzero(_LANE_LUT[labels])
-        uv = np.stack([cols, rows], axis=1).astype(np.float64)
+        # the lane fit's own lane-marking pixels
+        uv, codes = lane_points(backend.segment(frame.image), seed=index)
         item = SampledLines(index, frame.log_time_ns, uv)
         if offset:
             successors[index - 1] = item
         else:
             sampled.append(item)
+            pixels.append((uv, codes))
     if used_k is None:
         raise UsageError(f"{recording.name}: no decodable camera frame")
     lines = [frame_lines(f.uv, used_k, seed=f.frame) for f in sampled]
@@ -157,4 +145,7 @@ def estimate_camera(
             )
     elif not lens_known:
         source += "; focal length not measurable from motion (no GNSS track)"
+    # the height the lane fit of `slt reprocess` (its default parameters) needs for this width
+    fit_params = FitParams.from_dict(dict(DEFAULT_FIT))
+    est = fit_height(pixels, CameraModel(used_k, est.extrinsics), est, lane_width_m, fit_params)
     return CameraEstimate(CameraModel(used_k, est.extrinsics, name=name), est, source)

@@ -8,7 +8,7 @@ or Parquet (with provenance).
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -17,7 +17,7 @@ import pandas as pd
 
 from superlane_tools.reporting.atomic import write_text_atomic
 from superlane_tools.reporting.errors import OutputError
-from superlane_tools.reporting.names import AVAILABILITY_NAMES, curvature_name
+from superlane_tools.reporting.names import AVAILABILITY_NAMES, UNCATEGORISED, curvature_name
 from superlane_tools.reporting.parquet import read_provenance, write_table
 from superlane_tools.reporting.provenance import Provenance, input_identity
 from superlane_tools.reporting.report import latex_table, markdown_table
@@ -38,15 +38,27 @@ def _read(run_dir: Path, name: str) -> pd.DataFrame:
     return pd.read_parquet(path)
 
 
-def _category(run_dir: Path, frame: pd.DataFrame, by: str) -> pd.Series:
-    if by == "category" and "category" in frame.columns:
-        cats = frame["category"].astype(str)
-        return cats.where(cats != "", run_dir.name)
-    return pd.Series([run_dir.name] * len(frame), index=frame.index)
+def _category(
+    run_dir: Path, frame: pd.DataFrame, by: str, fallback: Mapping[str, str]
+) -> pd.Series:
+    """Group of each sequence: its run's name, or its category (never a run name)."""
+    if by != "category":
+        return pd.Series([run_dir.name] * len(frame), index=frame.index)
+    default = fallback.get(run_dir.name, "") or UNCATEGORISED
+    own = frame["category"].astype(str) if "category" in frame.columns else None
+    if own is None:
+        return pd.Series([default] * len(frame), index=frame.index)
+    return own.where(own != "", default)
 
 
-def availability_table(run_dirs: Sequence[Path], by: str = "run") -> pd.DataFrame:
+def availability_table(
+    run_dirs: Sequence[Path], by: str = "run", categories: Mapping[str, str] | None = None
+) -> pd.DataFrame:
     """Aggregate availability into Table II layout: one row per category (or run) plus total.
+
+    With ``by="category"`` a sequence's own category wins; else its run's entry in
+    ``categories`` (run folder name -> category, e.g. the batch manifest's), else
+    :data:`UNCATEGORISED`.
 
     Columns: ``category``, ``#seq``, ``width at`` (the forward distance, m, at which every method
     measured its corridor width), then per method ``<method> n/N`` (frame-based ratio, %),
@@ -59,7 +71,8 @@ def availability_table(run_dirs: Sequence[Path], by: str = "run") -> pd.DataFram
     parts = []
     for run in run_dirs:
         seqs = _read(Path(run), AVAILABILITY_SEQUENCES_FILE)
-        seqs = seqs.assign(group=_category(Path(run), seqs, by), run=Path(run).name)
+        group = _category(Path(run), seqs, by, categories or {})
+        seqs = seqs.assign(group=group, run=Path(run).name)
         parts.append(seqs)
     if not parts:
         raise OutputError("no run folders given")

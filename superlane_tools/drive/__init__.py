@@ -16,7 +16,7 @@ from superlane_tools.drive.config import (
     load_config,
     load_manifest,
 )
-from superlane_tools.drive.finalize import DriveTables, ReportFacts, drive_tables
+from superlane_tools.drive.finalize import DriveTables, drive_tables
 from superlane_tools.drive.loop import (
     DrivePass,
     DriveTopics,
@@ -28,6 +28,7 @@ from superlane_tools.drive.loop import (
 from superlane_tools.drive.record import Corridors, DriveFrames, DriveFramesBuilder, FitSeries
 from superlane_tools.drive.sinks import AnnotationSink, ExampleSink, FrameTablesSink, VideoSink
 from superlane_tools.drive.stages import Finished, FrameStages, Prepared
+from superlane_tools.reporting.drive_sections import ReportFacts
 
 __all__ = [
     "BACKENDS",

@@ -47,8 +47,9 @@ class SegmentationConfig:
     """Which segmentation feeds the SUPER lane fit.
 
     Attributes:
-        backend: ``auto`` (``scene.backends.auto_backend``: the shipped ONNX model when its card's
-            real-frame LaneEval accuracy is at least the classical backend's, else ``classical``),
+        backend: ``auto`` (the per-drive self-check, ``drive.selfcheck``, picks the backend
+            whose lanes are most plausible on a sample of the drive; none plausible:
+            ``scene.backends.auto_backend``, the model card's pick),
             ``classical``, ``onnx`` or ``oracle`` (ground-truth leaf-id PNGs from ``oracle_labels``,
             named ``<frame index:06d>.png``, as ``slt simulate --labels`` writes them).
         model: ONNX model file or shipped model name (empty: the shipped default).

@@ -23,8 +23,7 @@ from superlane_tools.drive.config import TopicsConfig
 from superlane_tools.drive.record import DriveFrames, DriveFramesBuilder
 from superlane_tools.drive.signals import ImuSamples
 from superlane_tools.drive.stages import Finished, FrameStages, Prepared
-from superlane_tools.recording.streams import Streams, select_one_each, topics_of_type
-from superlane_tools.recording.video import decode_video
+from superlane_tools.recording import Streams, decode_video, select_one_each, topics_of_type
 from superlane_tools.reporting.gnss_sink import GnssFixes, GnssSink
 
 CAN_TYPE, IMU_TYPE = "can_msgs/msg/Frame", "sensor_msgs/msg/Imu"

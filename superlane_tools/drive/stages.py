@@ -141,14 +141,19 @@ class FrameStages:
     Args:
         config: The run's configuration.
         camera: Camera of the recorded frames (resized to each frame's size as needed).
+        lanes_only: Run only the stages of the lane fit (decode, segmentation, points, fit;
+            no corridor network, no Hough), as the per-drive self-check does.
 
     Raises:
         UsageError: If a requested backend or model cannot be used.
     """
 
-    def __init__(self, config: ReprocessConfig, camera: CameraModel) -> None:
+    def __init__(
+        self, config: ReprocessConfig, camera: CameraModel, lanes_only: bool = False
+    ) -> None:
         self.config = config
         self.camera = camera
+        self.lanes_only = lanes_only
         self.fit_params = config.fit_params
         warm_up_in_background(self.fit_params.backend)  # no-op when loaded or loading
         self.notes: list[str] = []
@@ -157,7 +162,7 @@ class FrameStages:
         self._oracle: OracleLabels | None = None
         self.backend_name, self._backend = self._segmentation_backend()
         self.corridor_unavailable = ""
-        self._corridor = self._corridor_model()
+        self._corridor = None if lanes_only else self._corridor_model()
         self._smoother: Any = None
         self._held_prob: NDArray[np.float32] | None = None  # corridor.net_every > 1
         if self._corridor is not None:
@@ -234,8 +239,6 @@ class FrameStages:
 
     def prepare(self, index: int, msg: Message) -> Prepared:
         """Run the frame-local stages of one image message (thread-safe)."""
-        import cv2
-
         out = Prepared(index, msg.log_time_ns, msg.stamp_ns)
         clock = out.clock()
         reduced = decode_reduced(msg, self.config.segmentation.process_width)
@@ -250,7 +253,23 @@ class FrameStages:
                 return out
             height, width = image.shape[:2]
         out.source_size = (width, height)
-        pw, ph = self.process_size(width, height)
+        return self.prepare_image(out, image, clock)
+
+    def prepare_image(
+        self, out: Prepared, image: NDArray[np.uint8], clock: _StageClock | None = None
+    ) -> Prepared:
+        """Run the frame-local stages on a decoded image (BGR) into ``out`` (thread-safe).
+
+        ``out.source_size`` is the recorded size (set from ``image`` when unset); ``image`` may
+        already be reduced towards the processing size.
+        """
+        import cv2
+
+        clock = clock or out.clock()
+        index = out.index
+        if out.source_size == (0, 0):
+            out.source_size = (image.shape[1], image.shape[0])
+        pw, ph = self.process_size(*out.source_size)
         if (pw, ph) != image.shape[1::-1]:
             image = np.asarray(cv2.resize(image, (pw, ph), interpolation=cv2.INTER_AREA))
         out.image = image
@@ -270,7 +289,8 @@ class FrameStages:
         if self._corridor is not None and index % self.config.corridor.net_every == 0:
             out.corridor_prob = self._corridor.probability_at_input(image)
         clock.lap("corridor_net")
-        out.hough = detect_ego_lane(image, cam, self._hough_params)
+        if not self.lanes_only:
+            out.hough = detect_ego_lane(image, cam, self._hough_params)
         clock.lap("hough")
         return out
 
@@ -304,6 +324,13 @@ class FrameStages:
             keep = max(2 * workers, len(pending) - CATCH_UP)
         while len(pending) > keep:
             yield pending.popleft().result()
+
+    def restart(self) -> None:
+        """Forget the state that spans frames (the fit's warm start, the corridor mean)."""
+        self._sequence.reset()
+        self._held_prob = None
+        if self._smoother is not None:
+            self._smoother.reset()
 
     def smooth(self, prep: Prepared) -> CorridorGeometry:
         """Run the corridor network's three-frame mean on ``prep``: in frame order, once each.

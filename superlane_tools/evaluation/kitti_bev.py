@@ -9,19 +9,23 @@ benchmark for road detection algorithms", ITSC 2013; reference code ``devkit_roa
 ``u ~ P2 @ R0_rect @ inv(Tr_cam_to_road) @ X`` (4x4 extensions of ``R0_rect`` and
 ``Tr_cam_to_road``), the devkit's ``Tr33`` with the ``y`` column dropped. The grid is 0.05 m
 cells over ``x`` in ``[-10, 10)`` m (400 columns, left to right) and ``z`` in ``[6, 46)`` m
-(800 rows, far to near: row 0 is ``z = 46 - 0.025``). Each cell takes the value of the nearest
-image pixel (pixel centres at integer coordinates, the convention of ``P2``); cells whose pixel
-falls outside the image are 0 in every channel, so they are outside the valid area.
+(800 rows, far to near: row 0 is ``z = 46 - 0.025``); the cell centres are the devkit's
+``np.arange`` values stored as float32, as its look-up table does. A cell whose projection
+``(u, v)`` lies in ``[1, W] x [1, H]`` takes pixel ``(floor(v) - 1, floor(u) - 1)`` (the devkit's
+``uint32`` truncation of MATLAB-style 1-based coordinates); every other cell is 0 in every
+channel, so it is outside the valid area.
 
 **Scores.** The ground truth (decoded as in :mod:`superlane_tools.evaluation.kitti`: positive =
 blue channel set, valid = red channel set) and a confidence map in ``[0, 1]`` are both warped.
-Over all frames, for each of the 256 thresholds ``t = k / 255``, a valid cell is predicted
-positive when its confidence is ``>= t``; FN and FP are accumulated over frames. From the summed
-counts: ``recall = TP / P``, ``precision = TP / (TP + FP + 1e-10)``; thresholds where both are 0
-are dropped; ``F = 2 P R / (P + R + 1e-10)``, ``MaxF`` its maximum; precision, recall, FPR =
-``FP / N``, FNR = ``FN / P`` are reported at the MaxF threshold; ``AP`` is the devkit's PASCAL
-11-point average (max precision at recall ``>= r`` for ``r = 0, 0.1, ..., 1``, levels with no
-such recall skipped).
+Over all frames, for each of the 256 thresholds ``t = k / 255`` (float64), a valid cell is
+predicted positive when its confidence is ``>= t``, the comparison the devkit's ``evalExp``
+histogram makes (its confidences are float32 ``value / 255`` of an 8-bit map; see
+:func:`devkit_confidence`); FN and FP are accumulated over frames. From the summed counts:
+``recall = TP / P``, ``precision = TP / (TP + FP + 1e-10)``; thresholds where both are 0 are
+dropped; ``F = 2 P R / (P + R + 1e-10)``, ``MaxF`` its maximum (first maximum); precision,
+recall, FPR = ``FP / N``, FNR = ``FN / P`` are reported at the MaxF threshold; ``AP`` is the
+devkit's PASCAL 11-point average (max precision at recall ``>= r`` for ``r`` in
+``np.arange(0, 1.1, 0.1)``, levels with no such recall skipped).
 """
 
 from __future__ import annotations
@@ -70,12 +74,18 @@ class BevGrid:
         return rows, cols
 
     def cell_centres(self) -> tuple[FloatArray, FloatArray]:
-        """Return ``(x, z)`` of every cell centre, metres, each ``(rows, cols)``."""
-        rows, cols = self.shape
-        x = self.x_range_m[0] + (np.arange(cols) + 0.5) * self.res_m
-        z = self.z_range_m[1] - (np.arange(rows) + 0.5) * self.res_m
-        xx, zz = np.meshgrid(x, z)
-        return xx, zz
+        """Return ``(x, z)`` of every cell centre, metres, each ``(rows, cols)``.
+
+        The values are the devkit's: ``np.arange`` from half a cell inside the limits, stored
+        as float32 (its look-up table's type), returned as float64.
+        """
+        res = self.res_m
+        x = np.arange(self.x_range_m[0] + res / 2, self.x_range_m[1], res)
+        z = np.arange(self.z_range_m[1] - res / 2, self.z_range_m[0], -res)
+        if (z.size, x.size) != self.shape:
+            raise EvaluationError(f"BEV grid {self} does not divide into whole cells")
+        xx, zz = np.meshgrid(x.astype(np.float32), z.astype(np.float32))
+        return xx.astype(np.float64), zz.astype(np.float64)
 
 
 def road_to_image_matrix(
@@ -114,7 +124,7 @@ def road_to_image(road_to_pixel: FloatArray, x_m: FloatArray, z_m: FloatArray) -
     x = np.asarray(x_m, dtype=np.float64)
     z = np.asarray(z_m, dtype=np.float64)
     m = road_to_pixel[:, [0, 2, 3]]  # y = 0 on the road surface
-    h = m[:, 0, None] * x.ravel() + m[:, 1, None] * z.ravel() + m[:, 2, None]
+    h = m @ np.vstack((x.ravel(), z.ravel(), np.ones(x.size)))
     with np.errstate(divide="ignore", invalid="ignore"):
         uv = np.where(h[2] > 0, h[:2] / h[2], np.nan)
     return uv.T.reshape(*x.shape, 2)
@@ -122,7 +132,7 @@ def road_to_image(road_to_pixel: FloatArray, x_m: FloatArray, z_m: FloatArray) -
 
 @dataclass(frozen=True)
 class BevLookup:
-    """Nearest-pixel lookup from every BEV cell into one image.
+    """Pixel lookup from every BEV cell into one image (the devkit's sampling).
 
     Attributes:
         rows: Image row of each cell (``(R, C)``, -1 outside the image).
@@ -145,20 +155,44 @@ class BevLookup:
 def bev_lookup(
     road_to_pixel: FloatArray, image_size: tuple[int, int], grid: BevGrid | None = None
 ) -> BevLookup:
-    """Return the nearest-pixel lookup of ``grid`` into an image ``(width, height)``."""
+    """Return the devkit's lookup of ``grid`` into an image ``(width, height)``.
+
+    A cell projecting to ``(u, v)`` with ``1 <= u <= W`` and ``1 <= v <= H`` takes pixel row
+    ``floor(v) - 1`` and column ``floor(u) - 1``; other cells (and cells behind the camera)
+    are outside the image.
+    """
     g = grid or BevGrid()
     xx, zz = g.cell_centres()
     uv = road_to_image(road_to_pixel, xx, zz)
     width, height = image_size
     with np.errstate(invalid="ignore"):
-        cols = np.rint(uv[..., 0])
-        rows = np.rint(uv[..., 1])
-        inside = (cols >= 0) & (cols <= width - 1) & (rows >= 0) & (rows <= height - 1)
+        u, v = uv[..., 0], uv[..., 1]
+        inside = (v >= 1) & (u >= 1) & (v <= height) & (u <= width)
+        cols = np.floor(np.where(inside, u, 1.0)) - 1
+        rows = np.floor(np.where(inside, v, 1.0)) - 1
     return BevLookup(
         rows=np.where(inside, rows, -1).astype(np.intp),
         cols=np.where(inside, cols, -1).astype(np.intp),
         inside=inside,
     )
+
+
+def devkit_confidence(image: NDArray[np.generic]) -> NDArray[np.float32]:
+    """Return the devkit's confidence of an 8-bit prediction map: float32 ``value / 255``.
+
+    The devkit reads result maps as 8-bit grayscale (``cv2.imread(path, 0)``) and divides in
+    float32; its thresholds are float64 ``k / 255``. Float32 ``k / 255`` is never below float64
+    ``k / 255`` (all 256 values checked), so a cell of value ``k`` counts as positive at
+    threshold ``k``; keeping float32 keeps every comparison the devkit's.
+
+    Raises:
+        EvaluationError: If the map is not 8-bit.
+    """
+    arr = np.asarray(image)
+    if arr.dtype != np.uint8:
+        raise EvaluationError(f"devkit confidence needs an 8-bit map, got {arr.dtype}")
+    out: NDArray[np.float32] = np.clip(arr.astype(np.float32) / np.float32(255), 0.0, 1.0)
+    return out
 
 
 def ground_truth_to_bev(gt: KittiGroundTruth, lookup: BevLookup) -> KittiGroundTruth:

@@ -7,8 +7,9 @@ Two layouts of ``KITTI_ROOT`` are recognised for a category such as ``um_lane``:
 * a flat folder ``gt_um_lane_000000.png`` with ``calib_um_000000.txt`` (``../shared/data``).
 
 Predictions in ``PRED_DIR`` are the benchmark's perspective submission images:
-``um_lane_000000.png`` (or ``um_000000.png``), one channel, confidence = value / dtype maximum
-(so ``uint8`` 255 and ``uint16`` 65535 are 1.0); a colour image uses its first channel.
+``um_lane_000000.png`` (or ``um_000000.png``), read as the devkit reads result maps: 8-bit
+grayscale (``cv2.imread(path, 0)``: a colour map becomes its luma, a 16-bit map its 8-bit
+reduction), confidence = float32 ``value / 255``.
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ from superlane_tools.evaluation.kitti_bev import (
     BevScore,
     SweepCounts,
     bev_lookup,
+    devkit_confidence,
     ground_truth_to_bev,
     max_f_score,
     road_to_image_matrix,
@@ -98,30 +100,18 @@ def _find_calib(base: Path, frame_id: str) -> Path | None:
     return None
 
 
-def read_png(path: Path) -> NDArray[np.generic]:
-    """Read a PNG unchanged (bit depth and channels kept).
+def read_png(path: Path, grayscale: bool = False) -> NDArray[np.generic]:
+    """Read a PNG unchanged (bit depth and channels kept), or as 8-bit grayscale.
 
     Raises:
         EvaluationError: If it cannot be read.
     """
     import cv2  # late: heavy import
 
-    image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    image = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE if grayscale else cv2.IMREAD_UNCHANGED)
     if image is None:
         raise EvaluationError(f"cannot read image {path}")
     return np.asarray(image)
-
-
-def confidence_from_image(image: NDArray[np.generic]) -> NDArray[np.float64]:
-    """Return a ``(H, W)`` confidence in ``[0, 1]`` from a prediction image."""
-    arr = np.asarray(image)
-    if arr.ndim == 3:
-        arr = arr[:, :, 0]
-    if arr.dtype == np.bool_:
-        return arr.astype(np.float64)
-    if np.issubdtype(arr.dtype, np.integer):
-        return arr.astype(np.float64) / float(np.iinfo(arr.dtype).max)
-    return np.clip(arr.astype(np.float64), 0.0, 1.0)
 
 
 def find_prediction(pred_dir: Path, category: str, frame_id: str) -> Path | None:
@@ -179,9 +169,9 @@ def evaluate_folder(
         pred_path = find_prediction(pdir, category, frame.frame_id)
         if pred_path is None:
             missing.append(frame.frame_id)
-            conf = np.zeros((height, width))
+            conf = np.zeros((height, width), dtype=np.float32)
         else:
-            conf = confidence_from_image(read_png(pred_path))
+            conf = devkit_confidence(read_png(pred_path, grayscale=True))
             if conf.shape != (height, width):
                 raise EvaluationError(
                     f"{pred_path}: size {conf.shape[1]}x{conf.shape[0]} differs from the "
@@ -196,6 +186,6 @@ def evaluate_folder(
         matrix = road_to_image_matrix(calib.projections[2], calib.r0_rect, calib.cam_to_road[:3])
         lookup = bev_lookup(matrix, (width, height), grid)
         bev_gt = ground_truth_to_bev(gt, lookup)
-        counts.add(np.asarray(lookup.warp(conf, fill=0.0), dtype=np.float64), bev_gt)
+        counts.add(np.asarray(lookup.warp(conf, fill=0.0)), bev_gt)
     score = max_f_score(counts, len(frames))
     return KittiRun(score, tuple(missing), tuple(f.frame_id for f in frames))

@@ -22,10 +22,12 @@ Rules (``slt lanes export-tusimple``):
 
 from __future__ import annotations
 
+import dataclasses
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import PurePosixPath
+from typing import Any
 
 import numpy as np
 
@@ -33,6 +35,7 @@ from superlane_tools.camera.model import CameraModel
 from superlane_tools.evaluation.errors import EvaluationError
 from superlane_tools.evaluation.tusimple import TuSimpleRecord
 from superlane_tools.lanes import Lane, lanes_at_rows
+from superlane_tools.lanes.table import lanes_from_row
 
 NO_POINT = -2
 """x written where a line has no point on a row."""
@@ -81,6 +84,26 @@ class FittedFrame:
     c: float
     fit_time_ms: float
     seg_time_ms: float = math.nan
+
+
+def fitted_frame(row: Mapping[str, Any], name: str | None = None) -> FittedFrame:
+    """Return a ``lanes.parquet`` row as a :class:`FittedFrame` (``name``: else the row's)."""
+    lanes, slope = lanes_from_row(dict(row))
+    colours, styles = row.get("colours"), row.get("styles")
+    colours = list(colours) if colours is not None else ["unknown"] * len(lanes)
+    styles = list(styles) if styles is not None else ["unknown"] * len(lanes)
+    c, seg = row.get("c"), row.get("seg_time_ms")
+    return FittedFrame(
+        name=str(row["name"]) if name is None else name,
+        lanes=tuple(
+            dataclasses.replace(ln, colour=str(co), style=str(st))
+            for ln, co, st in zip(lanes, colours, styles, strict=True)
+        ),
+        b=slope,
+        c=float(c) if c is not None and math.isfinite(c) else 0.0,
+        fit_time_ms=float(row.get("fit_time_ms") or 0.0),
+        seg_time_ms=float(seg) if seg is not None else math.nan,
+    )
 
 
 def raw_file_of(name: str, raw_ext: str) -> str:

@@ -16,9 +16,11 @@ import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
+from superlane_tools.errors import message_line
+
 CACHE_ENV = "SLT_CACHE_DIR"
 """Environment variable naming superlane-tools' cache root (kernels go to its ``numba/``)."""
-COMPILE_NOTE = "note: compiling lane-fit kernels (first run only)"
+COMPILE_NOTE = message_line("note", "compiling lane-fit kernels (first run only)")
 _COMPILE = "from superlane_tools.lanes._kernels import compile_all; compile_all()"
 
 

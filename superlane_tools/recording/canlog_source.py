@@ -27,6 +27,7 @@ _CANDUMP_LINE = re.compile(
     r"^\s*\(\d{1,12}(?:\.\d{1,9})?\)\s+\S{1,64}\s+[0-9A-Fa-f]{1,8}#"
     r"(?:#[0-9A-Fa-f])?(?:(?:[0-9A-Fa-f]{2}){0,64}|[Rr]\d?)(?:\s+[RrTt])?\s*$"
 )
+_CANDUMP_START = re.compile(r"(?=\(\d)")
 SNIFF_BYTES = 65536
 """How much of a text log is looked at to recognise its format."""
 SNIFF_LINES = 200
@@ -137,17 +138,21 @@ class _CheckedLines:
 
     def __iter__(self) -> Iterator[str]:
         for number, line in enumerate(self._handle, start=1):
-            if not line.strip():
-                continue
-            if self._candump:
-                ok = bool(_CANDUMP_LINE.match(line))
-            else:
-                ok = line.rstrip("\r\n").replace("\t", " ").isprintable()
-                ok = ok and "\ufffd" not in line and len(line) < 4096
-            if ok:
-                yield line
-            elif not line.lstrip().startswith(("#", "//")):
-                self._skips.add("bad CAN log line", f"{self._name}: first at line {number}")
+            # candump: cut before every "(<digit>", so frames run together by binary junk (a
+            # NUL where the line break was) are each read or each counted
+            pieces = _CANDUMP_START.split(line.rstrip("\r\n")) if self._candump else [line]
+            for piece in pieces:
+                if not piece.strip():
+                    continue
+                if self._candump:
+                    ok = bool(_CANDUMP_LINE.match(piece))
+                else:
+                    ok = piece.rstrip("\r\n").replace("\t", " ").isprintable()
+                    ok = ok and "\ufffd" not in piece and len(piece) < 4096
+                if ok:
+                    yield piece if not self._candump else piece + "\n"
+                elif not piece.lstrip().startswith(("#", "//")):
+                    self._skips.add("bad CAN log line", f"{self._name}: first at line {number}")
 
     def close(self) -> None:
         self._handle.close()

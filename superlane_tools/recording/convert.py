@@ -17,6 +17,7 @@ recording's time; the chosen alignment is written to the ``slt_convert`` metadat
 
 from __future__ import annotations
 
+import contextlib
 import heapq
 import math
 import re
@@ -29,10 +30,13 @@ import numpy as np
 
 from superlane_tools.camera.metadata import METADATA_NAME as METADATA_CAMERA
 from superlane_tools.camera.metadata import camera_metadata
+from superlane_tools.errors import UsageError
 from superlane_tools.recording import messages as msgs
+from superlane_tools.recording.base import SkipLog
 from superlane_tools.recording.errors import RecordingError
 from superlane_tools.recording.times import format_utc, parse_time
 from superlane_tools.recording.typestore import COMPRESSED_VIDEO_MSGTYPE
+from superlane_tools.records import Skipped
 
 InputKind = Literal["video", "nmea", "gpx", "can", "csv"]
 VIDEO_SUFFIXES = frozenset({".mp4", ".mkv", ".mov", ".avi", ".webm", ".m4v", ".h264", ".h265"})
@@ -46,6 +50,8 @@ FIX_TOPIC = "/gnss/fix"
 _NS = 1_000_000_000
 _TIME_COLUMNS = ("time_ns", "t_ns", "timestamp_ns", "time", "t", "timestamp", "time_s", "t_s")
 _SAFE = re.compile(r"[^A-Za-z0-9_]+")
+_NAN_TEXT = ("nan", "na", "n/a", "null", "none", "-")
+"""Cell texts taken as 'no value' in a CSV signal column, not as damage."""
 
 
 @dataclass(frozen=True)
@@ -86,12 +92,13 @@ class ConvertConfig:
 
 @dataclass
 class ConvertResult:
-    """What was written: message counts per topic, the alignment, and notes."""
+    """What was written: message counts per topic, the alignment, notes, and what was skipped."""
 
     path: Path
     counts: dict[str, int] = field(default_factory=dict)
     alignment: dict[str, str] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
+    skipped: list[Skipped] = field(default_factory=list)
 
 
 def input_kind(path: Path) -> InputKind:
@@ -230,10 +237,10 @@ def _video_start(container: Any, config: ConvertConfig) -> tuple[int, str]:
     return 0, "no start time known: seconds into the video"
 
 
-def _fix_items(path: Path, offset_ns: int) -> Iterator[Item]:
+def _fix_items(path: Path, offset_ns: int, result: ConvertResult) -> Iterator[Item]:
     from superlane_tools.recording.nmea_source import NmeaRecording
 
-    with NmeaRecording(path) as rec:
+    with NmeaRecording(path) as rec, _reporting_skips(rec, result):
         for m in rec.messages():
             d = m.data
             cov = d.position_covariance if d.position_covariance_type else None
@@ -249,19 +256,31 @@ def _fix_items(path: Path, offset_ns: int) -> Iterator[Item]:
             yield m.log_time_ns + offset_ns, FIX_TOPIC, "sensor_msgs/msg/NavSatFix", fix
 
 
-def _gpx_items(path: Path, offset_ns: int) -> Iterator[Item]:
+def _gpx_items(path: Path, offset_ns: int, result: ConvertResult) -> Iterator[Item]:
     import gpxpy
 
     try:
-        with path.open(encoding="utf-8") as handle:
-            gpx = gpxpy.parse(handle)
-    except Exception as err:  # gpxpy raises its own and XML errors
-        raise RecordingError(f"{path.name}: not a readable GPX file: {err}") from err
-    points: list[Any] = [p for track in gpx.tracks for seg in track.segments for p in seg.points]
-    points += list(gpx.waypoints) + [p for route in gpx.routes for p in route.points]
+        text = path.read_text(encoding="utf-8", errors="replace")
+    except OSError as err:
+        raise RecordingError(f"{path.name}: cannot read: {err.strerror}") from err
+    try:
+        gpx = gpxpy.parse(text)
+        points = _gpx_points(gpx)
+    except Exception as err:  # gpxpy raises its own and XML errors: salvage point by point
+        reason = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
+        points, bad = _salvage_gpx_points(text)
+        if not points:
+            raise RecordingError(f"{path.name}: not a readable GPX file: {reason}") from err
+        # one line: how many points were lost, or (junk between points) that the XML was damaged
+        what = "bad GPX point" if bad else "damaged GPX file"
+        result.skipped.append(Skipped(what, f"{path.name}: {reason}", bad))
     timed = sorted((p for p in points if p.time is not None), key=lambda p: p.time)
     if not timed:
         raise RecordingError(f"{path.name}: no GPX point has a time")
+    if len(timed) < len(points):
+        result.skipped.append(
+            Skipped("GPX point without time", path.name, len(points) - len(timed))
+        )
     for p in timed:
         t = parse_time(p.time.isoformat()).ns + offset_ns
         alt = float(p.elevation) if p.elevation is not None else 0.0
@@ -269,10 +288,49 @@ def _gpx_items(path: Path, offset_ns: int) -> Iterator[Item]:
         yield t, FIX_TOPIC, "sensor_msgs/msg/NavSatFix", fix
 
 
+def _gpx_points(gpx: Any) -> list[Any]:
+    points: list[Any] = [p for track in gpx.tracks for seg in track.segments for p in seg.points]
+    return points + list(gpx.waypoints) + [p for route in gpx.routes for p in route.points]
+
+
+_GPX_POINT = re.compile(r"<(trkpt|rtept|wpt)\b.*?</\1\s*>", re.DOTALL)
+_GPX_OPEN = re.compile(r"<(?:trkpt|rtept|wpt)\b")
+_GPX_WRAP = {
+    "trkpt": ("<trk><trkseg>", "</trkseg></trk>"),
+    "rtept": ("<rte>", "</rte>"),
+    "wpt": ("", ""),
+}
+
+
+def _salvage_gpx_points(text: str) -> tuple[list[Any], int]:
+    """Read the points of a GPX file that is not well-formed XML (binary junk, a cut file).
+
+    Every ``<trkpt>``, ``<rtept>`` and ``<wpt>`` element is parsed on its own by gpxpy, in a
+    minimal GPX document; returns the points read and how many elements did not parse (an
+    element opened but never closed, as at a cut, included).
+    """
+    import gpxpy
+
+    points: list[Any] = []
+    elements = list(_GPX_POINT.finditer(text))
+    bad = max(0, len(_GPX_OPEN.findall(text)) - len(elements))
+    for match in elements:
+        head, tail = _GPX_WRAP[match[1]]
+        doc = (
+            '<gpx version="1.1" xmlns="http://www.topografix.com/GPX/1/1">'
+            f"{head}{match[0]}{tail}</gpx>"
+        )
+        try:
+            points += _gpx_points(gpxpy.parse(doc))
+        except Exception:  # gpxpy/XML errors: this point is damaged
+            bad += 1
+    return points, bad
+
+
 def _can_items(path: Path, offset_ns: int, result: ConvertResult) -> Iterator[Item]:
     from superlane_tools.recording.canlog_source import CanLogRecording
 
-    with CanLogRecording(path) as rec:
+    with CanLogRecording(path) as rec, _reporting_skips(rec, result):
         for m in rec.messages():
             f = m.data
             if f.is_error or f.is_rtr or len(f.data) > 8:
@@ -283,44 +341,106 @@ def _can_items(path: Path, offset_ns: int, result: ConvertResult) -> Iterator[It
             yield t, topic, "can_msgs/msg/Frame", msgs.can_frame(t, f.id, f.data, f.is_extended)
 
 
-def _csv_items(path: Path, offset_ns: int) -> Iterator[Item]:
+def _csv_items(path: Path, offset_ns: int, result: ConvertResult) -> Iterator[Item]:
     import pandas as pd
 
+    bad_lines: list[list[str]] = []
+
+    def bad_line(fields: list[str]) -> None:  # wrong field count: two rows run together, junk
+        bad_lines.append(fields)
+
     try:
-        table = pd.read_csv(path)
+        table = pd.read_csv(
+            path, dtype=str, keep_default_na=False, encoding_errors="replace", engine="python",
+            on_bad_lines=bad_line,
+        )  # fmt: skip
     except Exception as err:  # pandas parser errors
-        raise RecordingError(f"{path.name}: not a readable CSV: {err}") from err
+        reason = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
+        raise RecordingError(f"{path.name}: not a readable CSV: {reason}") from err
     lower = {str(c).strip().lower(): c for c in table.columns}
     time_col = next((lower[n] for n in _TIME_COLUMNS if n in lower), None)
     if time_col is None:
         raise RecordingError(
             f"{path.name}: no time column (one of {', '.join(_TIME_COLUMNS)}) in the CSV"
         )
-    times = _csv_times(table[time_col], str(time_col))
-    cls = _float64_cls()
-    columns = [
-        c for c in table.columns if c != time_col and pd.api.types.is_numeric_dtype(table[c])
-    ]
-    if not columns:
+    times, bad_times = _csv_times(table[time_col], str(time_col))
+    values, bad_values = _csv_signals(table.drop(columns=[time_col]))
+    if not values:
         raise RecordingError(f"{path.name}: no numeric signal columns besides {time_col}")
-    for row in range(len(table)):
+    skips = SkipLog()
+    if bad_lines:
+        skips.add("bad CSV line", f"{path.name}: {bad_lines[0]!r:.60}", len(bad_lines))
+    for rows, what in ((bad_times, "bad CSV time"), (bad_values, "bad CSV value")):
+        if rows:
+            skips.add(what, f"{path.name}: first at data row {rows[0] + 1}", len(rows))
+    result.skipped.extend(skips.items())
+    cls = _float64_cls()
+    topics = {c: "/signals/" + (_SAFE.sub("_", str(c)).strip("_") or "value") for c in values}
+    for row in np.flatnonzero(times >= 0):
         t = int(times[row]) + offset_ns
-        for c in columns:
-            value = float(table[c].iloc[row])
+        for c, column in values.items():
+            value = float(column[row])
             if math.isfinite(value):
-                topic = "/signals/" + (_SAFE.sub("_", str(c)).strip("_") or "value")
-                yield t, topic, "std_msgs/msg/Float64", cls(data=value)
+                yield t, topics[c], "std_msgs/msg/Float64", cls(data=value)
 
 
-def _csv_times(column: Any, name: str) -> Any:
+def _csv_signals(table: Any) -> tuple[dict[Any, np.ndarray], list[int]]:
+    """Return the numeric columns (as floats, NaN where empty) and the rows of bad cells.
+
+    A column is a signal when most of its filled cells are numbers; its other filled cells
+    (binary junk, a garbled number) are bad values, skipped and counted per cell.
+    """
     import pandas as pd
 
-    if pd.api.types.is_numeric_dtype(column):
-        values = column.to_numpy(dtype=np.float64)
-        if name.lower().endswith("_ns") or (len(values) and np.nanmedian(values) > 1e15):
-            return values.astype(np.int64)
-        return np.round(values * _NS).astype(np.int64)
-    return np.array([parse_time(str(v), name).ns for v in column], dtype=np.int64)
+    columns: dict[Any, np.ndarray] = {}
+    bad: list[int] = []
+    for c in table.columns:
+        text = table[c].str.strip()
+        filled = text != ""
+        numbers = pd.to_numeric(text.where(filled), errors="coerce").to_numpy(dtype=np.float64)
+        wrong = filled.to_numpy() & np.isnan(numbers) & ~text.str.lower().isin(_NAN_TEXT)
+        if filled.sum() and wrong.sum() * 2 < filled.sum():
+            columns[c] = numbers
+            bad.extend(np.flatnonzero(wrong).tolist())
+    return columns, sorted(set(bad))
+
+
+def _csv_times(column: Any, name: str) -> tuple[np.ndarray, list[int]]:
+    """Return each row's time in ns (-1 where unreadable) and the unreadable rows.
+
+    Raises:
+        RecordingError: If no row has a readable time.
+    """
+    import pandas as pd
+
+    text = column.str.strip()
+    numbers = pd.to_numeric(text, errors="coerce").to_numpy(dtype=np.float64)
+    times = np.full(len(text), -1, dtype=np.int64)
+    if np.isfinite(numbers).sum() * 2 > len(numbers):  # numeric times: seconds or ns
+        ok = np.isfinite(numbers) & (numbers >= 0)
+        in_ns = name.lower().endswith("_ns") or (ok.any() and np.median(numbers[ok]) > 1e15)
+        scaled = numbers if in_ns else numbers * _NS
+        ok &= scaled < 2**63
+        times[ok] = np.round(scaled[ok]).astype(np.int64)
+    else:
+        for row, value in enumerate(text):
+            try:
+                times[row] = parse_time(value, name).ns
+            except (UsageError, RecordingError, ValueError):
+                continue
+    bad = np.flatnonzero(times < 0).tolist()
+    if len(bad) == len(times):
+        raise RecordingError(f"{name}: no readable time in the CSV's time column")
+    return times, bad
+
+
+@contextlib.contextmanager
+def _reporting_skips(rec: Any, result: ConvertResult) -> Iterator[None]:
+    """Add what a log reader skipped to ``result`` once its messages have been read."""
+    try:
+        yield
+    finally:
+        result.skipped.extend(rec.skipped)
 
 
 def _float64_cls() -> Any:
@@ -344,7 +464,8 @@ def convert(
         command: Command line for the metadata record.
 
     Returns:
-        Counts per topic, the time alignment and notes.
+        Counts per topic, the time alignment, notes, and what was skipped in the inputs (bad
+        NMEA checksums, unparsable log lines).
 
     Raises:
         RecordingError: For unreadable inputs, two videos, or an existing output.
@@ -368,13 +489,13 @@ def convert(
         if kind == "video":
             sources.append(_video_items(item.path, cfg, offset_ns, result))
         elif kind == "nmea":
-            sources.append(_fix_items(item.path, offset_ns))
+            sources.append(_fix_items(item.path, offset_ns, result))
         elif kind == "gpx":
-            sources.append(_gpx_items(item.path, offset_ns))
+            sources.append(_gpx_items(item.path, offset_ns, result))
         elif kind == "can":
             sources.append(_can_items(item.path, offset_ns, result))
         else:
-            sources.append(_csv_items(item.path, offset_ns))
+            sources.append(_csv_items(item.path, offset_ns, result))
     if kinds.count("video") > 1:
         raise RecordingError("one video per recording: convert each video on its own")
     result.alignment["clock"] = (

@@ -19,6 +19,11 @@ NAVSATFIX_TYPE = "sensor_msgs/msg/NavSatFix"
 NMEA_TOPIC = "nmea"
 
 _SENTENCE = re.compile(r"\$([A-Z]{2})([A-Z]{3}),([^*$]*)\*([0-9A-Fa-f]{2})")
+_AT_SENTENCE = re.compile(r"\$([A-Z][A-Z0-9]{1,9}),([^*$]*)\*([0-9A-Fa-f]{2})")
+"""One sentence at the start of a ``$``-piece: address (talker + type, or proprietary ``P...``),
+fields, checksum."""
+_PRINTABLE = re.compile(r"[\x20-\x7e]*")
+_PIECES = re.compile(r"(?=\$)")
 _DAY_NS = 86_400 * 1_000_000_000
 
 # GGA fix quality -> (ROS NavSatStatus.status, assumed 1-sigma horizontal error per HDOP unit, m)
@@ -178,6 +183,25 @@ class _Parsed(NamedTuple):
     line: str
 
 
+def _read_piece(piece: str) -> tuple[str, _Parsed | None]:
+    """Read one ``$``-piece of a line: (what was damaged or "", the GGA/RMC sentence or None).
+
+    A good sentence followed by junk (a damaged next sentence whose ``$`` was lost) is still
+    returned; the junk is reported as a ``bad NMEA line``.
+    """
+    match = _AT_SENTENCE.match(piece)
+    if match is None:
+        return ("bad NMEA line" if piece.strip() else ""), None
+    junk = "bad NMEA line" if piece[match.end() :].strip() else ""
+    address, body = match[1], match[2]
+    if not _PRINTABLE.fullmatch(body) or not nmea_checksum_ok(f"{address},{body}", match[3]):
+        return "bad NMEA checksum", None
+    kind = address[2:] if len(address) == 5 and not address.startswith("P") else ""
+    if kind not in ("GGA", "RMC"):
+        return junk, None
+    return junk, _Parsed(kind, body.split(","), piece[: match.end()])
+
+
 def sentence_fix(kind: str, fields: list[str], t_ns: int) -> NmeaFix:
     """Build the fix of a GGA or RMC sentence's fields at UTC time ``t_ns``.
 
@@ -272,27 +296,25 @@ class NmeaRecording(RawSource):
         return self._skips.items()
 
     def _sentences(self, count: bool = True) -> Iterator[_Parsed]:
+        """Yield the GGA and RMC sentences with a good checksum; count everything damaged.
+
+        A line is cut before every ``$``, so sentences run together by binary junk (a NUL
+        where the line break was) are each read; every piece that is not one whole printable
+        sentence with a good checksum (junk, a cut or garbled sentence, bytes after a
+        checksum) is counted once, as ``bad NMEA line`` or ``bad NMEA checksum``.
+        """
         try:
             handle = self.path.open("r", encoding="ascii", errors="replace")
         except OSError as err:
             raise RecordingError(f"{self.path}: cannot read: {err.strerror}") from err
         with handle:
             for number, line in enumerate(handle, start=1):
-                match = _SENTENCE.search(line)
-                if match is None:
-                    if count and line.strip():
-                        self._skips.add(
-                            "bad NMEA line", f"{self.path.name}: first at line {number}"
-                        )
-                    continue
-                if not nmea_checksum_ok(f"{match[1]}{match[2]},{match[3]}", match[4]):
-                    if count:
-                        self._skips.add(
-                            "bad NMEA checksum", f"{self.path.name}: first at line {number}"
-                        )
-                    continue
-                if match[2] in ("GGA", "RMC"):
-                    yield _Parsed(match[2], match[3].split(","), line.strip())
+                for piece in _PIECES.split(line.rstrip("\r\n")):
+                    what, parsed = _read_piece(piece)
+                    if what and count:
+                        self._skips.add(what, f"{self.path.name}: first at line {number}")
+                    if parsed is not None:
+                        yield parsed
 
     def _fixes(self) -> Iterator[tuple[NmeaFix, str]]:
         assert self._first_date is not None

@@ -57,8 +57,6 @@ class RosbagRecording(RawSource):
         Raises:
             RecordingError: If the bag cannot be opened.
         """
-        from rosbags.rosbag2 import Reader as Reader2
-
         self.path = Path(path)
         self._skips = SkipLog()
         self._iter_skips = SkipLog()
@@ -72,7 +70,7 @@ class RosbagRecording(RawSource):
             elif self.path.is_dir():
                 readers = self._ros2_folder_readers()
             else:
-                readers = [Reader2(self.path)]
+                readers = [self._ros2_file_reader(self.path)]
             for reader in readers:
                 self._stack.enter_context(reader)
         except RecordingError:
@@ -157,7 +155,17 @@ class RosbagRecording(RawSource):
             return [Reader2(self.path)]  # rosbags decompresses; one reader for the folder
         if missing := [f.name for f in files if not f.exists()]:
             raise RecordingError(f"{self.path}: bag files are missing: {', '.join(missing)}")
-        return [Reader2(f) for f in files]
+        return [self._ros2_file_reader(f, info) for f in files]
+
+    def _ros2_file_reader(self, path: Path, info: dict[str, Any] | None = None) -> Any:
+        """Return a reader of one storage file; ``.db3`` files are salvaged around damage."""
+        from rosbags.rosbag2 import Reader as Reader2
+
+        from superlane_tools.recording.sqlite_salvage import Ros2SqliteReader
+
+        if path.suffix == ".db3":
+            return Ros2SqliteReader(path, self._skips, self._iter_skips, info)
+        return Reader2(path)
 
     def _build_typestore(self) -> Typestore:
         from rosbags.interfaces import MessageDefinitionFormat
@@ -291,6 +299,8 @@ class RosbagRecording(RawSource):
 
     def start_ns(self) -> int | None:
         """Return the earliest log time of the bag (ns) from its index, None when empty."""
+        if not all(hasattr(r, "start_time") for r in self._readers):  # a reindexing scan
+            return next((t for _, t, _ in self._streams(None, None, None)), None)
         times = [int(r.start_time) for r in self._readers if getattr(r, "message_count", 1)]
         return min(times) if times else None
 

@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import NamedTuple
 
 from superlane_tools.errors import ConfigError, UsageError
+from superlane_tools.recording.base import ros2_msgtype
 from superlane_tools.recording.video import VIDEO_MSGTYPES
 from superlane_tools.records import TopicInfo
 
@@ -39,12 +40,6 @@ TOPIC_KIND_TYPES: Mapping[str, frozenset[str]] = {**_KIND_TYPES, "imu": IMU_TYPE
 """Message types each configurable topic (a stream kind, or ``imu``) accepts."""
 
 
-def _ros2_name(msgtype: str) -> str:
-    """Return a message type in ROS 2 form (``sensor_msgs/NavSatFix`` -> ``.../msg/...``)."""
-    package, sep, name = msgtype.partition("/")
-    return f"{package}/msg/{name}" if sep and "/" not in name else msgtype
-
-
 def check_topic_kinds(
     topics: Sequence[TopicInfo], wanted: Mapping[str, Sequence[str]], where: str = ""
 ) -> None:
@@ -66,7 +61,7 @@ def check_topic_kinds(
             raise ConfigError(f"{where}unknown topic kind {kind!r}: use {tuple(TOPIC_KIND_TYPES)}")
         for name in names:
             msgtype = available.get(name)
-            if msgtype is None or _ros2_name(msgtype) in expected:
+            if msgtype is None or ros2_msgtype(msgtype) in expected:
                 continue
             takes = (
                 " ".join(expected)

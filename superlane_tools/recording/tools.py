@@ -31,7 +31,7 @@ def topic_matcher(include: str | None, exclude: str | None) -> Any:
         inc = re.compile(include) if include else None
         exc = re.compile(exclude) if exclude else None
     except re.error as err:
-        raise UsageError(f"invalid topic regular expression: {err}") from err
+        raise UsageError(f"invalid topic regular expression {err.pattern!r}: {err}") from err
 
     def match(topic: str) -> bool:
         return (inc is None or inc.search(topic) is not None) and (

@@ -18,7 +18,8 @@ from superlane_tools.corridor import (
     frame_availability,
     sequence_availability,
 )
-from superlane_tools.evaluation.curvature import curvature_errors
+from superlane_tools.evaluation import curvature_errors
+from superlane_tools.reporting.names import METHOD_NOT_RUN
 
 FloatArray = NDArray[np.float64]
 METHODS = ("super", "corridor_net", "hough", "mobileye")
@@ -58,7 +59,7 @@ def availability_tables(
         fa = frame_availability(width, length, speed_mps, params)
         reason = fa.reason.astype(object)
         if method in unavailable:
-            reason[:] = f"method unavailable: {unavailable[method]}"
+            reason[:] = f"{METHOD_NOT_RUN}: {unavailable[method]}"
         results[method] = fa
         frame_parts.append(
             pd.DataFrame(

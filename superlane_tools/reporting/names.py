@@ -27,3 +27,10 @@ AVAILABILITY_NAMES: dict[str, str] = {
 def curvature_name(source: str) -> str:
     """Return the display name of a curvature source (the source itself when unknown)."""
     return CURVATURE_NAMES.get(source, source)
+
+
+METHOD_NOT_RUN = "method unavailable"
+"""Start of ``availability_frames.reason`` for every frame of a method that did not run."""
+
+UNCATEGORISED = "uncategorised"
+"""Category of a recording or sequence that states none (no ``--category``, manifest entry)."""

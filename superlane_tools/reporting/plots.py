@@ -10,7 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from superlane_tools.reporting.atomic import atomic_path
-from superlane_tools.reporting.names import CURVATURE_NAMES
+from superlane_tools.reporting.names import CURVATURE_NAMES, METHOD_NOT_RUN
 from superlane_tools.reporting.run_layout import (
     AVAILABILITY_PLOT,
     CURVATURE_DISTANCE_PLOT,
@@ -136,10 +136,19 @@ def curvature_plots(curv: pd.DataFrame, out_dir: Path) -> list[Path]:
     return paths
 
 
-def availability_plot(frames: pd.DataFrame, out_dir: Path) -> Path:
-    """Availability timeline per method (green available, red not, grey unknown)."""
+def availability_plot(frames: pd.DataFrame, out_dir: Path) -> Path | None:
+    """Availability timeline per method that ran (green available, red not, grey unknown).
+
+    A method that did not run on the drive (every frame's reason starts with
+    :data:`~superlane_tools.reporting.names.METHOD_NOT_RUN`) is left out, not drawn red; with
+    no method left there is no plot (None).
+    """
+    not_run = frames["reason"].astype(str).str.startswith(METHOD_NOT_RUN)
+    ran = not_run.groupby(frames["method"], sort=False).all()
+    methods = [m for m in dict.fromkeys(frames["method"]) if not ran[m]]
+    if not methods:
+        return None
     plt = _pyplot()
-    methods = list(dict.fromkeys(frames["method"]))
     fig, ax = plt.subplots(figsize=(10, 1.0 + 0.6 * len(methods)))
     for row, method in enumerate(methods):
         sel = frames[frames["method"] == method]
@@ -148,7 +157,9 @@ def availability_plot(frames: pd.DataFrame, out_dir: Path) -> Path:
         ax.scatter(t, np.full(len(t), row), c=colour, marker="|", s=200)
     ax.set_yticks(range(len(methods)), methods)
     ax.set_xlabel("time (s)")
-    ax.set_title("lateral-control availability (green: available, red: not, grey: unknown)")
+    ax.set_title(
+        "lateral-control availability (green: available, red: not, grey: unknown, no speed)"
+    )
     ax.set_ylim(-0.7, len(methods) - 0.3)
     fig.tight_layout()
     return _save(fig, out_dir / AVAILABILITY_PLOT)
@@ -210,7 +221,7 @@ def plot_all(
     paths = []
     if curv is not None and len(curv):
         paths += curvature_plots(curv, out_dir)
-    if len(frames):
-        paths.append(availability_plot(frames, out_dir))
+    if len(frames) and (timeline := availability_plot(frames, out_dir)) is not None:
+        paths.append(timeline)
     paths += [example_plot(ex, out_dir) for ex in examples]
     return paths

@@ -80,11 +80,12 @@ def html_table(frame: pd.DataFrame) -> str:
 
 
 _CODE = re.compile(r"`([^`]+)`")
+_BOLD = re.compile(r"\*\*([^*]+)\*\*")
 
 
 def _inline(text: str) -> str:
-    """Escape text for HTML and render Markdown inline code (units, names) as ``<code>``."""
-    return _CODE.sub(r"<code>\1</code>", html.escape(text))
+    """Escape text for HTML; render Markdown inline code as ``<code>``, ``**bold**`` as ``<b>``."""
+    return _BOLD.sub(r"<b>\1</b>", _CODE.sub(r"<code>\1</code>", html.escape(text)))
 
 
 def write_report(

@@ -69,16 +69,41 @@ def backend_from_name(
 
 REAL_METRIC = "tusimple_val_end_to_end"
 """Card metrics section with the end-to-end LaneEval accuracy on real validation frames."""
+REAL_SETS = "real_sets"
+"""Card metrics section with the model's and the classical backend's score on every real set."""
+
+
+def worst_real_set(metrics: dict[str, object]) -> tuple[str, float, str, float] | None:
+    """Return ``(set, score)`` of the model's worst real lane set and of the classical backend's.
+
+    The sets are the card's :data:`REAL_SETS` entries with a classical number (TuSimple dev end
+    to end, KITTI ego lane, CULane night); None when the card has none.
+    """
+    sets = metrics.get(REAL_SETS)
+    if not isinstance(sets, dict):
+        return None
+    pairs = {
+        name: (float(v["model"]), float(v["classical"]))
+        for name, v in sets.items()
+        if isinstance(v, dict) and "model" in v and "classical" in v
+    }
+    if not pairs:
+        return None
+    model_set = min(pairs, key=lambda n: pairs[n][0])
+    classical_set = min(pairs, key=lambda n: pairs[n][1])
+    return model_set, pairs[model_set][0], classical_set, pairs[classical_set][1]
 
 
 def auto_backend(model: str | None) -> tuple[str, str]:
     """Resolve ``auto`` to ``onnx`` or ``classical``; return the name and a note ("" if none).
 
     An explicit ``model`` means ``onnx``. Otherwise ``auto`` uses the shipped default
-    segmentation model when its card says it is at least as accurate end to end on real
-    validation frames (official LaneEval, :data:`REAL_METRIC`) as the classical backend measured
-    in the same run, and the classical backend otherwise (or when no model is shipped).
-    ``slt segment`` and ``slt reprocess`` share this rule.
+    segmentation model when, by its card, its worst real lane set (:func:`worst_real_set`:
+    TuSimple dev end to end, KITTI ego lane, CULane night) scores at least the classical
+    backend's worst set measured in the same run, and the classical backend otherwise (or when
+    no model is shipped). A card without per-set numbers falls back to the TuSimple end-to-end
+    LaneEval accuracy (:data:`REAL_METRIC`). ``slt segment`` and ``slt reprocess`` share this
+    rule.
     """
     from superlane_tools.errors import SltError
     from superlane_tools.models import list_models
@@ -94,10 +119,20 @@ def auto_backend(model: str | None) -> tuple[str, str]:
         )
     try:
         card = load_card(resolve_model(DEFAULT_SEGMENTATION_MODEL)[1])
+        worst = worst_real_set(dict(card.metrics))
         real = card.metrics.get(REAL_METRIC) or {}
         acc, classical = real.get("laneeval_accuracy"), real.get("classical_laneeval_accuracy")
     except (SltError, AttributeError) as err:
         return "classical", f"{DEFAULT_SEGMENTATION_MODEL}: unreadable model card ({err})"
+    if worst is not None:
+        model_set, model_score, classical_set, classical_score = worst
+        if model_score >= classical_score:
+            return "onnx", ""
+        return "classical", (
+            f"classical backend: its worst real set ({classical_set} {classical_score:.3f}) is "
+            f"better than {card.name}'s ({model_set} {model_score:.3f}) (model card; "
+            "--backend onnx forces the model)"
+        )
     if acc is None or classical is None:
         return "classical", f"{card.name} has no real-frame accuracy in its card: classical backend"
     if float(acc) >= float(classical):
@@ -106,3 +141,16 @@ def auto_backend(model: str | None) -> tuple[str, str]:
         f"classical backend: LaneEval {float(classical):.3f} > {card.name} {float(acc):.3f} on "
         "real frames (model card; --backend onnx forces the model)"
     )
+
+
+def auto_candidates() -> tuple[tuple[str, str], ...]:
+    """Return the ``(backend, model)`` pairs ``auto`` chooses among, in order of preference.
+
+    The shipped default segmentation model (when shipped) and the classical backend; the
+    per-drive self-check (``drive.selfcheck``) tries each on a sample of the drive's frames.
+    """
+    from superlane_tools.models import list_models
+    from superlane_tools.scene.onnx_backend import DEFAULT_SEGMENTATION_MODEL
+
+    shipped = DEFAULT_SEGMENTATION_MODEL in list_models()
+    return ((("onnx", DEFAULT_SEGMENTATION_MODEL),) if shipped else ()) + (("classical", ""),)

@@ -29,7 +29,7 @@ from superlane_tools.scene.model_card import (
 )
 from superlane_tools.scene.model_errors import ModelError
 
-DEFAULT_SEGMENTATION_MODEL = "super_seg_v4"
+DEFAULT_SEGMENTATION_MODEL = "super_seg_v5"
 """Default segmentation model: trained on real TuSimple and CamVid frames and simulated ones, the
 most accurate shipped model end to end on the real TuSimple validation frames (its card;
 docs/models.md). CamVid is CC BY-NC 4.0: for commercial use pass ``--model super_seg_v2``

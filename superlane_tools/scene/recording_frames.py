@@ -11,8 +11,13 @@ from collections.abc import Iterator
 from pathlib import Path
 
 from superlane_tools.errors import UsageError
-from superlane_tools.recording import FRAME_TYPES, decode_frame, decode_video, open_recording
-from superlane_tools.recording.streams import check_topic_kinds
+from superlane_tools.recording import (
+    FRAME_TYPES,
+    check_topic_kinds,
+    decode_frame,
+    decode_video,
+    open_recording,
+)
 from superlane_tools.records import Skipped
 from superlane_tools.scene.image_folder import InputFrame, folder_frames, list_images
 

@@ -28,6 +28,7 @@ from numpy.typing import NDArray
 from superlane_tools.config_files import load_document
 from superlane_tools.errors import ConfigError
 from superlane_tools.hierarchy import BY_NAME
+from superlane_tools.reporting.run_layout import TUSIMPLE_LABELS_FILE
 from superlane_tools.scene.adapters.heads import HEADS
 from superlane_tools.scene.adapters.loader import load_adapter
 from superlane_tools.training.errors import TrainingError
@@ -207,7 +208,7 @@ def tusimple_labels(folder: Path) -> list[dict[str, Any]]:
     Raises:
         TrainingError: If the file is missing or a line is not JSON.
     """
-    path = folder / "labels.json"
+    path = folder / TUSIMPLE_LABELS_FILE
     try:
         text = path.read_text(encoding="utf-8")
         return [json.loads(line) for line in text.splitlines() if line.strip()]

@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from superlane_tools.hierarchy import leaf_ids_under, level_lut
+from superlane_tools.reporting.run_layout import TUSIMPLE_LABELS_FILE
 from superlane_tools.scene.backend import SegmentationBackend
 from superlane_tools.scene.model_card import ModelCard, card_path_for, load_card, write_card
 from superlane_tools.training.errors import TrainingError
@@ -154,7 +155,7 @@ def backend_marking_hit_rate(
     marking_ids = list(leaf_ids_under("lane_marking"))
     hits = total = near = predicted = 0
     frames = 0
-    for line in (root / "labels.json").read_text(encoding="utf-8").splitlines():
+    for line in (root / TUSIMPLE_LABELS_FILE).read_text(encoding="utf-8").splitlines():
         if not line.strip():
             continue
         label = json.loads(line)

@@ -18,6 +18,7 @@ from superlane_tools.can import (
     decode_buses,
     decode_frames,
     latency_by_xcorr,
+    line_latency,
     load_dbc,
     mobileye_table,
     parse_dbc_spec,
@@ -215,6 +216,36 @@ def test_latency_without_timing_features_is_not_resolved() -> None:
     wander = np.stack([0.08 * np.sin(2 * np.pi * frames / 9.0)] * 2, axis=1)
     est = latency_by_xcorr(frames, wander, frames + 0.1, wander + rng.normal(0, 0.03, wander.shape))
     assert not est.resolved  # slow centimetre wander under 3 cm noise: no timing reference
+
+
+def _weaving(t: np.ndarray) -> np.ndarray:
+    """Ego-line offsets (m) of a drive weaving in its lane all along (0.4 m, 2-5 s periods)."""
+    centre = 0.4 * np.sin(2 * np.pi * t / 3.1) + 0.25 * np.sin(2 * np.pi * t / 4.7 + 1.0)
+    centre += 0.15 * np.sin(2 * np.pi * t / 2.0)
+    return np.stack([1.8 - centre, -1.9 - centre], axis=1)
+
+
+def test_line_latency_resolves_repeated_lateral_motion() -> None:
+    rng = np.random.default_rng(5)
+    frames = np.arange(0, 60, 1 / 15)
+    reference = _weaving(frames) + rng.normal(0, 0.02, (frames.size, 2))
+    signal = _weaving(frames) + rng.normal(0, 0.03, (frames.size, 2))
+    est = line_latency(frames, reference, frames + 0.1, signal, resolution_s=1 / 15)
+    assert est.lag_s == pytest.approx(0.1, abs=0.01)
+    assert est.resolved, est.unresolved
+
+
+def test_line_latency_does_not_claim_one_relabelling() -> None:
+    """One lane change whose ego relabelling Mobileye makes a frame later than SUPER."""
+    rng = np.random.default_rng(6)
+    frames = np.arange(0, 10, 1 / 15)
+    reference = _lane_offsets(frames) + rng.normal(0, 0.02, (frames.size, 2))
+    late = _lane_offsets(frames - 1 / 15) + rng.normal(0, 0.03, (frames.size, 2))
+    raw = latency_by_xcorr(frames, reference, frames + 0.1, late)
+    assert raw.resolved  # the step alone looks sharp: the old rule claimed +0.167 s
+    est = line_latency(frames, reference, frames + 0.1, late, resolution_s=1 / 15)
+    assert not est.resolved
+    assert est.unresolved
 
 
 def test_latency_search_is_bounded_when_frames_share_times() -> None:

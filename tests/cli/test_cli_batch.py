@@ -55,7 +55,7 @@ def test_cli_manifest_run_and_rerun(tmp_path: Path, make_drives: Callable[..., l
     )
     assert res.exit_code == 3, res.output  # type: ignore[attr-defined]
     assert "ok 2, partial 0, failed 1, skipped 0" in res.output  # type: ignore[attr-defined]
-    assert "slt: failed: corrupt_0-" in res.output  # type: ignore[attr-defined]
+    assert "slt: skipped: failed recordings (1): corrupt_0-" in res.output  # type: ignore[attr-defined]
     fleet = pd.read_parquet(out / "summary" / "fleet_status.parquet").set_index("category")
     assert fleet.loc["city", "failed"] == 1
     assert fleet.loc["highway", "ok"] == 1

@@ -34,8 +34,9 @@ def test_show_prints_loadable_yaml_with_derived_values(tmp_path: Path) -> None:
 
 def test_show_unknown_profile_is_one_error_line() -> None:
     result = runner.invoke(app, ["camera", "show", "nope"])
-    assert result.exit_code == 1
-    assert result.stderr.startswith("slt: error: unknown camera profile 'nope'")
+    assert result.exit_code == 2  # a bad value, as --camera nope everywhere
+    assert result.stderr.startswith("slt: error: camera show: Invalid value for 'CAMERA': ")
+    assert "unknown camera profile 'nope'" in result.stderr
     assert result.stderr.count("\n") == 1
 
 

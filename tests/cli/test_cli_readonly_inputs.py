@@ -1,5 +1,7 @@
 """Reading never writes beside the input: every command on every format leaves it as it was.
 
+``slt recover`` is checked too: it reads damaged inputs, which must stay as they were.
+
 The input folder is made read-only (``chmod a-w``), but tests often run as root, where
 permissions do not bind; so each case compares the folder's listing, modes, sizes, modification
 times and content hashes before and after the command. One case also runs as an unprivileged
@@ -35,8 +37,8 @@ REAL_INPUTS = {
     "can": "can_logs/ford_fusion/camera_off_connection.log",
     "nmea": "gnss/nmea.log",
 }
-COMMANDS = ("info", "cat", "extract", "filter", "reprocess", "batch")
-FAST = {"info", "cat", "extract", "filter"}
+COMMANDS = ("info", "cat", "extract", "filter", "recover", "reprocess", "batch")
+FAST = {"info", "cat", "extract", "filter", "recover"}
 """Commands that take well under a second a case; reprocess and batch cases are slow."""
 
 
@@ -60,9 +62,9 @@ def _set_writable(folder: Path, writable: bool) -> None:
 def _args(command: str, recording: Path, out: Path, kind: str) -> list[str]:
     if command in {"info", "cat"}:
         return [command, str(recording)]
-    if command == "filter":
+    if command in {"filter", "recover"}:
         target = {"mcap": "f.mcap", "ros1": "f.bag"}.get(kind, "f_bag")
-        return ["filter", str(recording), "-o", str(out / target)]
+        return [command, str(recording), "-o", str(out / target)]
     if command == "reprocess":
         run = str(out / "run")
         return ["reprocess", str(recording), "-o", run, "--no-plots", "--camera", "sim_default"]

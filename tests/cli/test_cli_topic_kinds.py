@@ -69,6 +69,7 @@ def test_camera_estimate_topic_wrong_kind(bag: Path, tmp_path: Path) -> None:
     _usage_error(args, "frames", "/fix", "sensor_msgs/msg/NavSatFix")
 
 
+@pytest.mark.slow
 def test_batch_job_with_wrong_kind_fails_that_recording(bag: Path, tmp_path: Path) -> None:
     config = tmp_path / "c.yaml"
     config.write_text("streams:\n  can: [/fix]\n")

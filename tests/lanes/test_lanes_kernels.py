@@ -6,6 +6,7 @@ import os
 import shutil
 import subprocess
 import sys
+import sysconfig
 import tempfile
 from dataclasses import replace
 from pathlib import Path
@@ -153,6 +154,17 @@ def test_fit_frame_backends_agree(renderer, camera_factory, offsets, a1, a2, slo
     assert warm.curvature == pytest.approx(compiled.curvature, abs=2e-4)
 
 
+NOBODY = ["setpriv", "--reuid=65534", "--regid=65534", "--clear-groups"]
+"""Run a command as the unprivileged user ``nobody``."""
+KERNEL_SCRIPT = (
+    "import numpy as np\n"
+    "from superlane_tools.lanes import _kernels as k\n"
+    "hist = np.zeros(8)\n"
+    "cfg = np.array([1 / 1.5, 1 / 200, 10.0, 3.0, 5.0, 2.0, 0.0, 1 / 3])\n"
+    "print(k.lane_cost(np.array([0.1, 0.2]), np.zeros(2), 0.0, 0.0, 0.0, 0.0, cfg, hist))\n"
+)
+
+
 @pytest.mark.skipif(
     not (hasattr(os, "geteuid") and os.geteuid() == 0 and shutil.which("setpriv")),
     reason="needs root and setpriv to run as an unprivileged user",
@@ -167,6 +179,83 @@ def test_kernels_work_from_a_read_only_install() -> None:
         shutil.rmtree(root)
 
 
+def _as_nobody(
+    python: str, script: str, path: list[Path], timeout: int = 120
+) -> subprocess.CompletedProcess[str]:
+    env = {**os.environ, "HOME": "/nonexistent", "PYTHONPATH": os.pathsep.join(map(str, path))}
+    env.pop("NUMBA_CACHE_DIR", None)
+    env.pop("XDG_CACHE_HOME", None)
+    return subprocess.run(
+        [*NOBODY, python, "-c", script],
+        env=env,
+        cwd="/",
+        capture_output=True,
+        text=True,
+        check=False,
+        timeout=timeout,
+    )
+
+
+def _link_or_copy(src: str, dst: str) -> None:
+    """Hard-link a world-readable file (fast, same content); copy one that is not."""
+    if Path(src).stat().st_mode & 0o004:
+        try:
+            os.link(src, dst)
+            return
+        except OSError:
+            pass
+    shutil.copy2(src, dst)
+    Path(dst).chmod(0o644)
+
+
+def _packages_nobody_can_read(install: Path, site: Path) -> tuple[str, list[Path]]:
+    """Return a Python and import path with which ``nobody`` can run the kernel script.
+
+    The venv's own Python when ``nobody`` can read it; else (a clone and its ``.venv`` under a
+    private home, e.g. root's mode-700 ``/root``) the base interpreter with copies of the
+    packages the script imports in ``site``, a world-readable folder. Skips, saying why, when
+    not even the base interpreter runs for ``nobody``.
+    """
+    probe = "import numpy, numba, yaml"
+    if _as_nobody(sys.executable, probe, [install]).returncode == 0:
+        return sys.executable, [install]
+    base = os.path.realpath(sys.executable)
+    if _as_nobody(base, "import sys", []).returncode != 0:
+        pytest.skip(
+            f"the unprivileged user cannot read {sys.executable} nor run {base}: the Python "
+            "lies in a private folder (e.g. mode-700 /root); install it world-readable to run "
+            "this test"
+        )
+    listing = (
+        "import sys, sysconfig\n"
+        f"exec({KERNEL_SCRIPT!r}.rsplit('print', 1)[0])\n"
+        "purelib = sysconfig.get_paths()['purelib']\n"
+        "for name, mod in list(sys.modules.items()):\n"
+        "    f = getattr(mod, '__file__', None) or ''\n"
+        "    if '.' not in name and f.startswith(purelib):\n"
+        "        print(f[len(purelib) + 1 :].split('/')[0])\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", listing],
+        env={**os.environ, "PYTHONPATH": str(install)},
+        capture_output=True,
+        text=True,
+        check=True,
+        timeout=120,
+    )
+    purelib = Path(sysconfig.get_paths()["purelib"])
+    tops = {name for name in done.stdout.split() if name != "superlane_tools"}
+    tops |= {p.name for p in purelib.glob("*.libs") if p.name.split(".")[0] in tops}
+    site.mkdir()
+    for name in sorted(tops):
+        src = purelib / name
+        if src.is_dir():
+            shutil.copytree(src, site / name, copy_function=_link_or_copy)
+        elif src.is_file():
+            _link_or_copy(str(src), str(site / name))
+    return base, [install, site]
+
+
 def _check_read_only_install(root: Path) -> None:
     install = root / "ro"
     shutil.copytree(
@@ -174,35 +263,13 @@ def _check_read_only_install(root: Path) -> None:
         install / "superlane_tools",
         ignore=shutil.ignore_patterns("*.nb*"),
     )
-    script = (
-        "import numpy as np\n"
-        "from superlane_tools.lanes import _kernels as k\n"
-        "hist = np.zeros(8)\n"
-        "cfg = np.array([1 / 1.5, 1 / 200, 10.0, 3.0, 5.0, 2.0, 0.0, 1 / 3])\n"
-        "print(k.lane_cost(np.array([0.1, 0.2]), np.zeros(2), 0.0, 0.0, 0.0, 0.0, cfg, hist))\n"
-    )
-    for path in [root, *root.rglob("*")]:
+    for path in [root, *install.rglob("*")]:
         path.chmod(0o755 if path.is_dir() else 0o644)
-    env = {**os.environ, "HOME": "/nonexistent", "PYTHONPATH": str(install)}
-    env.pop("NUMBA_CACHE_DIR", None)
-    env.pop("XDG_CACHE_HOME", None)
-    done = subprocess.run(
-        [
-            "setpriv",
-            "--reuid=65534",
-            "--regid=65534",
-            "--clear-groups",
-            sys.executable,
-            "-c",
-            script,
-        ],
-        env=env,
-        cwd="/",
-        capture_output=True,
-        text=True,
-        check=False,
-        timeout=120,
-    )
+    python, import_path = _packages_nobody_can_read(install, root / "site")
+    for path in (root / "site").rglob("*"):
+        if path.is_dir():
+            path.chmod(0o755)  # new folders; files are world-readable links or copies
+    done = _as_nobody(python, KERNEL_SCRIPT, import_path)
     assert done.returncode == 0, done.stderr
     assert float(done.stdout.split()[-1]) == pytest.approx(2.0)  # both points in one bin
     assert not list(install.rglob("*.nbi"))

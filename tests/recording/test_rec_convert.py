@@ -185,7 +185,7 @@ def test_udacity_dashcam_frames_convert_calibrate_and_reprocess(
     assert conv.exit_code == 0, conv.output
     profile = tmp_path / "udacity.yaml"
     cal = runner.invoke(app, ["camera", "calibrate", str(root / "camera_cal"), "-o", str(profile)])
-    assert cal.exit_code == 0, cal.output
+    assert cal.exit_code == 3, cal.output  # a profile; 5 of the 20 photos were not usable
     run = tmp_path / "run"
     result = runner.invoke(app, ["reprocess", str(rec), "-o", str(run), "--camera", str(profile)])
     assert result.exit_code in (0, 3), result.output

@@ -30,7 +30,11 @@ def test_markdown_table_formats_floats_and_missing_values() -> None:
 
 def test_write_report_writes_markdown_and_html_at_the_given_path(tmp_path: Path) -> None:
     sections = [
-        Section("Run", ["- frames: 3", "A <b> paragraph"], [pd.DataFrame({"x": [1.5]})]),
+        Section(
+            "Run",
+            ["- frames: 3", "A <b> paragraph", "**Inputs:** `camera`"],
+            [pd.DataFrame({"x": [1.5]})],
+        ),
         Section("Plots", (), (), ["plots/a.png"]),
     ]
     written = write_report(tmp_path / "out" / "summary.md", "Title & more", sections)
@@ -43,6 +47,7 @@ def test_write_report_writes_markdown_and_html_at_the_given_path(tmp_path: Path)
     page = written[1].read_text(encoding="utf-8")
     assert "<li>frames: 3</li>" in page
     assert "A &lt;b&gt; paragraph" in page  # escaped
+    assert "<p><b>Inputs:</b> <code>camera</code></p>" in page  # Markdown bold and code
     assert "<img src='plots/a.png'" in page
     assert not list((tmp_path / "out").glob(".*tmp*"))
     only_md = write_report(tmp_path / "r.md", "t", sections, html_too=False)

@@ -118,7 +118,7 @@ def test_card_rejects_heads_off_the_hierarchy(models: dict[str, Path], tmp_path:
 
 def test_shipped_models_match_their_cards() -> None:
     backend = OnnxSegmentationBackend()  # the default model, verified against its card
-    assert backend.card.name == DEFAULT_SEGMENTATION_MODEL == "super_seg_v4"
+    assert backend.card.name == DEFAULT_SEGMENTATION_MODEL == "super_seg_v5"
     assert backend.card.input.shape == (1, 3, 288, 512)
     image, _, _ = toy_frame(np.random.default_rng(5), 320, 180)
     assert backend.segment(image).shape == (180, 320)
@@ -129,7 +129,9 @@ def test_shipped_models_match_their_cards() -> None:
     assert runtime.probability(image).shape == (180, 320)
 
 
-@pytest.mark.parametrize("model", ["super_seg_v1", "super_seg_v2", "super_seg_v3", "super_seg_v4"])
+@pytest.mark.parametrize(
+    "model", ["super_seg_v1", "super_seg_v2", "super_seg_v3", "super_seg_v4", "super_seg_v5"]
+)
 def test_shipped_segmentation_graphs_stop_at_half_resolution(model: str) -> None:
     backend = OnnxSegmentationBackend(model)
     outputs = backend.model.session.get_outputs()

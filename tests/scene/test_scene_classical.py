@@ -221,14 +221,18 @@ def test_real_tusimple_end_to_end_chain(realdata: Path, tmp_path: Path) -> None:
 
 
 def test_auto_backend_follows_the_real_frame_accuracy_in_the_card() -> None:
-    from superlane_tools.scene.backends import REAL_METRIC, auto_backend
+    from superlane_tools.scene.backends import REAL_METRIC, auto_backend, worst_real_set
     from superlane_tools.scene.model_card import load_card
     from superlane_tools.scene.onnx_backend import DEFAULT_SEGMENTATION_MODEL, resolve_model
 
-    real = load_card(resolve_model(DEFAULT_SEGMENTATION_MODEL)[1]).metrics[REAL_METRIC]
-    expected = (
-        "onnx" if real["laneeval_accuracy"] >= real["classical_laneeval_accuracy"] else "classical"
-    )
+    metrics = dict(load_card(resolve_model(DEFAULT_SEGMENTATION_MODEL)[1]).metrics)
+    worst = worst_real_set(metrics)
+    if worst is not None:
+        expected = "onnx" if worst[1] >= worst[3] else "classical"
+    else:
+        real = metrics[REAL_METRIC]
+        better = real["laneeval_accuracy"] >= real["classical_laneeval_accuracy"]
+        expected = "onnx" if better else "classical"
     name, note = auto_backend(None)
     assert name == expected
     assert (note == "") == (expected == "onnx")
@@ -236,9 +240,28 @@ def test_auto_backend_follows_the_real_frame_accuracy_in_the_card() -> None:
     assert backend_from_name("auto").name.split(":")[0] == expected
 
 
+def test_worst_real_set_compares_each_side_by_its_weakest_set() -> None:
+    from superlane_tools.scene.backends import worst_real_set
+
+    sets = {
+        "tusimple_dev_laneeval": {"model": 0.85, "classical": 0.73},
+        "kitti_um_000000_f": {"model": 0.39, "classical": 0.885},
+        "culane_night_f1": {"model": 0.5, "classical": 0.45},
+        "camvid_val_miou_l2": {"model": 0.2},  # no classical number: not compared
+    }
+    assert worst_real_set({"real_sets": sets}) == (
+        "kitti_um_000000_f",
+        0.39,
+        "culane_night_f1",
+        0.45,
+    )
+    assert worst_real_set({}) is None
+
+
 def _chain_result(accuracy: float) -> dict[str, object]:
     official = {"accuracy": accuracy, "fp": 0.3, "fn": 0.2, "f1": 0.7}
     return {
+        "culane": {"score": {"all": {"f1_50": accuracy - 0.1}}, "commands": []},
         "tusimple": {
             "official": official,
             "ungated": official,
@@ -270,5 +293,7 @@ def test_real_frames_eval_writes_end_to_end_metrics_into_the_card(tmp_path: Path
     assert (real["laneeval_accuracy"], real["classical_laneeval_accuracy"]) == (0.8, 0.7)
     assert real["frames"] == 36
     assert metrics["kitti_um_000000_fitted_ego_lane"]["f_measure"] == 0.8
+    assert metrics["real_sets"]["culane_night_f1"] == {"model": 0.7, "classical": 0.6}
+    assert metrics["real_sets"]["kitti_um_000000_f"] == {"model": 0.8, "classical": 0.8}
     # Without the classical backend in the same run there is nothing to compare against.
     assert pipeline.main(["--backends", "onnx", "--update-cards"]) == 2

@@ -64,6 +64,8 @@ class JobOutcome:
         host: Worker host name.
         pid: Worker process id.
         attempt: Which attempt this was (1 = first).
+        node: Ray node id of the worker (hex); ``""`` on the local engine, or when the worker
+            died before it could tell.
     """
 
     recording_id: str
@@ -76,6 +78,7 @@ class JobOutcome:
     host: str = ""
     pid: int = 0
     attempt: int = 1
+    node: str = ""
 
 
 OnDone = Callable[[JobOutcome], None]
@@ -95,6 +98,11 @@ class BatchEngine(Protocol):
     @property
     def workers(self) -> int:
         """Number of parallel workers."""
+        ...
+
+    @property
+    def log(self) -> Path | None:
+        """File the engine's own messages went to (Ray's), or None when it has none."""
         ...
 
     def __enter__(self) -> Self: ...

@@ -25,7 +25,9 @@ def make_engine(params: BatchParams, kind: str) -> BatchEngine:
             raise UsageError("--ray-address needs --engine ray")
         return LocalEngine(kind, params.config, params.workers)
     if params.engine == "ray":
+        from superlane_tools.commands.batch._ray_log import RAY_LOG_FILE
         from superlane_tools.commands.batch.ray_engine import RayEngine
 
-        return RayEngine(kind, params.config, params.workers, params.ray_address)
+        log = params.root / RAY_LOG_FILE
+        return RayEngine(kind, params.config, params.workers, params.ray_address, log=log)
     raise UsageError(f"unknown engine {params.engine!r}: use one of {ENGINES}")

@@ -8,6 +8,7 @@ import os
 from collections.abc import Mapping, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
+from pathlib import Path
 from types import TracebackType
 from typing import Any, Self
 
@@ -77,6 +78,11 @@ class LocalEngine:
     def workers(self) -> int:
         """Number of worker processes."""
         return self._workers
+
+    @property
+    def log(self) -> Path | None:
+        """None: the local engine prints nothing of its own."""
+        return None
 
     def _threads(self) -> int:
         return max(1, default_workers() // self._workers)

@@ -70,6 +70,8 @@ class BatchReport:
         engine: Engine used.
         workers: Workers used.
         wall_s: Wall time of the whole batch, seconds.
+        engine_log: File the engine's own messages went to (``ROOT/batch_ray.log`` with the
+            Ray engine), None when there is none.
     """
 
     root: Path
@@ -80,6 +82,7 @@ class BatchReport:
     engine: str
     workers: int
     wall_s: float
+    engine_log: Path | None = None
 
     @property
     def total(self) -> int:

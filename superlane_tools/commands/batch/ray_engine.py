@@ -19,10 +19,14 @@ Ray starts a new one for the next task.
 
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Mapping, Sequence
+from dataclasses import replace
+from pathlib import Path
 from types import TracebackType
 from typing import Any, Self
 
+from superlane_tools.commands.batch._ray_log import ray_log
 from superlane_tools.commands.batch._ray_watchdog import RayWatchdog
 from superlane_tools.commands.batch.engine import Job, JobOutcome, OnDone, failed_outcome
 from superlane_tools.commands.batch.errors import BatchError, EngineUnavailableError
@@ -48,9 +52,13 @@ def import_ray() -> Any:
 
 
 def run_on_worker(kind: str, config: Mapping[str, Any], job: Job) -> JobOutcome:
-    """Task body: load the kind's models once in this worker process, then run one job."""
+    """Task body: load the kind's models once in this worker process, then run one job.
+
+    The outcome carries the Ray node id of the worker (status column ``ray_node``).
+    """
     init_worker(kind, config, threads=1)
-    return execute(job, config)
+    outcome = execute(job, config)
+    return replace(outcome, node=import_ray().get_runtime_context().get_node_id())
 
 
 class RayEngine:
@@ -62,6 +70,9 @@ class RayEngine:
         workers: Concurrent tasks (default: the cluster's CPUs).
         address: Ray address to join (``auto``, ``ray://host:10001``); None: start a local one.
         num_cpus: CPUs of a locally started instance (default: Ray's own detection).
+        log: File that receives Ray's own driver-side messages (node deaths, worker crashes,
+            warnings) while the engine runs, instead of stdout and stderr
+            (:mod:`._ray_log`); None: Ray prints them.
     """
 
     name = "ray"
@@ -73,6 +84,7 @@ class RayEngine:
         workers: int | None = None,
         address: str | None = None,
         num_cpus: int | None = None,
+        log: Path | None = None,
     ) -> None:
         if workers is not None and workers < 1:
             raise UsageError(f"--workers must be >= 1, got {workers}")
@@ -87,6 +99,13 @@ class RayEngine:
         self._task: Any = None
         self._config_ref: Any = None
         self._workers = 0
+        self._log = log
+        self._log_stack = contextlib.ExitStack()
+
+    @property
+    def log(self) -> Path | None:
+        """The file Ray's messages go to (None: Ray prints them)."""
+        return self._log
 
     @property
     def workers(self) -> int:
@@ -95,6 +114,17 @@ class RayEngine:
 
     def __enter__(self) -> Self:
         ray = import_ray()
+        if self._log is not None:
+            self._log_stack.enter_context(ray_log(self._log))
+        try:
+            self._join(ray)
+        except BaseException:
+            self._close_log()
+            raise
+        return self
+
+    def _join(self, ray: Any) -> None:
+        """Start or join Ray, size the task window, put the config in the object store."""
         self._ray = ray
         if not ray.is_initialized():
             try:
@@ -110,7 +140,6 @@ class RayEngine:
         self._workers = self._requested or max(1, cpus)
         self._task = ray.remote(num_cpus=1, max_retries=0)(run_on_worker)
         self._config_ref = ray.put(self._config)
-        return self
 
     def _start_local(self, ray: Any) -> None:
         """Start a private instance whose processes the watchdog stops when this driver ends."""
@@ -141,22 +170,44 @@ class RayEngine:
         if ray is None:
             return
         self._task = self._config_ref = None
-        if self._owns_ray:
-            try:
-                ray.shutdown()
-            finally:
-                self._owns_ray = False
-                self._stop_watchdog()
+        try:
+            if self._owns_ray:
+                try:
+                    ray.shutdown()
+                finally:
+                    self._owns_ray = False
+                    self._stop_watchdog()
+        finally:
+            self._close_log()
+
+    def _close_log(self) -> None:
+        self._log_stack.close()
+
+    def _window(self) -> int:
+        """Tasks to keep in flight: ``workers`` when given, else the live cluster's CPUs now.
+
+        Only that many are submitted, so no task waits in Ray's queue, where it could be
+        handed to a node that has died but is not yet declared dead; a node that joins
+        during the batch widens the window, one declared dead narrows it.
+        """
+        if self._requested:
+            return self._requested
+        return max(1, int(self._ray.cluster_resources().get("CPU", 1)))
 
     def run(self, jobs: Sequence[Job], on_done: OnDone) -> None:
-        """Run ``jobs`` as tasks, ``workers`` in flight; a task whose worker died fails its job."""
+        """Run ``jobs`` as tasks, one per free CPU; a task whose worker or node died fails its job.
+
+        A job on a node that is lost fails once Ray declares the node dead (its health checks,
+        about 15 s by default); the batch then retries it on the live nodes.
+        """
         ray = self._ray
         if ray is None or self._task is None:
             raise RuntimeError("RayEngine.run outside its context")
         queue = list(reversed(jobs))
         running: dict[Any, Job] = {}
         while queue or running:
-            while queue and len(running) < self._workers:
+            window = self._window()
+            while queue and len(running) < window:
                 job = queue.pop()
                 running[self._task.remote(self._kind, self._config_ref, job)] = job
             ready, _ = ray.wait(list(running), num_returns=1)

@@ -162,6 +162,7 @@ def run_batch(
                         frames=outcome.frames,
                         attempts=attempt,
                         host=outcome.host,
+                        ray_node=outcome.node,
                     )
                     status.update(row)
                     tell("running", finished, total, outcome)
@@ -188,4 +189,5 @@ def run_batch(
         engine=engine.name,
         workers=workers,
         wall_s=time.perf_counter() - t0,
+        engine_log=engine.log if planned else None,
     )

@@ -49,12 +49,15 @@ COLUMNS: dict[str, str] = {
     "key": "string",
     "engine": "string",
     "host": "string",
+    "ray_node": "string",
     "finished_ns": "int64",
 }
 """Status columns and dtypes. ``status`` is what this run did; ``result`` is the state of the
 outputs on disk (``ok``, ``partial`` or ``failed``), so a ``skipped`` row still tells whether
 its earlier run was ok or partial. ``timings_json`` maps stage -> seconds; ``models_json`` maps
-model or data file -> SHA-256."""
+model or data file -> SHA-256. ``host`` is the worker's host name and ``ray_node`` its Ray node
+id (``""`` on the local engine, for skipped rows, and when a Ray worker died before it could
+tell)."""
 
 
 @dataclass(frozen=True)
@@ -86,6 +89,7 @@ class StatusRow:
     key: str
     engine: str
     host: str
+    ray_node: str = ""
     tool_version: str = __version__
 
     def as_record(self) -> dict[str, Any]:
@@ -117,6 +121,7 @@ class StatusRow:
             "key": self.key,
             "engine": self.engine,
             "host": self.host,
+            "ray_node": self.ray_node,
             "finished_ns": time.time_ns(),
         }
 
@@ -176,6 +181,7 @@ class RowContext:
         frames: int = 0,
         attempts: int = 0,
         host: str = "",
+        ray_node: str = "",
     ) -> StatusRow:
         """Return the status row of one recording."""
         times = dict(timings or {})
@@ -205,6 +211,7 @@ class RowContext:
             key=key,
             engine=engine,
             host=host,
+            ray_node=ray_node,
         )
 
 

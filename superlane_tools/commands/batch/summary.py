@@ -15,8 +15,9 @@ import numpy as np
 import pandas as pd
 
 from superlane_tools.commands.batch.status import read_status
-from superlane_tools.evaluation.curvature import curvature_errors
+from superlane_tools.evaluation import curvature_errors
 from superlane_tools.reporting import Provenance, write_table
+from superlane_tools.reporting.names import UNCATEGORISED
 from superlane_tools.reporting.report import Section, write_report
 from superlane_tools.reporting.run_layout import (
     AVAILABILITY_SEQUENCES_FILE,
@@ -26,7 +27,6 @@ from superlane_tools.reporting.run_layout import (
     SummaryLayout,
 )
 
-UNCATEGORISED = "uncategorised"
 TRUTH_COLUMN = "rtk_curvature"
 
 
@@ -173,13 +173,17 @@ def _paper_tables(root: Path, status: pd.DataFrame) -> list[tuple[str, pd.DataFr
     from superlane_tools.commands.tables import availability_table, curvature_table
     from superlane_tools.reporting import OutputError
 
-    runs = [root / str(r) for r in _done(root, status)["recording_id"]]
+    done = _done(root, status)
+    runs = [root / str(r) for r in done["recording_id"]]
+    categories = dict(
+        zip(done["recording_id"].astype(str), done["category"].astype(str), strict=True)
+    )
     sections = []
     with_avail = [r for r in runs if (r / AVAILABILITY_SEQUENCES_FILE).is_file()]
     with_curv = [r for r in runs if (r / CURVATURE_SUMMARY_FILE).is_file()]
     try:
         if with_avail:
-            table = availability_table(with_avail, by="category")
+            table = availability_table(with_avail, by="category", categories=categories)
             sections.append(("Availability, corridor paper Table II layout", table, ""))
         if with_curv:
             sections.append(
@@ -190,17 +194,26 @@ def _paper_tables(root: Path, status: pd.DataFrame) -> list[tuple[str, pd.DataFr
     return sections
 
 
-def _report(out: Path, sections: Sequence[tuple[str, pd.DataFrame, str]], title: str) -> list[Path]:
-    """Write ``report.md`` and ``report.html`` with one table per section."""
+def _report(
+    out: Path,
+    sections: Sequence[tuple[str, pd.DataFrame, str]],
+    title: str,
+    extra: Sequence[Section] = (),
+) -> list[Path]:
+    """Write ``report.md`` and ``report.html`` with one table per section, then ``extra``."""
     return write_report(
         SummaryLayout(out).report,
         title,
-        [Section(heading, [note] if note else [], [frame]) for heading, frame, note in sections],
+        [Section(heading, [note] if note else [], [frame]) for heading, frame, note in sections]
+        + list(extra),
     )
 
 
-def write_summary(root: str | Path, command: str = "") -> list[Path]:
+def write_summary(root: str | Path, command: str = "", extra: Sequence[Section] = ()) -> list[Path]:
     """Write ``ROOT/summary/``: Parquet tables plus ``report.md`` and ``report.html``.
+
+    ``extra``: report sections appended after the fleet's own (the nightly comparison with a
+    baseline and the mined frames, ``pipelines/nightly.py --baseline``).
 
     Returns:
         The files written.
@@ -222,5 +235,5 @@ def write_summary(root: str | Path, command: str = "") -> list[Path]:
     sections[2:2] = _paper_tables(base, status)
     total = len(status)
     title = f"Fleet summary: {total} recording{'s' if total != 1 else ''} in {base.name}"
-    written += _report(out, sections, title)
+    written += _report(out, sections, title, extra)
     return written

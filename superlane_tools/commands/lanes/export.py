@@ -7,14 +7,11 @@ I/O only: the TuSimple rules (rows per frame, line caps, run time, colour and st
 
 from __future__ import annotations
 
-import dataclasses
-import math
 import os
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import pyarrow as pa
@@ -24,14 +21,13 @@ from numpy.typing import NDArray
 from superlane_tools.camera.model import CameraModel
 from superlane_tools.commands.errors import PipelineError
 from superlane_tools.errors import ConfigError
-from superlane_tools.evaluation.tusimple import format_record, load_jsonl
+from superlane_tools.evaluation import format_record, load_jsonl
 from superlane_tools.evaluation.tusimple_export import (
     ExportOptions,
-    FittedFrame,
     export_records,
+    fitted_frame,
     rows_by_raw_file,
 )
-from superlane_tools.lanes.table import lanes_from_row
 from superlane_tools.reporting import read_provenance, write_bytes_atomic, write_text_atomic
 from superlane_tools.reporting.run_layout import LANES_FIT_SCHEMA
 
@@ -53,25 +49,6 @@ class ExportResult:
 
     out: Path
     n_records: int
-
-
-def _fitted_frame(row: dict[str, Any]) -> FittedFrame:
-    lanes, slope = lanes_from_row(row)
-    colours = row.get("colours") or ["unknown"] * len(lanes)
-    styles = row.get("styles") or ["unknown"] * len(lanes)
-    c = row.get("c")
-    seg = row.get("seg_time_ms")
-    return FittedFrame(
-        name=row["name"],
-        lanes=tuple(
-            dataclasses.replace(ln, colour=str(co), style=str(st))
-            for ln, co, st in zip(lanes, colours, styles, strict=True)
-        ),
-        b=slope,
-        c=float(c) if c is not None and math.isfinite(c) else 0.0,
-        fit_time_ms=float(row["fit_time_ms"]),
-        seg_time_ms=float(seg) if seg is not None else math.nan,
-    )
 
 
 def export_tusimple(
@@ -113,7 +90,7 @@ def export_tusimple(
         cameras.append(cams[size])
     task_rows = rows_by_raw_file(load_jsonl(tasks)) if tasks is not None else None
     records = export_records(
-        [_fitted_frame(r) for r in rows], cameras, options, h_samples=h_samples, tasks=task_rows
+        [fitted_frame(r) for r in rows], cameras, options, h_samples=h_samples, tasks=task_rows
     )
     text = "".join(f"{format_record(rec)}\n" for rec in records)
     return ExportResult(write_text_atomic(out, text), len(records))
@@ -133,7 +110,7 @@ def export_kitti_ego_lane(
     Raises:
         PipelineError: If the file is not a ``lanes.parquet`` written by ``slt lanes fit``.
     """
-    from superlane_tools.evaluation.kitti import ego_lane_mask
+    from superlane_tools.evaluation import ego_lane_mask
 
     src = Path(lanes_parquet)
     try:
@@ -144,7 +121,7 @@ def export_kitti_ego_lane(
         raise PipelineError(f"{src}: not a lanes.parquet file (no ego_left)")
     root = Path(out_dir)
     for row in rows:
-        frame = _fitted_frame(row)
+        frame = fitted_frame(row)
         size = (int(row["width"]), int(row["height"]))
         cam = camera if size == (camera.width, camera.height) else camera.resized(*size)
         left, right = int(row["ego_left"]), int(row["ego_right"])

@@ -20,10 +20,11 @@ from superlane_tools.commands.reprocess.outputs import write_outputs
 from superlane_tools.commands.reprocess.result import ReprocessResult
 from superlane_tools.corridor import Segment, windows
 from superlane_tools.drive.config import ReprocessConfig
-from superlane_tools.drive.finalize import ReportFacts, drive_tables
+from superlane_tools.drive.finalize import drive_tables
 from superlane_tools.drive.loop import DriveTopics, run_frames
 from superlane_tools.drive.record import no_camera_frames
 from superlane_tools.reporting import Provenance, input_identity
+from superlane_tools.reporting.drive_sections import ReportFacts
 
 GRID_HZ = 15.0
 """Evaluation rate without camera frames (the corridor paper's camera rate), Hz."""
@@ -75,10 +76,7 @@ def reprocess_signals(
         if drive.span_ns is not None
         else np.zeros(0, dtype=np.int64)
     )
-    notes = [
-        f"{NO_CAMERA}: SUPER, the corridor network and Hough not computed; truth, yaw-rate "
-        f"reference and Mobileye evaluated at {t_ns.size} instants ({GRID_HZ:g} Hz)"
-    ]
+    notes: list[str] = []  # the drive's notes (from its facts) say what was not computed
     size = max(1, round(cfg.kpi.window_s * GRID_HZ))
     segments = [Segment(s.start, s.stop, cfg.kpi.category) for s in windows(t_ns.size, size)]
     frames = no_camera_frames(t_ns)

@@ -8,17 +8,19 @@ from typing import TYPE_CHECKING, NamedTuple
 
 from superlane_tools.drive.config import ReprocessConfig
 from superlane_tools.drive.examples import example_indices
-from superlane_tools.drive.finalize import DriveTables, ReportFacts, report_sections
+from superlane_tools.drive.finalize import DriveTables, report_sections
 from superlane_tools.drive.loop import DrivePass, DriveTopics, FrameSink
+from superlane_tools.drive.selfcheck import SelfCheck
 from superlane_tools.drive.sinks import AnnotationSink, ExampleSink, FrameTablesSink, VideoSink
 from superlane_tools.drive.stages import FrameStages
 from superlane_tools.reporting import Provenance, input_identity, write_table
+from superlane_tools.reporting.drive_sections import ReportFacts
 from superlane_tools.reporting.plots import ExampleFrame
 from superlane_tools.reporting.report import write_report
-from superlane_tools.reporting.run_layout import RunLayout
+from superlane_tools.reporting.run_layout import RunLayout, checked_table
 
 if TYPE_CHECKING:
-    import pandas as pd
+    import pyarrow as pa
 
     from superlane_tools.camera.model import CameraModel
     from superlane_tools.corridor import TimeSegment
@@ -31,6 +33,7 @@ def run_provenance(
     resolved: tuple[DriveTopics, CameraModel, FrameStages],
     segments: Sequence[TimeSegment] | None,
     command: str,
+    check: SelfCheck | str = "",
 ) -> Provenance:
     """Return the provenance of every output: inputs, the configuration and what it resolved to.
 
@@ -41,6 +44,7 @@ def run_provenance(
         resolved: The topics read, the camera and the stages built from the configuration.
         segments: KPI sequences given by the caller (recorded when given).
         command: Command line (default: ``reprocess('<name>')``).
+        check: The segmentation self-check, or why it was skipped.
     """
     topics, camera, stages = resolved
     config_data = config.to_dict()
@@ -49,6 +53,7 @@ def run_provenance(
         "camera": camera.to_dict(),
         "segmentation_backend": stages.backend_name,
         "corridor_unavailable": stages.corridor_unavailable,
+        "segmentation_self_check": check.to_dict() if isinstance(check, SelfCheck) else check,
     }
     if segments is not None:
         config_data["resolved"]["segments"] = [s._asdict() for s in segments]
@@ -119,9 +124,19 @@ def open_sinks(
         raise
 
 
-def table_files(out: Path, result: DriveTables) -> dict[Path, pd.DataFrame]:
-    """Return output path -> table of the derived tables (named by :class:`RunLayout`)."""
-    return {path: getattr(result, name) for name, path in RunLayout(out).derived().items()}
+def table_files(out: Path, result: DriveTables) -> dict[Path, pa.Table]:
+    """Return output path -> table of the derived tables (named by :class:`RunLayout`).
+
+    Each table is checked against its schema (:data:`~.run_layout.DERIVED_SCHEMAS`).
+
+    Raises:
+        ~superlane_tools.reporting.run_layout.SchemaMismatchError: If a builder's table
+            disagrees with its declared schema.
+    """
+    return {
+        path: checked_table(name, getattr(result, name))
+        for name, path in RunLayout(out).derived().items()
+    }
 
 
 def write_outputs(

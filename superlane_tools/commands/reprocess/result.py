@@ -30,6 +30,8 @@ class ReprocessResult:
         frames_per_s: Frames per second of wall time, end to end.
         signal_channels: Messages per signal channel added to the annotations
             (``with_signals``; None when none were added).
+        implausible: The report's headline warning when no segmentation backend gave
+            plausible lanes on the drive (per-drive self-check; "" otherwise).
     """
 
     status: str
@@ -40,6 +42,7 @@ class ReprocessResult:
     notes: tuple[str, ...] = ()
     frames_per_s: float = 0.0
     signal_channels: dict[str, int] | None = None
+    implausible: str = ""
 
 
 class RunClock:

@@ -24,12 +24,15 @@ from superlane_tools.commands.reprocess.outputs import (
 from superlane_tools.commands.reprocess.result import Progress, ReprocessResult, RunClock
 from superlane_tools.corridor import TimeSegment
 from superlane_tools.drive.config import ReprocessConfig
-from superlane_tools.drive.finalize import ReportFacts, drive_tables, kpi_segments
+from superlane_tools.drive.finalize import drive_tables, kpi_segments
 from superlane_tools.drive.loop import drive_topics, frame_total, run_frames
+from superlane_tools.drive.selfcheck import SelfCheck, drive_self_check
 from superlane_tools.drive.stages import FrameStages
+from superlane_tools.recording import open_recording
 from superlane_tools.recording.calibration import resolve_camera
-from superlane_tools.recording.open import open_recording
 from superlane_tools.records import Skipped
+from superlane_tools.reporting.drive_notes import unlike_training_data
+from superlane_tools.reporting.drive_sections import ReportFacts
 
 
 @single_native_threads()  # BLAS and OpenCV pools at one thread: our workers fill the cores
@@ -72,9 +75,10 @@ def reprocess(
 
             return reprocess_signals(rec, src, out, cfg, (dbcs, dbc_paths), topics, command)
         camera, camera_source = resolve_camera(rec, topics.streams, cfg.camera)
-        stages = FrameStages(cfg, camera)
+        check = drive_self_check(src, topics.frames, cfg, camera)
+        stages = FrameStages(check.config(cfg) if isinstance(check, SelfCheck) else cfg, camera)
         resolved = (topics, camera, stages)
-        provenance = run_provenance(src, dbc_paths, cfg, resolved, segments, command)
+        provenance = run_provenance(src, dbc_paths, cfg, resolved, segments, command, check)
         out.mkdir(parents=True, exist_ok=True)
         total = frame_total(rec, topics.frames)
         sinks = open_sinks(out, cfg, stages, topics.frames, provenance, total)
@@ -90,10 +94,19 @@ def reprocess(
     derived = drive_tables(
         frames, *signals, cfg, kpi, params, stages.corridor_unavailable, imu=drive.imu
     )
-    notes = (*topics.streams.notes, f"camera: {camera_source}", *stages.notes, *derived.notes)
+    checked = check.lines() if isinstance(check, SelfCheck) else [check]
+    implausible = "" if not isinstance(check, SelfCheck) or check.plausible else check.reason
+    notes = (*topics.streams.notes, f"camera: {camera_source}", *checked, *stages.notes)
+    notes += (*derived.notes, *([unlike_training_data(implausible)] if implausible else []))
     skipped += derived.lost
     facts = ReportFacts(
-        src, len(frames), stages.backend_name, stages.corridor_unavailable, notes, tuple(skipped)
+        src,
+        len(frames),
+        stages.backend_name,
+        stages.corridor_unavailable,
+        notes,
+        tuple(skipped),
+        implausible,
     )
     written, rendered = sinks.written(drive)
     written += write_outputs(out, derived, provenance, cfg, [], facts, rendered)
@@ -108,4 +121,5 @@ def reprocess(
         notes=notes,
         frames_per_s=len(frames) / timings["total"] if timings["total"] > 0 else 0.0,
         signal_channels=add_signal_channels(out, derived) if with_signals else None,
+        implausible=unlike_training_data(implausible) if implausible else "",
     )

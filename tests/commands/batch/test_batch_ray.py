@@ -13,7 +13,9 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
+from typer.testing import CliRunner
 
+from superlane_tools.cli.app import app
 from superlane_tools.commands.batch import (
     MARKER,
     BatchParams,
@@ -91,27 +93,49 @@ def _kill_workers_on(tmp_root: Path, prefix: str, stop: threading.Event) -> list
 def test_recording_that_kills_its_worker_fails_alone(
     tmp_path: Path, write_drive: Callable[..., Path], engine: str, local_ray: None
 ) -> None:
+    """Through ``slt batch``: every attempt's worker is killed, the others finish, exit 3."""
     recs = tmp_path / "recs"
     recs.mkdir()
     write_drive(recs / "crash.mcap", seed=1, frames=400)
     for k in range(3):
         write_drive(recs / f"fine_{k}.mcap", seed=2 + k, frames=60)
+    config = tmp_path / "c.json"
+    config.write_text('{"frame_format": "png"}')
     root = tmp_path / "out"
-    params = BatchParams(
-        root, "extract", engine=engine, workers=2, retries=1, config={"frame_format": "png"}
-    )
+    args = [str(recs), "-o", str(root), "--engine", engine, "--workers", "2", "--retries", "1"]
+    args += ["--job", "extract", "--config", str(config)]
     stop = threading.Event()
     with ThreadPoolExecutor(1) as pool:
         killer = pool.submit(_kill_workers_on, root / ".tmp", "crash", stop)
-        report = run_batch(expand_inputs([recs]), params)
+        res = CliRunner().invoke(app, ["batch", *args], catch_exceptions=False)
         stop.set()
-        assert killer.result(), "no worker was seen at work on the crashing recording"
-    assert report.counts == {"ok": 3, "partial": 0, "failed": 1, "skipped": 0}
-    ((crashed, reason),) = report.failures
-    assert crashed.startswith("crash-")
-    assert "died" in reason
+        killed = killer.result()
+    assert res.exit_code == 3, res.output
+    assert "batch: ok 3, partial 0, failed 1, skipped 0" in res.stdout
+    (skipped,) = [ln for ln in res.stderr.splitlines() if ln.startswith("slt: skipped:")]
+    assert skipped.startswith("slt: skipped: failed recordings (1): crash-")
+    assert "died" in skipped
+    # one line per attempt that failed, each naming its attempt
+    assert res.stderr.count("attempt 1 failed") == res.stderr.count("attempt 2 failed") == 1
+    assert "Traceback" not in res.output
+    # Ray's own messages (the dead worker) stay off stdout, in the log the note names
+    assert all(ln.startswith(("batch:", "status:", "summary:")) for ln in res.stdout.splitlines())
+    ray_note = f"Ray's messages (node deaths, worker crashes) are in {root / 'batch_ray.log'}"
+    assert (ray_note in res.stderr) == (engine == "ray")
     status = pd.read_parquet(root / "batch_status.parquet").set_index("recording_id")
+    (crashed,) = status.index[status["status"] == "failed"]
+    assert crashed.startswith("crash-")
     assert status.loc[crashed, "attempts"] == 2
-    assert (status.drop(index=crashed)["result"] == "ok").all()
+    assert "died" in status.loc[crashed, "error"]
+    # every attempt was really killed: at least one distinct worker process per attempt
+    assert len(set(killed)) >= 2, killed
+    fine = status.drop(index=crashed)
+    assert (fine["result"] == "ok").all()
+    assert (fine["attempts"] == 1).all()
+    assert (fine["ray_node"] != "").all() == (engine == "ray")
+    assert (fine["ray_node"] == "").all() == (engine == "local")
+    fleet = pd.read_parquet(root / "summary" / "fleet_status.parquet")
+    assert (fleet["ok"].sum(), fleet["failed"].sum()) == (3, 1)
     finished = sorted(p.name.split("-")[0] for p in root.iterdir() if (p / MARKER).exists())
     assert finished == ["fine_0", "fine_1", "fine_2"]
+    assert not (root / ".tmp").exists()

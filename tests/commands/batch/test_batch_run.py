@@ -28,7 +28,8 @@ from superlane_tools.commands.batch import (
 )
 from superlane_tools.commands.batch.root import root_lock
 from superlane_tools.commands.batch.status import StatusRow, StatusTable
-from superlane_tools.reporting import read_provenance
+from superlane_tools.reporting import Provenance, read_provenance, write_table
+from superlane_tools.reporting.run_folder import write_run_manifest
 
 EXTRACT = {"frame_format": "none"}
 
@@ -198,7 +199,7 @@ def test_summary_from_reprocess_tables(tmp_path: Path) -> None:
                 "method_available": [True, True, True, True],
             }
         )
-        seqs.to_parquet(root / rid / "availability_sequences.parquet")
+        write_table(seqs, root / rid / "availability_sequences.parquet", Provenance("test"))
         truth = np.full(20, 1e-3)
         truth[0] = np.nan
         pd.DataFrame(
@@ -208,6 +209,7 @@ def test_summary_from_reprocess_tables(tmp_path: Path) -> None:
                 "mobileye_curvature": np.full(20, np.nan),
             }
         ).to_parquet(root / rid / "curvature.parquet")
+        write_run_manifest(root / rid)  # a complete run: the paper-table layout reads it
         rows.append({"recording_id": rid, "category": category, "status": "ok", "result": "ok"})
     table = StatusTable(root, "test", {})
     for row in rows:
@@ -256,6 +258,11 @@ def test_summary_from_reprocess_tables(tmp_path: Path) -> None:
     assert "## Availability by category" in md
     assert "| highway | super | 2 | 4 | 28 | 40 |" in md
     assert "<table>" in (root / "summary" / "report.html").read_text()
+    # Table II layout: the category column holds the recordings' categories, never run ids.
+    table_ii = md.split("## Availability, corridor paper Table II layout")[1].split("## ")[0]
+    rows = [line for line in table_ii.splitlines() if line.startswith("|")][2:]
+    groups = [row.split("|")[1].strip() for row in rows]
+    assert groups == ["highway", "rain", "total"]
 
 
 def test_status_rows_with_sha256_identities_are_not_reused(tmp_path: Path) -> None:

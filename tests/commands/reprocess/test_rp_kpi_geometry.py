@@ -63,16 +63,18 @@ def lane_change_drives(tmp_path_factory: pytest.TempPathFactory) -> dict[float, 
     return out
 
 
-@pytest.mark.parametrize("delay", [0.0, 0.1])
-def test_mobileye_latency_recovers_the_simulated_delay(
-    lane_change_drives: dict[float, Path], delay: float, tmp_path: Path
+def test_mobileye_latency_of_one_lane_change_is_not_claimed(
+    lane_change_drives: dict[float, Path], tmp_path: Path
 ) -> None:
-    rec = lane_change_drives[delay]
-    assert reprocess(rec, tmp_path / "run", FAST).status == "ok"
+    """10 s, one lane change: the lag rests on one event, so it is reported as not resolved.
+
+    Before the rule the relabelling step of that lane change made a sharp peak and the report
+    claimed a resolved lag for the 0.1 s delay (+0.169 s on seed 0 at 480x270).
+    """
+    assert reprocess(lane_change_drives[0.1], tmp_path / "run", FAST).status == "ok"
     summary = pd.read_parquet(tmp_path / "run" / "curvature_summary.parquet")
-    latency = float(summary["mobileye_latency_s"].iloc[0])
-    assert bool(summary["mobileye_latency_resolved"].iloc[0])
-    assert abs(latency - delay) < 1.0 / 15.0  # within one frame period
+    assert not bool(summary["mobileye_latency_resolved"].iloc[0])
+    assert np.isfinite(float(summary["mobileye_latency_s"].iloc[0]))  # estimated, not claimed
     report = (tmp_path / "run" / "report.md").read_text()
-    assert "Mobileye latency behind the camera frames" in report
-    assert np.isfinite(latency)
+    line = next(x for x in report.splitlines() if "Mobileye latency behind" in x)
+    assert "NOT resolved to one frame period (0.067 s): " in line
