@@ -26,7 +26,7 @@ from superlane_tools.recording._scan_types import (
 from superlane_tools.recording.errors import RecordingError
 
 if TYPE_CHECKING:
-    from mcap.records import Channel, Schema
+    from mcap.records import Channel, Chunk, ChunkIndex, Schema
     from mcap.records import Message as McapMessage
     from mcap.summary import Summary
 
@@ -142,6 +142,9 @@ class McapWalk:
     losses: list[Loss] = field(default_factory=list)
     data_end: int | None = None
     """Byte offset of the data end (or footer) record: where the summary section starts."""
+    resume: dict[int, tuple[int, bool]] = field(default_factory=dict)
+    """Where to read on after an unreadable record, and whether the record is a chunk (the
+    chunk index tells both), by the record's offset."""
     _lost_chunks: list[_LostChunk] = field(default_factory=list)
 
     def stored_messages(
@@ -149,7 +152,7 @@ class McapWalk:
     ) -> Iterator[tuple[int, int, int, bytes]]:
         """Yield ``(channel id, log time, publish time, payload)`` of readable messages."""
         with self.path.open("rb") as handle:
-            for msg in file_order_messages(handle):
+            for msg in file_order_messages(handle, self.resume):
                 if msg.channel_id in channel_ids:
                     yield msg.channel_id, msg.log_time, msg.publish_time, msg.data
 
@@ -187,23 +190,44 @@ class McapWalk:
         self.losses.sort(key=lambda loss: loss.byte_start)
 
 
-def file_order_messages(handle: BinaryIO) -> Iterator[McapMessage]:
+def _records_from(handle: BinaryIO, offset: int) -> Iterator[Any]:
+    """Return the records of ``handle`` from byte ``offset`` (the file start when 0)."""
+    from mcap.stream_reader import StreamReader
+
+    handle.seek(offset)
+    return StreamReader(handle, skip_magic=offset > 0, emit_chunks=True).records
+
+
+def file_order_messages(
+    handle: BinaryIO, resume: dict[int, tuple[int, bool]] | None = None
+) -> Iterator[McapMessage]:
     """Yield the messages of every readable record in file order, chunks opened in place.
 
-    Damaged chunks are passed over; the first unreadable record ends the stream (the walk
-    reports both).
+    Damaged chunks are passed over; an unreadable record ends the stream unless ``resume``
+    (:attr:`McapWalk.resume`) says where the next readable record starts (the walk reports
+    both).
     """
     from mcap.records import Chunk, DataEnd, Footer
     from mcap.records import Message as McapMessage
-    from mcap.stream_reader import StreamReader, breakup_chunk
+    from mcap.stream_reader import breakup_chunk
 
-    handle.seek(0)
-    records = StreamReader(handle, emit_chunks=True).records
+    records = _records_from(handle, 0)
+    offset = len(MCAP_MAGIC)
     while True:
         try:
             record = next(records)
-        except Exception:  # StopIteration, or damage the walk reports
+        except StopIteration:
             return
+        except Exception:  # damage the walk reports
+            if resume is None or offset not in resume:
+                return
+            at = offset
+            offset, is_chunk = resume[at]
+            record = _readable_chunk_at(handle, at) if is_chunk else None
+            records = _records_from(handle, offset)
+            if record is None:
+                continue
+        offset = handle.tell()
         if isinstance(record, DataEnd | Footer):
             return
         inner: list[Any] = [record]
@@ -217,26 +241,32 @@ def file_order_messages(handle: BinaryIO) -> Iterator[McapMessage]:
                 yield item
 
 
-def walk_data_section(handle: BinaryIO, path: Path, complete: bool) -> McapWalk:
-    """Read every record of the data section once; stop at the first unreadable one.
+def walk_data_section(
+    handle: BinaryIO, path: Path, complete: bool, summary: Summary | None = None
+) -> McapWalk:
+    """Read every record of the data section once.
+
+    An unreadable record ends the walk, unless the intact ``summary``'s chunk index says where
+    the next readable record lies: a damaged chunk is then lost alone (its message indexes tell
+    what it held) and the walk reads on after it.
 
     Args:
         handle: The open file (its position is changed).
         path: The file's path (named in the losses).
         complete: Whether the file ends with the closing magic.
+        summary: The file's intact summary, if any.
 
     Returns:
         The schemas, channels, chunk positions and counts found, and the losses.
     """
     from mcap.records import Channel, Chunk, DataEnd, Footer, MessageIndex, Schema
     from mcap.records import Message as McapMessage
-    from mcap.stream_reader import StreamReader, breakup_chunk
+    from mcap.stream_reader import breakup_chunk
 
     walk = McapWalk(path)
     name = path.name
     size = handle.seek(0, io.SEEK_END)
-    handle.seek(0)
-    records = StreamReader(handle, emit_chunks=True).records
+    records = _records_from(handle, 0)
     offset = len(MCAP_MAGIC)
     last_time: int | None = None
     pending: _LostChunk | None = None
@@ -245,19 +275,66 @@ def walk_data_section(handle: BinaryIO, path: Path, complete: bool) -> McapWalk:
             record = next(records)
         except StopIteration:
             break
-        except Exception as err:  # cut or garbled mid-record: keep what came before
-            walk.losses.append(
-                Loss(
-                    "truncated file",
-                    f"{name}: unreadable from byte {offset} "
-                    f"({type(err).__name__}); later messages are lost",
-                    offset,
-                    size,
-                    start_ns=last_time,
+        except Exception as err:  # garbled mid-record: read on at the next chunk indexed
+            why = f"{type(err).__name__}: {err}"
+            ci = _index_from(summary, offset)
+            if ci is None and summary is not None and summary.chunk_indexes:
+                # after the last chunk (its message indexes, the data end): nothing is lost
+                walk.losses.append(
+                    Loss(
+                        "corrupt record",
+                        f"{name}: unreadable record at byte {offset} ({why}), "
+                        "after the last chunk the index lists",
+                        offset,
+                        size,
+                    )
                 )
-            )
-            walk._finish_chunk_losses()
-            return walk
+                walk.data_end = offset
+                break
+            if ci is None:  # cut, or garbled with no index to read on by
+                walk.losses.append(
+                    Loss(
+                        "truncated file",
+                        f"{name}: unreadable from byte {offset} "
+                        f"({type(err).__name__}); later messages are lost",
+                        offset,
+                        size,
+                        start_ns=last_time,
+                    )
+                )
+                walk._finish_chunk_losses()
+                return walk
+            if ci.chunk_start_offset > offset:  # a record between chunks
+                walk.losses.append(
+                    Loss(
+                        "corrupt record",
+                        f"{name}: unreadable record at byte {offset} ({why}); "
+                        f"read on at the chunk at byte {ci.chunk_start_offset}",
+                        offset,
+                        ci.chunk_start_offset,
+                    )
+                )
+                walk.resume[offset] = (ci.chunk_start_offset, False)
+                offset = ci.chunk_start_offset
+                records = _records_from(handle, offset)
+                continue
+            end = ci.chunk_start_offset + ci.chunk_length
+            walk.resume[offset] = (end, True)
+            chunk = _readable_chunk_at(handle, offset)  # its prefix may be all that is garbled
+            if chunk is None:  # lose the chunk; its message indexes tell what it held
+                pending = _LostChunk(
+                    offset,
+                    end,
+                    ci.message_start_time,
+                    ci.message_end_time,
+                    f"{name}: chunk at byte {offset}: {why}",
+                )
+                walk._lost_chunks.append(pending)
+                offset = end
+                records = _records_from(handle, offset)
+                continue
+            record = chunk
+            records = _records_from(handle, end)
         if isinstance(record, MessageIndex):
             if pending is not None:
                 times = [t for t, _ in record.records]
@@ -310,6 +387,11 @@ def walk_data_section(handle: BinaryIO, path: Path, complete: bool) -> McapWalk:
             break
         offset = handle.tell()
     walk._finish_chunk_losses()
+    if summary is not None:  # records lost with a damaged region: the summary repeats them
+        for sid, schema in summary.schemas.items():
+            walk.schemas.setdefault(sid, schema)
+        for cid, channel in summary.channels.items():
+            walk.channels.setdefault(cid, channel)
     if not (complete and walk.data_end is not None):
         walk.losses.append(
             Loss(
@@ -323,6 +405,32 @@ def walk_data_section(handle: BinaryIO, path: Path, complete: bool) -> McapWalk:
     return walk
 
 
+def _index_from(summary: Summary | None, offset: int) -> ChunkIndex | None:
+    """Return the first chunk index of ``summary`` at or after byte ``offset``, if any."""
+    if summary is None:
+        return None
+    after = [ci for ci in summary.chunk_indexes if ci.chunk_start_offset >= offset]
+    return min(after, key=lambda ci: ci.chunk_start_offset, default=None)
+
+
+def read_chunk_at(handle: BinaryIO, offset: int) -> Chunk:
+    """Read the chunk record at ``offset`` without its length prefix (as the indexed reader)."""
+    from mcap.data_stream import ReadDataStream
+    from mcap.records import Chunk
+
+    handle.seek(offset + RECORD_PREFIX)
+    chunk: Chunk = Chunk.read(ReadDataStream(handle))
+    return chunk
+
+
+def _readable_chunk_at(handle: BinaryIO, offset: int) -> Chunk | None:
+    """Return the chunk record at ``offset`` (see :func:`read_chunk_at`), None if unreadable."""
+    try:
+        return read_chunk_at(handle, offset)
+    except Exception:  # the walk reports the chunk lost
+        return None
+
+
 def scan_mcap_file(path: Path) -> RecordingScan:
     """Scan ``path`` (see :func:`superlane_tools.recording.scan.scan_mcap`)."""
     try:
@@ -332,8 +440,8 @@ def scan_mcap_file(path: Path) -> RecordingScan:
     with handle:
         if handle.read(len(MCAP_MAGIC)) != MCAP_MAGIC:
             raise RecordingError(f"{path} is not a recording: no MCAP magic at the start")
-        _, problem, complete = read_summary(handle)
-        walk = walk_data_section(handle, path, complete)
+        summary, problem, complete = read_summary(handle)
+        walk = walk_data_section(handle, path, complete, summary)
     losses = list(walk.losses)
     if problem is not None:
         size = path.stat().st_size

@@ -78,7 +78,10 @@ class Loss(NamedTuple):
     """One damaged region of the file and what it cost.
 
     Attributes:
-        what: Kind: ``corrupt chunk``, ``truncated file`` or ``damaged summary``.
+        what: Kind: ``corrupt chunk``, ``truncated file``, ``damaged summary`` or ``corrupt
+            record`` (an unreadable MCAP record outside the chunks the intact chunk index
+            lists, such as a message index: no message lost, the scan read on at the next
+            chunk).
         detail: One line for people (the same text the sources report in ``skipped``).
         byte_start: First unreadable byte.
         byte_stop: End of the unreadable bytes (exclusive; the file size for a cut file).

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 from types import SimpleNamespace
+from typing import TYPE_CHECKING
 
 import pytest
 
@@ -15,6 +16,9 @@ from superlane_tools.recording import (
     scan_recording,
     scan_ros1,
 )
+
+if TYPE_CHECKING:
+    from mcap.records import ChunkIndex
 
 SAMPLE = Path(__file__).resolve().parents[2] / "fixtures" / "sample_drive.mcap"
 ROS1_BAG = Path("bags") / "ros1_robot_localization" / "test1.bag"
@@ -108,6 +112,58 @@ def test_zeroed_mcap_chunk_is_counted_per_topic(drive: SimpleNamespace, tmp_path
     _assert_lost_by_topic(scan, in_bad)
     got = sorted((m.channel.topic, m.log_time_ns) for m in scan.messages())
     assert got == sorted({(topic, t) for topic, t, _ in everything} - set(in_bad))
+
+
+def _garble_chunk_header(path: Path, dst: Path, nth: int, at: int) -> tuple[Path, ChunkIndex]:
+    """Write ``path`` with 16 bytes of chunk ``nth``'s record set to 0xff from byte ``at`` of it.
+
+    Returns the damaged copy and the chunk's index entry (the summary itself stays intact).
+    """
+    from mcap.reader import make_reader
+
+    with path.open("rb") as handle:
+        summary = make_reader(handle).get_summary()
+    assert summary is not None
+    ci = sorted(summary.chunk_indexes, key=lambda ci: ci.chunk_start_offset)[nth]
+    data = bytearray(path.read_bytes())
+    start = ci.chunk_start_offset + at
+    data[start : start + 16] = b"\xff" * 16
+    dst.write_bytes(bytes(data))
+    return dst, ci
+
+
+def test_garbled_chunk_header_loses_that_chunk_only(drive: SimpleNamespace, tmp_path: Path) -> None:
+    """Issue 27 fuzz recover-mcap-garble: the walk reads on at the next chunk the index knows."""
+    path = drive.write("full.mcap", "mcap", chunk_size=4096)
+    # bytes 33..49 of the record: the CRC and the compression name's length (unreadable)
+    broken, bad = _garble_chunk_header(path, tmp_path / "broken.mcap", 2, 33)
+    everything = _stored(path)
+    in_bad = [
+        (topic, t)
+        for topic, t, _ in everything
+        if bad.message_start_time <= t <= bad.message_end_time
+    ]
+    assert 0 < len(in_bad) < len(everything) // 3
+    scan = scan_mcap(broken)
+    (loss,) = scan.losses  # no "truncated file": the later chunks are read
+    assert loss.what == "corrupt chunk"
+    assert loss.byte_start == bad.chunk_start_offset
+    assert loss.n_messages == len(in_bad)
+    _assert_lost_by_topic(scan, in_bad)
+    got = sorted((m.channel.topic, m.log_time_ns, m.payload) for m in scan.messages())
+    assert got == sorted(_stored(broken))  # what the indexed reader (slt cat) reads
+    assert got == sorted(m for m in everything if (m[0], m[1]) not in set(in_bad))
+
+
+def test_garbled_chunk_length_prefix_loses_nothing(drive: SimpleNamespace, tmp_path: Path) -> None:
+    """The chunk's length (and start time) are garbled: the index gives the length, as the
+    indexed reader reads it, and every message is read."""
+    path = drive.write("full.mcap", "mcap", chunk_size=4096)
+    broken, _ = _garble_chunk_header(path, tmp_path / "broken.mcap", 2, 1)
+    scan = scan_mcap(broken)
+    got = sorted((m.channel.topic, m.log_time_ns, m.payload) for m in scan.messages())
+    assert got == sorted(_stored(path)) == sorted(_stored(broken))
+    assert scan.losses == ()
 
 
 @pytest.mark.realdata

@@ -101,6 +101,36 @@ def test_mcap_json_names_the_lost_topics(sample: Path, tmp_path: Path) -> None:
     assert all(t["start_ns"] < t["stop_ns"] for t in loss["topics"])
 
 
+@pytest.mark.parametrize("nth", [1, -2])
+def test_mcap_garbled_chunk_header_loses_that_chunk_only(
+    sample: Path, tmp_path: Path, nth: int
+) -> None:
+    """Issue 27 fuzz recover-mcap-garble-8397/-16812: 16 garbled bytes in a chunk's header.
+
+    The scan read on at the next chunk of the (intact) chunk index, as ``slt cat`` does: the
+    output holds everything cat reads, and the loss is that one chunk, counted per topic.
+    """
+    from mcap.reader import make_reader
+
+    with sample.open("rb") as handle:
+        summary = make_reader(handle).get_summary()
+    assert summary is not None
+    bad = sorted(summary.chunk_indexes, key=lambda ci: ci.chunk_start_offset)[nth]
+    data = bytearray(sample.read_bytes())
+    at = bad.chunk_start_offset + 33  # the chunk CRC and its compression name's length
+    data[at : at + 16] = b"\xff" * 16
+    damaged = tmp_path / "damaged.mcap"
+    damaged.write_bytes(bytes(data))
+    code, out, err = _recover(damaged, tmp_path / "rec.mcap", "--json")
+    assert code == 3, err
+    assert "truncated" not in err
+    (loss,) = json.loads(out)["lost"]
+    assert loss["what"] == "corrupt chunk"
+    assert loss["messages"] == sum(t["n_messages"] for t in loss["topics"]) > 0
+    _check_recovered(damaged, tmp_path / "rec.mcap")
+    assert len(_cat(damaged)) + loss["messages"] == len(_cat(sample))
+
+
 def test_intact_recording_exits_0(sample: Path, tmp_path: Path) -> None:
     out = tmp_path / "rec.mcap"
     code, _, err = _recover(sample, out)
