@@ -129,8 +129,15 @@ class FrameTablesSink:
         return [w.path for w in self.writers.values()] if ok else []
 
     def _exit(self, ok: bool) -> None:
+        """Close every writer (discarding the rest once one fails); raise the first failure."""
+        failure: BaseException | None = None
         for writer in reversed(self.writers.values()):
-            writer.__exit__(None if ok else RuntimeError, None, None)
+            try:
+                writer.__exit__(None if ok and failure is None else RuntimeError, None, None)
+            except BaseException as err:  # a full disk: the other writers still close
+                failure = failure or err
+        if failure is not None:
+            raise failure
 
 
 def _hough_lines(done: Finished) -> list[NDArray[np.float64]]:

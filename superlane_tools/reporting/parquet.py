@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 from pathlib import Path
@@ -46,7 +47,15 @@ def write_table(
         table = pa.Table.from_pandas(table, preserve_index=False)
     table = table.replace_schema_metadata(_with_provenance(table.schema, provenance).metadata)
     with atomic_path(path, suffix=".parquet") as tmp:
-        pq.write_table(table, tmp, row_group_size=row_group_size, compression="zstd")
+        # not pq.write_table: on a failed write (a full disk) it leaves its writer open, and
+        # the writer's __del__ prints the failing close as an ignored exception
+        writer = pq.ParquetWriter(tmp, table.schema, compression="zstd")
+        try:
+            writer.write_table(table, row_group_size=row_group_size)
+        except BaseException:
+            _close(writer, failed=True)
+            raise
+        _close(writer, failed=False)
     return Path(path)
 
 
@@ -91,9 +100,31 @@ class ParquetStreamWriter:
         exc: BaseException | None,
         tb: TracebackType | None,
     ) -> None:
-        if self._writer is not None:
-            self._writer.close()
+        writer, self._writer = self._writer, None
+        try:
+            if writer is not None:
+                _close(writer, failed=exc_type is not None)
+        except BaseException as err:  # the temp file goes; atomic_path names the failure
+            self._ctx.__exit__(type(err), err, err.__traceback__)
+            raise
         self._ctx.__exit__(exc_type, exc, tb)
+
+
+def _close(writer: pq.ParquetWriter, failed: bool) -> None:
+    """Close ``writer``; after a failed write (a full disk) its failing close is ignored.
+
+    A close that raises leaves pyarrow's writer open, and its ``__del__`` would close it again
+    and print the error as an ignored exception: mark it closed.
+    """
+    try:
+        writer.close()
+    except OSError:
+        writer.is_open = False
+        if writer.file_handle is not None:
+            with contextlib.suppress(OSError):
+                writer.file_handle.close()
+        if not failed:
+            raise
 
 
 def read_provenance(path: str | os.PathLike[str]) -> dict[str, Any]:
