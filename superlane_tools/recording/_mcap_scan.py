@@ -116,6 +116,23 @@ def read_summary(handle: BinaryIO) -> tuple[Summary | None, str | None, bool]:
     return (None if problem is not None else summary), problem, True
 
 
+def walk_index(handle: BinaryIO, summary: Summary | None, problem: str | None) -> Summary | None:
+    """Return the summary whose chunk index a walk may read on by (see :func:`read_summary`).
+
+    That is the intact summary, or one that fails only the index check (:func:`index_problem`,
+    say a chunk's opcode byte garbled) while its CRC holds: its offsets are still the writer's.
+    """
+    if summary is not None or problem is None or summary_problem(handle) is not None:
+        return summary
+    from mcap.reader import SeekingReader
+
+    try:
+        handle.seek(0)
+        return SeekingReader(handle).get_summary()
+    except Exception:  # a damaged summary section: no index to read on by
+        return None
+
+
 @dataclass
 class _LostChunk:
     """A damaged chunk, completed by the message indexes written after it."""
@@ -441,7 +458,7 @@ def scan_mcap_file(path: Path) -> RecordingScan:
         if handle.read(len(MCAP_MAGIC)) != MCAP_MAGIC:
             raise RecordingError(f"{path} is not a recording: no MCAP magic at the start")
         summary, problem, complete = read_summary(handle)
-        walk = walk_data_section(handle, path, complete, summary)
+        walk = walk_data_section(handle, path, complete, walk_index(handle, summary, problem))
     losses = list(walk.losses)
     if problem is not None:
         size = path.stat().st_size

@@ -19,6 +19,7 @@ from superlane_tools.recording._mcap_scan import (
     file_order_messages,
     read_summary,
     walk_data_section,
+    walk_index,
 )
 from superlane_tools.recording.base import (
     SkipLog,
@@ -75,6 +76,7 @@ class McapRecording(RawSource):
         self._counts: dict[int, int] | None = None
         self._chunks: list[ChunkRef] = []
         self._loose_messages = False
+        self._resume: dict[int, tuple[int, bool]] = {}  # the walk's read-on points
         self._decoders = McapDecoders(decoder_factories)
         self._header_first: dict[int, bool] = {}
         self._summary: Summary | None = None
@@ -133,10 +135,11 @@ class McapRecording(RawSource):
                 for ci in summary.chunk_indexes
             ]
             return
-        walk = walk_data_section(self._file, self.path, complete)
+        index = walk_index(self._file, summary, problem)
+        walk = walk_data_section(self._file, self.path, complete, index)
         self._schemas, self._channels = walk.schemas, walk.channels
         self._counts, self._chunks = walk.counts, walk.chunks
-        self._loose_messages = walk.loose_messages
+        self._loose_messages, self._resume = walk.loose_messages, walk.resume
         for loss in walk.losses:
             self._open_skips.add(loss.what, loss.detail, 0)
 
@@ -328,7 +331,7 @@ class McapRecording(RawSource):
         self, wanted: set[int], start_ns: int | None, stop_ns: int | None
     ) -> Iterator[tuple[Channel, McapMessage]]:
         """Stream an unchunked (or partly unchunked) file in the order its records lie."""
-        for item in file_order_messages(self._file):
+        for item in file_order_messages(self._file, self._resume):
             if (
                 item.channel_id in wanted
                 and in_range(item.log_time, start_ns, stop_ns)

@@ -223,3 +223,15 @@ def test_scan_of_something_else_is_one_clear_error(tmp_path: Path) -> None:
         scan_mcap(other)
     with pytest.raises(RecordingError, match="no ROS 1 bag magic"):
         scan_ros1(other)
+
+
+def test_garbled_chunk_opcode_reads_on_by_the_index(drive: SimpleNamespace, tmp_path: Path) -> None:
+    """The chunk's opcode byte garbled: the summary fails its index check, but its CRC holds, so
+    the walk (scan and source alike) still reads on by the chunk index: no 'truncated file'."""
+    path = drive.write("full.mcap", "mcap", chunk_size=4096)
+    broken, bad = _garble_chunk_header(path, tmp_path / "broken.mcap", 2, 0)
+    scan = scan_mcap(broken)
+    assert [loss.what for loss in scan.losses] == ["damaged summary"]
+    assert str(bad.chunk_start_offset) in scan.losses[0].detail
+    got = sorted((m.channel.topic, m.log_time_ns, m.payload) for m in scan.messages())
+    assert got == sorted(_stored(path)) == sorted(_stored(broken))
