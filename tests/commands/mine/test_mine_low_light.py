@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -50,18 +51,18 @@ def _rewrite(src: Path, dst: Path) -> None:
         reader = make_reader(fin)
         summary = reader.get_summary()
         assert summary is not None
-        writer = Writer(fout)
+        writer: Any = Writer(fout)
         writer.start(reader.get_header().profile, reader.get_header().library)
-        for schema in summary.schemas.values():
-            writer.register_schema(schema.name, schema.encoding, schema.data)
+        for known in summary.schemas.values():
+            writer.register_schema(known.name, known.encoding, known.data)
         for ch in summary.channels.values():
             writer.register_channel(ch.topic, ch.message_encoding, ch.schema_id, ch.metadata)
         for schema, channel, message in reader.iter_messages(log_time_order=True):
-            data = message.data
+            data: Any = message.data
             if schema is not None and schema.name == msgtype:
                 if k in DARK or k in FLAT:
-                    msg = store.deserialize_cdr(data, msgtype)
-                    image = cv2.imdecode(np.asarray(msg.data), cv2.IMREAD_COLOR)
+                    msg: Any = store.deserialize_cdr(data, msgtype)
+                    image: Any = cv2.imdecode(np.asarray(msg.data), cv2.IMREAD_COLOR)
                     image = _night(image) if k in DARK else _washed_out(image)
                     ok, jpeg = cv2.imencode(".jpg", image)
                     assert ok
