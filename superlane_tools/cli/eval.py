@@ -142,8 +142,7 @@ def tusimple_cmd(
 ) -> None:
     """Print TuSimple accuracy, FP, FN and F1 (official LaneEval rules, or an ego mode)."""
     from superlane_tools.errors import UsageError
-    from superlane_tools.evaluation import evaluate, load_jsonl
-    from superlane_tools.evaluation.lane_modes import MODES, evaluate_mode
+    from superlane_tools.evaluation import MODES, evaluate, evaluate_mode, load_jsonl
 
     with cli_errors():
         if mode not in MODES:
@@ -184,8 +183,7 @@ def attributes_cmd(
 ) -> None:
     """Print lane colour and style accuracy over the ground-truth lines found by a prediction."""
     from superlane_tools.errors import UsageError
-    from superlane_tools.evaluation import load_jsonl
-    from superlane_tools.evaluation.lane_modes import MODES, attribute_accuracy
+    from superlane_tools.evaluation import MODES, attribute_accuracy, load_jsonl
 
     with cli_errors():
         if mode not in MODES:

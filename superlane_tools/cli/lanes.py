@@ -126,7 +126,7 @@ def export_cmd(
     from superlane_tools.camera import load_camera
     from superlane_tools.commands.lanes.export import export_tusimple, parse_h_samples
     from superlane_tools.errors import UsageError
-    from superlane_tools.evaluation.tusimple_export import ExportOptions
+    from superlane_tools.evaluation import ExportOptions
 
     with cli_errors():
         if max_lines < 1 or (lanes is not None and lanes < 1):

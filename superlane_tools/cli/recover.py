@@ -12,7 +12,6 @@ from superlane_tools.cli._common import (
     EXIT_CODES_HELP,
     cli_errors,
     console,
-    err_console,
     exit_with,
     report_skipped,
 )
@@ -52,8 +51,8 @@ def recover_cmd(
         console.print_json(json.dumps(result.document()))
     else:
         for topic, count in sorted(result.written.items()):
-            err_console.print(f"{topic}: {count} messages", markup=False)
-        err_console.print(
+            console.print(f"{topic}: {count} messages", markup=False)
+        console.print(
             f"wrote {result.out} ({result.format}, {sum(result.written.values())} messages)",
             markup=False,
         )

@@ -64,7 +64,7 @@ def predict_corridors(
     import pandas as pd
 
     from superlane_tools.camera.profiles import load_camera
-    from superlane_tools.corridor.geometry import CorridorParams, corridor_from_mask
+    from superlane_tools.corridor import CorridorParams, corridor_from_mask
     from superlane_tools.reporting import (
         Provenance,
         input_identity,

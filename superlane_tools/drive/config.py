@@ -7,11 +7,14 @@ import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from superlane_tools.corridor import AvailabilityParams, TimeSegment
 from superlane_tools.errors import ConfigError
 from superlane_tools.lanes.tracker import TrackerParams
+
+if TYPE_CHECKING:
+    from superlane_tools.lanes import FitParams
 
 BACKENDS = ("auto", "classical", "onnx", "oracle")
 DEFAULT_FIT: Mapping[str, Any] = {"max_range_m": 60.0}
@@ -269,7 +272,14 @@ class ReprocessConfig:
             raise ConfigError("corridor.net_every must be >= 1")
         from superlane_tools.lanes import FitParams
 
-        FitParams.from_dict(dict(self.fit))
+        # Parsed once, here: the stages and the kernel warm-up read ``fit_params``.
+        object.__setattr__(self, "_fit_params", FitParams.from_dict(dict(self.fit)))
+
+    @property
+    def fit_params(self) -> FitParams:
+        """The lane fit's parameters: :data:`DEFAULT_FIT` with the ``[fit]`` table over it."""
+        params: FitParams = self.__dict__["_fit_params"]
+        return params
 
     def to_dict(self) -> dict[str, Any]:
         """Return the configuration as plain data (for provenance and ``--print-config``)."""

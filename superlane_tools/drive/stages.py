@@ -30,7 +30,7 @@ from superlane_tools.corridor import (
     detect_ego_lane,
 )
 from superlane_tools.drive.config import ReprocessConfig
-from superlane_tools.lanes import FitParams, LaneFit
+from superlane_tools.lanes import LaneFit
 from superlane_tools.lanes.multilane_fit import kernels_loading, warm_up_in_background
 from superlane_tools.lanes.points import lane_points, road_points
 from superlane_tools.lanes.sequence import SequentialFit, max_plausible_slope
@@ -154,7 +154,7 @@ class FrameStages:
         self.config = config
         self.camera = camera
         self.lanes_only = lanes_only
-        self.fit_params = FitParams.from_dict(dict(config.fit))
+        self.fit_params = config.fit_params
         warm_up_in_background(self.fit_params.backend)  # no-op when loaded or loading
         self.notes: list[str] = []
         self.models: dict[str, str] = {}

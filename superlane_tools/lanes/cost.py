@@ -35,6 +35,8 @@ from numpy.typing import NDArray
 if TYPE_CHECKING:
     from types import ModuleType
 
+    from superlane_tools.lanes.params import FitParams
+
 FloatArray = NDArray[np.float64]
 Backend = Literal["numba", "numpy"]
 """Cost backend: compiled numba kernels or the pure-numpy reference."""
@@ -373,6 +375,45 @@ class CostFunction:
         x, y, _ = ray_points(self._iq, self._r, b, self._height, self._max_range, c)
         out: FloatArray = y - x * (a1 + a2 * x)
         return out
+
+
+class CostSetup(NamedTuple):
+    """What every :class:`CostFunction` of one frame shares, besides its points.
+
+    Attributes:
+        height_m: Camera height above the road, metres.
+        params: The fit's parameters (range, histogram, ``kappa``, ``sigma_d_m``, backend,
+            ``pixel_entropy``).
+        lambda_road: Weight of J1 (0: lane term only).
+    """
+
+    height_m: float
+    params: FitParams
+    lambda_road: float = 0.0
+
+    def build(
+        self,
+        lane_iq: FloatArray,
+        lane_r: FloatArray,
+        road_iq: FloatArray | None = None,
+        road_r: FloatArray | None = None,
+    ) -> CostFunction:
+        """Return J over these lane (and road) rays."""
+        p = self.params
+        return CostFunction(
+            lane_iq,
+            lane_r,
+            self.height_m,
+            p.max_range_m,
+            Histogram.symmetric(p.offset_range_m, p.bin_width_m),
+            p.kappa,
+            road_iq,
+            road_r,
+            self.lambda_road,
+            p.sigma_d_m,
+            p.backend,
+            p.pixel_entropy,
+        )
 
 
 def binned_mass(

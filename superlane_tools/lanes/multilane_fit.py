@@ -37,7 +37,7 @@ from superlane_tools.lanes.attributes import (
     marking_from_codes,
     style_from_coverage,
 )
-from superlane_tools.lanes.cost import CostFunction, Histogram, kernels, ray_points
+from superlane_tools.lanes.cost import CostFunction, CostSetup, kernels, ray_points
 from superlane_tools.lanes.errors import LaneFitError
 from superlane_tools.lanes.fit_lookahead import effective_lookahead, refit_sqrt_weights
 from superlane_tools.lanes.kernel_cache import one_cpu_for, start_compiling
@@ -242,18 +242,8 @@ def _road_only(
 ) -> LaneFit:
     """Fit the road centre line alone (J1) when there are no lane points."""
     idx = road.sample(params.max_road_points, params.seed)
-    cost = CostFunction(
-        np.zeros(0),
-        np.zeros(0),
-        camera.extrinsics.height_m,
-        params.max_range_m,
-        Histogram.symmetric(params.offset_range_m, params.bin_width_m),
-        params.kappa,
-        road.iq[idx],
-        road.r[idx],
-        1.0,
-        params.sigma_d_m,
-    )
+    setup = CostSetup(camera.extrinsics.height_m, params, lambda_road=1.0)
+    cost = setup.build(np.zeros(0), np.zeros(0), road.iq[idx], road.r[idx])
     free = [0, 1, 3] if params.order == 2 else [0, 3]
     theta0 = np.array([0.0, 0.0, 0.0, float(np.median(road.r[idx] / road.iq[idx]))])
 
@@ -417,14 +407,7 @@ def fit_frame(
     warm_up(p.backend)  # kernel loading is set-up, not per-frame fit time
     t0 = time.perf_counter()
     lane = _Points(camera, lane_uv, p)
-    codes = None
-    if attributes is not None:
-        codes_all = np.asarray(attributes, dtype=np.intp).reshape(-1)
-        if codes_all.size != lane.n_pixels:
-            raise LaneFitError(
-                f"attributes has {codes_all.size} entries for {lane.n_pixels} lane pixels"
-            )
-        codes = codes_all[lane.index]
+    codes = _lane_codes(attributes, lane)
     use_road = p.lambda_road > 0 and (
         p.road_term == "always" or (p.road_term == "auto" and lane.size < p.road_term_below)
     )
@@ -439,52 +422,15 @@ def fit_frame(
         )
 
     height = camera.extrinsics.height_m
-    hist = Histogram.symmetric(p.offset_range_m, p.bin_width_m)
+    setup = CostSetup(height, p, p.lambda_road if use_road else 0.0)
     sel = lane.sample(p.max_points, p.seed)
-    nm_sel = sel[:: max(1, -(-sel.size // p.nm_points))]
     ridx = road.sample(p.max_road_points, p.seed) if road.size else None
-    cost = CostFunction(
-        lane.iq[nm_sel],
-        lane.r[nm_sel],
-        height,
-        p.max_range_m,
-        hist,
-        p.kappa,
-        road.iq[ridx] if ridx is not None else None,
-        road.r[ridx] if ridx is not None else None,
-        p.lambda_road if use_road else 0.0,
-        p.sigma_d_m,
-        p.backend,
-        p.pixel_entropy,
-    )
-    free = [0]
-    if p.order == 2:
-        free.append(1)
-    if p.slope:
-        free.append(2)
-    if cost.n_road:
-        free.append(3)
-    if p.vertical:
-        free.append(4)
-
+    cost = _cost_over(setup, lane, sel, p.nm_points, road, ridx)
+    free = _free_parameters(p, cost.n_road > 0)
     if init is not None:
         theta0 = _theta_from_init(init, p)
     else:
-        scan_sel = sel[:: max(1, -(-sel.size // SCAN_POINTS))]
-        scan = CostFunction(
-            lane.iq[scan_sel],
-            lane.r[scan_sel],
-            height,
-            p.max_range_m,
-            hist,
-            p.kappa,
-            road.iq[ridx[::4]] if ridx is not None else None,
-            road.r[ridx[::4]] if ridx is not None else None,
-            p.lambda_road if use_road else 0.0,
-            p.sigma_d_m,
-            p.backend,
-            p.pixel_entropy,
-        )
+        scan = _cost_over(setup, lane, sel, SCAN_POINTS, road, None if ridx is None else ridx[::4])
         theta0 = _initial_guess(scan, p, free)
         cost.evaluations += scan.evaluations
     theta, nit, converged = _nelder_mead(cost, theta0, free, p)
@@ -499,50 +445,8 @@ def fit_frame(
     offsets = find_offsets(y_s - x_s * (a1 + a2 * x_s), p)
     model = SharedModel(a1, a2, b, offsets, cv)
     if p.refit and offsets.size:
-        for _ in range(2):
-            if p.backend == "numba":
-                _x, _res, labels = kernels().assign_points(
-                    iqs,
-                    rs,
-                    model.a1,
-                    model.a2,
-                    model.b,
-                    model.c,
-                    1.0 / height,
-                    1.0 / p.max_range_m,
-                    np.ascontiguousarray(model.offsets),
-                    p.assign_radius_m,
-                    ASSIGN_ANGLE_RAD,
-                )
-            else:
-                x_c, y_c, _ok = ray_points(iqs, rs, model.b, height, p.max_range_m, model.c)
-                resid = y_c - x_c * (model.a1 + model.a2 * x_c)
-                radius = p.assign_radius_m + ASSIGN_ANGLE_RAD * np.nan_to_num(x_c)
-                labels = assign(resid, model.offsets, radius)
-            model = refit_shared(
-                iqs,
-                rs,
-                labels,
-                model.offsets.size,
-                model,
-                height,
-                p.order,
-                p.slope,
-                p.slope_bound,
-                p.max_range_m,
-                compiled=p.backend == "numba",
-                vertical_bound=p.vertical_curvature_bound,
-            )
-            merged = merge_close(np.sort(model.offsets), 0.5 * p.min_peak_separation_m)
-            model = model._replace(offsets=merged)
-        # Keep the refit only if J agrees it is no worse: a wrong assignment can make least
-        # squares run away. A single line (often short: a stripe, a curb) constrains nothing
-        # across lines, so its refit must also stay inside the optimiser's bounds.
-        j_refit = cost(np.array([model.a1, model.a2, model.b, a0c, model.c]))
-        inside = model.offsets.size >= 2 or (
-            abs(model.a1) <= 2.0 * p.heading_bound_rad and abs(model.a2) <= p.curvature_bound / 2
-        )
-        if not (inside and np.isfinite(j_refit) and j_refit <= j_final + REFIT_COST_SLACK):
+        model = _refit(iqs, rs, model, height, p)
+        if not _refit_kept(cost, model, a0c, j_final, p):
             model = SharedModel(a1, a2, b, offsets, cv)
         extras["refit_rejected"] = float(model.offsets is offsets)
 
@@ -572,6 +476,117 @@ def fit_frame(
         extras=extras,
         shared_cov=model.cov if model.cov is not None else np.full((3, 3), math.nan),
     )
+
+
+def _lane_codes(attributes: IntArray | None, lane: _Points) -> IntArray | None:
+    """The marking codes of the usable lane pixels (None without attributes)."""
+    if attributes is None:
+        return None
+    codes_all = np.asarray(attributes, dtype=np.intp).reshape(-1)
+    if codes_all.size != lane.n_pixels:
+        raise LaneFitError(
+            f"attributes has {codes_all.size} entries for {lane.n_pixels} lane pixels"
+        )
+    return codes_all[lane.index]
+
+
+def _cost_over(
+    setup: CostSetup,
+    lane: _Points,
+    sel: IntArray,
+    n_points: int,
+    road: _Points,
+    ridx: IntArray | None,
+) -> CostFunction:
+    """J over about ``n_points`` of the sampled lane points ``sel`` (every k-th) and ``ridx``."""
+    sub = sel[:: max(1, -(-sel.size // n_points))]
+    return setup.build(
+        lane.iq[sub],
+        lane.r[sub],
+        road.iq[ridx] if ridx is not None else None,
+        road.r[ridx] if ridx is not None else None,
+    )
+
+
+def _free_parameters(p: FitParams, with_road: bool) -> list[int]:
+    """Indices of theta ``(a1, a2, b, a0c, c)`` that the optimiser moves."""
+    free = [0]
+    if p.order == 2:
+        free.append(1)
+    if p.slope:
+        free.append(2)
+    if with_road:
+        free.append(3)
+    if p.vertical:
+        free.append(4)
+    return free
+
+
+def _refit(
+    iqs: FloatArray, rs: FloatArray, model: SharedModel, height: float, p: FitParams
+) -> SharedModel:
+    """Two rounds of point assignment and weighted least-squares refit of the shared model."""
+    for _ in range(2):
+        if p.backend == "numba":
+            _x, _res, labels = _assign_compiled(iqs, rs, model, height, p)
+        else:
+            x_c, y_c, _ok = ray_points(iqs, rs, model.b, height, p.max_range_m, model.c)
+            resid = y_c - x_c * (model.a1 + model.a2 * x_c)
+            radius = p.assign_radius_m + ASSIGN_ANGLE_RAD * np.nan_to_num(x_c)
+            labels = assign(resid, model.offsets, radius)
+        model = refit_shared(
+            iqs,
+            rs,
+            labels,
+            model.offsets.size,
+            model,
+            height,
+            p.order,
+            p.slope,
+            p.slope_bound,
+            p.max_range_m,
+            compiled=p.backend == "numba",
+            vertical_bound=p.vertical_curvature_bound,
+        )
+        merged = merge_close(np.sort(model.offsets), 0.5 * p.min_peak_separation_m)
+        model = model._replace(offsets=merged)
+    return model
+
+
+def _assign_compiled(
+    iq: FloatArray, r: FloatArray, model: SharedModel, height: float, p: FitParams
+) -> tuple[FloatArray, FloatArray, IntArray]:
+    """Assign rays to the model's lines with the compiled kernel: ``x``, residual, labels."""
+    out: tuple[FloatArray, FloatArray, IntArray] = kernels().assign_points(
+        iq,
+        r,
+        model.a1,
+        model.a2,
+        model.b,
+        model.c,
+        1.0 / height,
+        1.0 / p.max_range_m,
+        np.ascontiguousarray(model.offsets, dtype=np.float64),
+        p.assign_radius_m,
+        ASSIGN_ANGLE_RAD,
+    )
+    return out
+
+
+def _refit_kept(
+    cost: CostFunction, model: SharedModel, a0c: float, j_final: float, p: FitParams
+) -> bool:
+    """Whether J agrees that the refit ``model`` is no worse than the optimiser's solution.
+
+    A wrong assignment can make least squares run away. A single line (often short: a stripe,
+    a curb) constrains nothing across lines, so its refit must also stay inside the
+    optimiser's bounds.
+    """
+    j_refit = cost(np.array([model.a1, model.a2, model.b, a0c, model.c]))
+    inside = model.offsets.size >= 2 or (
+        abs(model.a1) <= 2.0 * p.heading_bound_rad and abs(model.a2) <= p.curvature_bound / 2
+    )
+    return bool(inside and np.isfinite(j_refit) and j_refit <= j_final + REFIT_COST_SLACK)
 
 
 def _lookahead(
@@ -653,19 +668,7 @@ def _build_lanes_compiled(
     """:func:`_build_lanes` with single-pass kernels over the points (same results)."""
     k = kernels()
     offsets = np.ascontiguousarray(model.offsets, dtype=np.float64)
-    x, resid, labels = k.assign_points(
-        lane.iq,
-        lane.r,
-        model.a1,
-        model.a2,
-        model.b,
-        model.c,
-        1.0 / height,
-        1.0 / p.max_range_m,
-        offsets,
-        p.assign_radius_m,
-        ASSIGN_ANGLE_RAD,
-    )
+    x, resid, labels = _assign_compiled(lane.iq, lane.r, model, height, p)
     sums_x, sums_r = k.line_sums(x, resid, labels, offsets, NEAR_WEIGHT_M)
     if p.local_correction:
         coef = local_corrections_compiled(sums_x, sums_r, p.order, p.local_bound_m)

@@ -88,7 +88,7 @@ class TrackerParams:
 
     curvature_sigma_per_m: float = 5e-4
     heading_sigma_rad: float = 5e-3
-    manoeuvre_psd: float = 1e-7
+    manoeuvre_psd: float = 2e-8
     curvature_rate_psd: float = 2e-10
     slope_sigma: float = 3e-3
     slope_psd: float = 3e-7

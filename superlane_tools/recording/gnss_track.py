@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from superlane_tools.geo.enu import geodetic_to_enu, valid_fixes
+from superlane_tools.geo import geodetic_to_enu, valid_fixes
 from superlane_tools.recording.open import open_recording
 from superlane_tools.recording.streams import GNSS_TYPES
 

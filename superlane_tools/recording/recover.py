@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from types import SimpleNamespace
 
 from superlane_tools.recording.errors import RecordingError
-from superlane_tools.recording.scan import RecordingScan, ScanSchema, scan_mcap
+from superlane_tools.recording.scan import RecordingScan, ScannedMessage, ScanSchema, scan_mcap
 from superlane_tools.recording.tools import McapCopier
 from superlane_tools.recording.writers import LIBRARY
 
@@ -28,9 +29,23 @@ def recover_mcap(src: Path, out: Path) -> tuple[dict[str, int], RecordingScan]:
     Raises:
         RecordingError: If ``src`` cannot be scanned or ``out`` cannot be written.
     """
+    scan = scan_mcap(src)
+    return write_scanned(scan, out), scan
+
+
+def write_scanned(
+    scan: RecordingScan, out: Path, keep: Callable[[ScannedMessage], bool] | None = None
+) -> dict[str, int]:
+    """Copy the readable messages of ``scan`` (those ``keep`` accepts) into the MCAP ``out``.
+
+    Returns:
+        Messages written per topic.
+
+    Raises:
+        RecordingError: If ``out`` cannot be written.
+    """
     from mcap.writer import CompressionType, Writer
 
-    scan = scan_mcap(src)
     schema_ids: dict[ScanSchema, int] = {}
     counts: dict[str, int] = {}
     work = out.with_name(f".{out.name}.partial")
@@ -40,6 +55,8 @@ def recover_mcap(src: Path, out: Path) -> tuple[dict[str, int], RecordingScan]:
             writer.start(profile=_profile(scan), library=LIBRARY)
             copier = McapCopier(writer)
             for msg in scan.messages():
+                if keep is not None and not keep(msg):
+                    continue
                 ch = msg.channel
                 schema = None
                 if ch.schema is not None:
@@ -61,7 +78,7 @@ def recover_mcap(src: Path, out: Path) -> tuple[dict[str, int], RecordingScan]:
         raise RecordingError(f"cannot write {out}: {err}") from err
     finally:
         work.unlink(missing_ok=True)
-    return counts, scan
+    return counts
 
 
 def _profile(scan: RecordingScan) -> str:

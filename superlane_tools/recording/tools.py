@@ -232,6 +232,7 @@ def filter_recording(
         return time_range(first, start, end)
 
     if not is_bag(src):
+        _check_mcap(src)
         if out.suffix != ".mcap":
             raise UsageError("an MCAP filters to OUT.mcap")
         return filter_mcap(src, out, match, resolve)
@@ -269,11 +270,6 @@ def filter_mcap(
     counts: dict[str, int] = {}
     try:
         with src.open("rb") as fin:
-            if fin.read(8) != b"\x89MCAP0\r\n":
-                raise RecordingError(
-                    f"{src.name}: slt filter reads MCAP files and ROS bags (convert first)"
-                )
-            fin.seek(0)
             reader = make_reader(fin)
             header = reader.get_header()
             summary = reader.get_summary()
@@ -311,11 +307,61 @@ def filter_mcap(
                     writer.add_attachment(a.create_time, a.log_time, a.name, a.media_type, a.data)
                 writer.finish()  # type: ignore[no-untyped-call]
         if not counts:
-            raise UsageError("no message matches the topics and time range; nothing written")
+            raise UsageError(NOTHING_MATCHES)
         work.replace(out)
-    except (OSError, ValueError, KeyError, McapError) as err:
+    except (ValueError, KeyError, McapError):  # damaged: copy what a record-by-record scan reads
+        work.unlink(missing_ok=True)
+        return _filter_scanned(src, out, match, resolve)
+    except OSError as err:
         raise RecordingError(f"cannot filter {src.name}: {err}") from err
     finally:
         if work.exists():
             work.unlink()
     return FilterResult(out, counts, len(meta), len(attachments))
+
+
+NOTHING_MATCHES = "no message matches the topics and time range; nothing written"
+
+
+def _check_mcap(src: Path) -> None:
+    """Raise a clear error unless ``src`` starts with the MCAP magic (filter's only other input)."""
+    try:
+        with src.open("rb") as fin:
+            magic = fin.read(8)
+    except OSError as err:
+        raise RecordingError(f"cannot read {src}: {err.strerror or err}") from err
+    if magic != b"\x89MCAP0\r\n":
+        raise RecordingError(
+            f"{src.name}: slt filter reads MCAP files and ROS bags (ROS 1 .bag, ROS 2 bag "
+            "folder or .db3); convert other logs with slt convert first"
+        )
+
+
+def _filter_scanned(
+    src: Path,
+    out: Path,
+    match: Callable[[str], bool],
+    resolve: Callable[[int | None], tuple[int | None, int | None]],
+) -> FilterResult:
+    """Filter a damaged MCAP: copy the matching messages a scan reads, report what was lost.
+
+    Like ``slt recover``, messages come in the order of the file; metadata records and
+    attachments are not copied (the scan reads messages only).
+    """
+    from superlane_tools.recording.recover import write_scanned
+    from superlane_tools.recording.scan import ScannedMessage, scan_mcap
+
+    scan = scan_mcap(src)
+    first = min((m.log_time_ns for m in scan.messages()), default=None)
+    start_ns, end_ns = resolve(first)
+
+    def keep(msg: ScannedMessage) -> bool:
+        t = msg.log_time_ns
+        inside = (start_ns is None or t >= start_ns) and (end_ns is None or t < end_ns)
+        return inside and match(msg.channel.topic)
+
+    counts = write_scanned(scan, out, keep)
+    if not counts:
+        out.unlink()
+        raise UsageError(NOTHING_MATCHES)
+    return FilterResult(out, counts, 0, 0, "mcap", tuple(scan.skipped()))

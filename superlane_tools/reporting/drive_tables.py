@@ -18,7 +18,7 @@ from superlane_tools.corridor import (
     frame_availability,
     sequence_availability,
 )
-from superlane_tools.evaluation.curvature import curvature_errors
+from superlane_tools.evaluation import curvature_errors
 from superlane_tools.reporting.names import METHOD_NOT_RUN
 
 FloatArray = NDArray[np.float64]

@@ -11,7 +11,9 @@ A reprocess run folder (``slt reprocess -o RUN``, or one recording of ``slt batc
 
 Use :class:`RunLayout` for paths inside one run (``RunLayout(root).lanes``), the ``*_FILE``
 constants where only a name is needed, :func:`is_reprocess_run` to recognise a run folder, and
-the ``*_SCHEMA`` constants for the Arrow schema of every streamed table. ``slt extract``'s folder
+the ``*_SCHEMA`` constants for the Arrow schema of every streamed table, and
+:data:`DERIVED_SCHEMAS` (checked by :func:`checked_table` when reprocess writes them) for the
+tables derived after the pass. ``slt extract``'s folder
 (:class:`ExtractLayout`) and the batch summary (:class:`SummaryLayout`) are named here too, so
 that ``slt tables``, ``slt batch``, ``slt compare`` and ``slt mine`` read what reprocess wrote
 by the same names. The lanes columns come from :data:`superlane_tools.lanes.table.FIT_COLUMNS`
@@ -23,11 +25,15 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import overload
+from typing import TYPE_CHECKING, overload
 
 import pyarrow as pa
 
 from superlane_tools.lanes.table import FIT_COLUMNS
+from superlane_tools.lanes.tracker import COV_KEYS
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 # ---- file names of a reprocess run --------------------------------------------------------
 FRAMES_FILE = "frames.parquet"
@@ -377,3 +383,231 @@ CAMERA_INFO_SCHEMA = pa.schema(
     ]
 )
 """``camera_info.parquet`` of ``slt extract``: one row per CameraInfo message."""
+
+# ---- schemas of the derived tables --------------------------------------------------------
+_F64 = pa.float64()
+_STR = pa.string()
+
+
+def _floats(*names: str) -> list[tuple[str, pa.DataType]]:
+    return [(name, _F64) for name in names]
+
+
+_NO_COLUMNS = pa.schema([])
+
+
+@dataclass(frozen=True)
+class DerivedSchema:
+    """The columns a derived table may hold: those always there, and those only some drives have.
+
+    A table with rows holds every ``required`` column; an empty table (a drive without the
+    input) may lack any. No table holds a column declared in neither. Strings may be Arrow
+    ``string`` or ``large_string``, a categorical is compared by its values, and an all-missing
+    column (Arrow ``null``) matches any type. Column order is the builder's.
+
+    Attributes:
+        required: Columns of every non-empty table.
+        optional: Columns present only when the drive has what they describe.
+    """
+
+    required: pa.Schema
+    optional: pa.Schema = _NO_COLUMNS
+
+    def types(self) -> dict[str, pa.DataType]:
+        """Return column -> declared Arrow type, required then optional."""
+        return {f.name: f.type for f in (*self.required, *self.optional)}
+
+
+class SchemaMismatchError(RuntimeError):
+    """A derived table disagrees with its declared schema (an internal error).
+
+    A builder or :data:`DERIVED_SCHEMAS` changed without the other.
+    """
+
+
+MOBILEYE_SIDES = ("left", "right")
+"""The ego lines of ``mobileye.parquet``: each ``<side>_*`` column exists for both sides."""
+MOBILEYE_SIDE_COLUMNS = (
+    "a0_m",
+    "a1_rad",
+    "a2_per_m",
+    "a3_per_m2",
+    "quality",
+    "view_range_m",
+    "curvature",
+)
+"""``<side>_<column>`` of ``mobileye.parquet`` (``y = a0 + a1 x + a2 x^2 + a3 x^3``, y left)."""
+MOBILEYE_SCHEMA = DerivedSchema(
+    pa.schema([("log_time_ns", pa.int64())]),
+    pa.schema(
+        [
+            *_floats(*(f"{s}_{c}" for s in MOBILEYE_SIDES for c in MOBILEYE_SIDE_COLUMNS)),
+            *_floats("curvature", "corridor_width_m", "corridor_length_m", "lane_curvature"),
+        ]
+    ),
+)
+"""``mobileye.parquet``: one row per Mobileye lane update (only ``log_time_ns`` without any,
+the side columns of the sides present)."""
+RTK_TRUTH_SCHEMA = DerivedSchema(
+    pa.schema(
+        [
+            ("log_time_ns", pa.int64()),
+            ("topic", _STR),
+            *_floats("latitude_deg", "longitude_deg", "altitude_m"),
+            ("fix_status", pa.int8()),
+            *_floats("east_m", "north_m", "up_m"),
+            ("good", pa.bool_()),
+            ("flag", _STR),
+            ("gap_before_s", _F64),
+            ("dropout_before", pa.bool_()),
+            *_floats("s_m", "heading_rad", "curvature_per_m"),
+            ("curvature_valid", pa.bool_()),
+            ("speed_mps", _F64),
+            ("slow", pa.bool_()),
+        ]
+    )
+)
+"""``rtk.parquet`` of a reprocess run: one row per GNSS fix, flagged, with the truth's path."""
+CURVATURE_SOURCE_COLUMNS = (
+    "super_curvature",
+    "super_road_curvature",
+    "super_path_curvature",
+    "super_road_sg_curvature",
+    "super_path_sg_curvature",
+    "mobileye_curvature",
+    "mobileye_path_curvature",
+    "dynamics_curvature",
+)
+"""``<source>_curvature`` of ``curvature.parquet``: the estimates compared with RTK (the
+sources of :data:`superlane_tools.reporting.drive_tables.CURVATURE_SOURCES`), 1/m, left positive."""
+CURVATURE_SCHEMA = DerivedSchema(
+    pa.schema(
+        [
+            ("frame_index", pa.int32()),
+            ("log_time_ns", pa.int64()),
+            *_floats("t_s", "s_m", "speed_mps", "yaw_rate_rps", "rtk_curvature"),
+            ("rtk_valid", pa.bool_()),
+            *_floats(*CURVATURE_SOURCE_COLUMNS),
+            *_floats("super_lookahead_m", "super_lateral_m", "super_lateral_sg_curvature"),
+            *_floats("super_lateral_curvature", "super_travelled_m"),
+            *_floats("super_fit_a1", "super_fit_b", "super_fit_near_m", "super_fit_far_m"),
+            *_floats("super_fit_trackable", *COV_KEYS),
+            *_floats("super_error", "super_path_error", "mobileye_error"),
+        ]
+    ),
+    pa.schema(
+        [
+            ("super_heading_rad", _F64),
+            ("super_track_used", pa.bool_()),
+            ("super_track_gated", pa.bool_()),
+            *_floats("super_track_road_curvature", "super_track_lateral_curvature"),
+        ]
+    ),
+)
+"""``curvature.parquet``: one row per frame, the truth and every estimate; the ``super_track*``
+and ``super_heading_rad`` columns only where the lane tracker ran."""
+CURVATURE_SUMMARY_SCHEMA = DerivedSchema(
+    pa.schema(
+        [
+            ("scope", _STR),
+            ("category", _STR),
+            ("start", pa.int64()),
+            ("stop", pa.int64()),
+            ("source", _STR),
+            ("n", pa.int64()),
+            *_floats("coverage", "rmse", "mae", "bias", "correlation"),
+            ("truth_noise_floor_per_m", _F64),
+            ("truth_degraded", pa.bool_()),
+            ("mobileye_latency_s", _F64),
+            ("mobileye_latency_resolved", pa.bool_()),
+        ]
+    )
+)
+"""``curvature_summary.parquet``: errors per ``source`` (``<source>_curvature``) against RTK,
+``scope`` ``overall`` then ``seq<k>``."""
+AVAILABILITY_FRAMES_SCHEMA = DerivedSchema(
+    pa.schema(
+        [
+            ("frame_index", pa.int32()),
+            ("log_time_ns", pa.int64()),
+            ("method", _STR),
+            *_floats("width_m", "width_at_m", "length_m", "speed_mps", "required_length_m"),
+            ("available", pa.bool_()),
+            ("known", pa.bool_()),
+            ("reason", _STR),
+        ]
+    )
+)
+"""``availability_frames.parquet``: one row per frame and method."""
+AVAILABILITY_SEQUENCES_SCHEMA = DerivedSchema(
+    pa.schema(
+        [
+            ("start", pa.int64()),
+            ("stop", pa.int64()),
+            ("category", _STR),
+            ("n_frames", pa.int64()),
+            ("n_available", pa.int64()),
+            ("n_unknown", pa.int64()),
+            ("ratio", _F64),
+            ("available", pa.bool_()),
+            ("longest_outage_frames", pa.int64()),
+            ("longest_outage_s", _F64),
+            ("method", _STR),
+            ("sequence", pa.int64()),
+            ("start_ns", pa.int64()),
+            ("method_available", pa.bool_()),
+            *_floats("width_at_m", "median_width_m", "median_length_m"),
+        ]
+    )
+)
+"""``availability_sequences.parquet``: one row per sequence and method (no columns without
+frames)."""
+DERIVED_SCHEMAS = {
+    "can_signals": DerivedSchema(CAN_SIGNALS_SCHEMA),
+    "mobileye": MOBILEYE_SCHEMA,
+    "rtk": RTK_TRUTH_SCHEMA,
+    "curvature": CURVATURE_SCHEMA,
+    "curvature_summary": CURVATURE_SUMMARY_SCHEMA,
+    "availability_frames": AVAILABILITY_FRAMES_SCHEMA,
+    "availability_sequences": AVAILABILITY_SEQUENCES_SCHEMA,
+}
+"""Schema of each table in :data:`DERIVED_TABLES`."""
+
+
+def _base_type(t: pa.DataType) -> pa.DataType:
+    if pa.types.is_dictionary(t):
+        return _base_type(t.value_type)
+    if pa.types.is_large_string(t):
+        return pa.string()
+    return t
+
+
+def checked_table(name: str, table: pa.Table | pd.DataFrame) -> pa.Table:
+    """Return a derived table as Arrow after checking it against :data:`DERIVED_SCHEMAS`.
+
+    The table is returned as built (a DataFrame converted without its index, nothing cast), so
+    the check never changes what is written.
+
+    Raises:
+        SchemaMismatchError: For an undeclared column, a missing required column (in a table
+            with rows) or a column of another type.
+    """
+    if not isinstance(table, pa.Table):
+        table = pa.Table.from_pandas(table, preserve_index=False)
+    spec = DERIVED_SCHEMAS[name]
+    declared = spec.types()
+    problems = []
+    undeclared = [c for c in table.column_names if c not in declared]
+    if undeclared:
+        problems.append(f"undeclared columns {undeclared}")
+    missing = [f.name for f in spec.required if f.name not in table.column_names]
+    if missing and table.num_rows:
+        problems.append(f"missing columns {missing}")
+    for field in table.schema:
+        want = declared.get(field.name)
+        got = _base_type(field.type)
+        if want is not None and not pa.types.is_null(got) and got != _base_type(want):
+            problems.append(f"{field.name} is {field.type}, declared {want}")
+    if problems:
+        raise SchemaMismatchError(f"{name}: {'; '.join(problems)}")
+    return table

@@ -190,84 +190,26 @@ def simulate_drive(
         SimulationError: If the renderer or an encoder fails.
         RecordingError: If the recording cannot be written (e.g. it exists).
     """
-    from superlane_tools.recording import messages as msgs
     from superlane_tools.recording import open_writer
 
     spec = get_scenario(scenario)
-    if fmt not in FORMATS:
-        raise ScenarioError(f"format must be one of {', '.join(FORMATS)}, got {fmt!r}")
-    if not 1.0 <= fps <= 60.0:
-        raise ScenarioError(f"frame rate must be 1-60 Hz, got {fps}")
-    if jpeg_quality is not None and not 1 <= jpeg_quality <= 100:
-        raise ScenarioError(f"JPEG quality must be 1-100, got {jpeg_quality}")
-    if abs(camera_roll_rad) > 0.2:
-        raise ScenarioError(f"camera roll must be within 0.2 rad, got {camera_roll_rad}")
+    _check_options(fmt, fps, jpeg_quality, camera_roll_rad)
     camera = sim_camera(width, height)
     if camera_roll_rad:
         camera = replace(camera, extrinsics=replace(camera.extrinsics, roll_rad=camera_roll_rad))
-    encoder = None
-    if video is not None:
-        from superlane_tools.recording.errors import RecordingError
-        from superlane_tools.recording.video import VideoEncoder
-
-        try:
-            encoder = VideoEncoder(video, width, height, fps, gop=max(1, round(fps)))
-        except RecordingError as err:
-            raise ScenarioError(str(err)) from err
+    encoder = _video_encoder(video, width, height, fps)
     rtk = rtk or RtkParams()
     rtk.validate()
     outputs = DriveOutputs.beside(Path(out))
     world = build_world(spec, seed, duration_s)
-    from superlane_tools.simulation.render import render
 
     rng = rng_streams(seed)
     n_frames = max(1, round(duration_s * fps))
     frame_seeds = rng["render"].integers(0, 2**31, n_frames)
     quality = jpeg_quality if jpeg_quality is not None else spec.conditions.jpeg_quality
     vehicle = vehicle or VehicleOptions()
-    me_params = MobileyeParams(quality=spec.lane_quality, latency_s=vehicle.mobileye_latency_s)
-    rows = h_samples(height)
-
-    # timed non-camera events: (t_ns, seq, topic, message factory args)
-    events: list[tuple[int, int, str, tuple[Any, ...]]] = []
-    seq = 0
-
-    def push(t_ns: int, topic: str, payload: tuple[Any, ...]) -> None:
-        nonlocal seq
-        heapq.heappush(events, (t_ns, seq, topic, payload))
-        seq += 1
-
-    q = camera_quaternion_xyzw(camera)
-    pos = camera.extrinsics.position
-    push(start_ns, TOPIC_TF, ("tf", tuple(float(v) for v in pos), q))
-    for c in vehicle_can(world, start_ns, rng["sensors"], speed_kph=vehicle.speed_kph):
-        push(c.log_time_ns, TOPIC_CAN, ("can", c.can_id, c.data))
-    if vehicle.second_bus:
-        for c in heartbeat_can(world, start_ns):
-            push(c.log_time_ns, TOPIC_CAN2, ("can", c.can_id, c.data))
-    if vehicle.imu:  # its own generator: the other sensors' draws stay the same
-        import numpy as np
-
-        imu_rng = np.random.default_rng(np.random.SeedSequence(seed).spawn(64)[-1])
-        for t_imu, gyro in imu_gyro(world, start_ns, imu_rng):
-            push(t_imu, TOPIC_IMU, ("imu", gyro))
-    for f in rtk_fixes(world, rtk, start_ns, rng["sensors"]):
-        push(f.log_time_ns, TOPIC_FIX, ("fix", f))
-
-    def build(item: tuple[str, tuple[Any, ...]], t_ns: int) -> Any:
-        kind = item[1][0]
-        if kind == "tf":
-            return msgs.tf_static(t_ns, FRAME_VEHICLE, FRAME_CAMERA, item[1][1], item[1][2])
-        if kind == "can":
-            return msgs.can_frame(t_ns, item[1][1], item[1][2])
-        if kind == "imu":
-            return msgs.imu(t_ns, FRAME_VEHICLE, item[1][1])
-        fix = item[1][1]
-        return msgs.navsatfix(
-            t_ns, FRAME_GNSS, fix.lat_deg, fix.lon_deg, fix.alt_m, fix.status, fix.covariance_enu_m2
-        )
-
-    k = camera.intrinsics
+    events = _SensorEvents()
+    _schedule_sensors(events, world, camera, vehicle, rtk, start_ns, rng["sensors"], seed)
     provenance = Provenance(
         command=command or f"simulate_drive({scenario!r}, seed={seed})",
         config={
@@ -287,114 +229,241 @@ def simulate_drive(
             "recording": outputs.recording.name,
         },
     )
-    seconds = {"world": 0.0, "render": 0.0, "encode": 0.0, "write": 0.0}
-    written = 0
-    writer_fmt = "mcap" if fmt == "mcap" else fmt
     if labels:
         for sub in ("frames", "labels", "corridor"):
             (outputs.labels_dir / sub).mkdir(parents=True, exist_ok=True)
-    batch: list[dict[str, object]] = []
     with (
-        open_writer(outputs.recording, writer_fmt) as writer,  # type: ignore[arg-type]
+        open_writer(outputs.recording, fmt) as writer,  # type: ignore[arg-type]
         ParquetStreamWriter(outputs.groundtruth, GT_SCHEMA, provenance) as gt_writer,
         atomic_path(outputs.tusimple) as tus_tmp,
         tus_tmp.open("w", encoding="utf-8") as tus,
     ):
-        for topic, msgtype in (
-            (TOPIC_TF, "tf2_msgs/msg/TFMessage"),
-            (TOPIC_INFO, "sensor_msgs/msg/CameraInfo"),
-            (
-                TOPIC_IMAGE,
-                "sensor_msgs/msg/CompressedImage"
-                if encoder is None
-                else "foxglove_msgs/msg/CompressedVideo",
-            ),
-            (TOPIC_CAN, "can_msgs/msg/Frame"),
-            (TOPIC_FIX, "sensor_msgs/msg/NavSatFix"),
-            *([(TOPIC_CAN2, "can_msgs/msg/Frame")] if vehicle.second_bus else []),
-            *([(TOPIC_IMU, "sensor_msgs/msg/Imu")] if vehicle.imu else []),
-        ):
-            writer.add_topic(topic, msgtype)
-        add_metadata = getattr(writer, "add_metadata", None)
-        if fmt == "mcap" and add_metadata is not None:
-            add_metadata(METADATA_NAME, camera_metadata(camera, FRAME_VEHICLE, FRAME_CAMERA))
+        _add_topics(writer, fmt, camera, encoder is not None, vehicle)
+        frames = _FrameWriter(
+            writer,
+            gt_writer,
+            tus,
+            events,
+            camera,
+            encoder,
+            quality,
+            outputs.labels_dir if labels else None,
+            h_samples(height),
+        )
+        me_params = MobileyeParams(quality=spec.lane_quality, latency_s=vehicle.mobileye_latency_s)
+        me_topic = TOPIC_CAN2 if vehicle.second_bus else TOPIC_CAN
         for i in range(n_frames):
-            t_s = i / fps
             t_ns = start_ns + round(i * 1e9 / fps)
             t0 = time.perf_counter()
-            fw = frame_world(world, t_s, t_ns, camera, int(frame_seeds[i]))
+            fw = frame_world(world, i / fps, t_ns, camera, int(frame_seeds[i]))
             truth = lane_truth(fw)
-            me_topic = TOPIC_CAN2 if vehicle.second_bus else TOPIC_CAN
             for c in mobileye_can(truth, t_ns, me_params, rng["sensors"]):
-                push(c.log_time_ns, me_topic, ("can", c.can_id, c.data))
-            t1 = time.perf_counter()
-            try:
-                frame = render(fw.scene)
-            except Exception as err:  # the renderer is a separate stage; report it as such
-                raise SimulationError(f"renderer failed on frame {i}: {err}") from err
-            t2 = time.perf_counter()
-            jpeg = encode_jpeg(frame.image_bgr, quality)
-            lanes = tusimple_lanes(
-                fw.scene.road, camera, truth.profile_index, rows, labels=frame.labels
-            )
-            t3 = time.perf_counter()
-            while events and events[0][0] <= t_ns:
-                ev_t, _, topic, payload = heapq.heappop(events)
-                writer.write(topic, ev_t, build((topic, payload), ev_t))
-                written += 1
-            writer.write(
-                TOPIC_INFO,
-                t_ns,
-                msgs.camera_info(t_ns, FRAME_CAMERA, k.width, k.height, k.matrix, list(k.dist)),
-            )
-            writer.write(
-                TOPIC_IMAGE,
-                t_ns,
-                msgs.compressed_image(t_ns, FRAME_CAMERA, "jpeg", jpeg)
-                if encoder is None
-                else msgs.compressed_video(
-                    t_ns, FRAME_CAMERA, encoder.fmt, encoder.encode(frame.image_bgr)
-                ),
-            )
-            written += 2
-            name = f"{i:06d}"
-            tus.write(
-                json.dumps(
-                    {
-                        "raw_file": f"frames/{name}.jpg",
-                        "lanes": lanes,
-                        "h_samples": rows,
-                        "color": list(truth.colors),
-                        "style": list(truth.styles),
-                    },
-                    separators=(",", ":"),
-                )
-                + "\n"
-            )
-            batch.append(gt_row(fw, truth, i))
-            if len(batch) >= 64:
-                gt_writer.write({key: [r[key] for r in batch] for key in GT_SCHEMA.names})
-                batch.clear()
-            if labels:
-                (outputs.labels_dir / "frames" / f"{name}.jpg").write_bytes(jpeg)
-                (outputs.labels_dir / "labels" / f"{name}.png").write_bytes(
-                    encode_png(frame.labels)
-                )
-                (outputs.labels_dir / "corridor" / f"{name}.png").write_bytes(
-                    encode_png(frame.corridor.astype("uint8") * 255)
-                )
-            t4 = time.perf_counter()
-            seconds["world"] += t1 - t0
-            seconds["render"] += t2 - t1
-            seconds["encode"] += t3 - t2
-            seconds["write"] += t4 - t3
+                events.push(c.log_time_ns, me_topic, ("can", c.can_id, c.data))
+            frames.seconds["world"] += time.perf_counter() - t0
+            frames.add(i, t_ns, fw, truth)
             if progress is not None:
                 progress(i + 1, n_frames)
-        end_ns = start_ns + round(duration_s * 1e9)
-        while events and events[0][0] <= end_ns:
-            ev_t, _, topic, payload = heapq.heappop(events)
-            writer.write(topic, ev_t, build((topic, payload), ev_t))
-            written += 1
-        if batch:
-            gt_writer.write({key: [r[key] for r in batch] for key in GT_SCHEMA.names})
-    return DriveResult(outputs, n_frames, written, seconds)
+        frames.written += events.write_until(writer, start_ns + round(duration_s * 1e9))
+        frames.flush()
+    return DriveResult(outputs, n_frames, frames.written, frames.seconds)
+
+
+def _check_options(fmt: str, fps: float, jpeg_quality: int | None, roll_rad: float) -> None:
+    """Raise :class:`ScenarioError` for a format, frame rate, quality or roll out of range."""
+    if fmt not in FORMATS:
+        raise ScenarioError(f"format must be one of {', '.join(FORMATS)}, got {fmt!r}")
+    if not 1.0 <= fps <= 60.0:
+        raise ScenarioError(f"frame rate must be 1-60 Hz, got {fps}")
+    if jpeg_quality is not None and not 1 <= jpeg_quality <= 100:
+        raise ScenarioError(f"JPEG quality must be 1-100, got {jpeg_quality}")
+    if abs(roll_rad) > 0.2:
+        raise ScenarioError(f"camera roll must be within 0.2 rad, got {roll_rad}")
+
+
+def _video_encoder(video: str | None, width: int, height: int, fps: float) -> Any:
+    """The camera's video encoder (one keyframe a second), None for JPEG images."""
+    if video is None:
+        return None
+    from superlane_tools.recording.errors import RecordingError
+    from superlane_tools.recording.video import VideoEncoder
+
+    try:
+        return VideoEncoder(video, width, height, fps, gop=max(1, round(fps)))
+    except RecordingError as err:
+        raise ScenarioError(str(err)) from err
+
+
+class _SensorEvents:
+    """Timed non-camera messages, merged into the recording in time order through a heap."""
+
+    def __init__(self) -> None:
+        self._heap: list[tuple[int, int, str, tuple[Any, ...]]] = []
+        self._seq = 0
+
+    def push(self, t_ns: int, topic: str, payload: tuple[Any, ...]) -> None:
+        """Queue one message: ``payload`` is ``(kind, *arguments)`` (see :meth:`_message`)."""
+        heapq.heappush(self._heap, (t_ns, self._seq, topic, payload))
+        self._seq += 1
+
+    def write_until(self, writer: Any, t_ns: int) -> int:
+        """Write the queued messages up to ``t_ns`` (inclusive); return how many."""
+        n = 0
+        while self._heap and self._heap[0][0] <= t_ns:
+            ev_t, _, topic, payload = heapq.heappop(self._heap)
+            writer.write(topic, ev_t, self._message(payload, ev_t))
+            n += 1
+        return n
+
+    @staticmethod
+    def _message(payload: tuple[Any, ...], t_ns: int) -> Any:
+        from superlane_tools.recording import messages as msgs
+
+        kind = payload[0]
+        if kind == "tf":
+            return msgs.tf_static(t_ns, FRAME_VEHICLE, FRAME_CAMERA, payload[1], payload[2])
+        if kind == "can":
+            return msgs.can_frame(t_ns, payload[1], payload[2])
+        if kind == "imu":
+            return msgs.imu(t_ns, FRAME_VEHICLE, payload[1])
+        fix = payload[1]
+        return msgs.navsatfix(
+            t_ns, FRAME_GNSS, fix.lat_deg, fix.lon_deg, fix.alt_m, fix.status, fix.covariance_enu_m2
+        )
+
+
+def _schedule_sensors(
+    events: _SensorEvents,
+    world: Any,
+    camera: CameraModel,
+    vehicle: VehicleOptions,
+    rtk: RtkParams,
+    start_ns: int,
+    rng: Any,
+    seed: int,
+) -> None:
+    """Queue the camera transform, the vehicle CAN, the IMU and the GNSS fixes of the drive."""
+    q = camera_quaternion_xyzw(camera)
+    pos = camera.extrinsics.position
+    events.push(start_ns, TOPIC_TF, ("tf", tuple(float(v) for v in pos), q))
+    for c in vehicle_can(world, start_ns, rng, speed_kph=vehicle.speed_kph):
+        events.push(c.log_time_ns, TOPIC_CAN, ("can", c.can_id, c.data))
+    if vehicle.second_bus:
+        for c in heartbeat_can(world, start_ns):
+            events.push(c.log_time_ns, TOPIC_CAN2, ("can", c.can_id, c.data))
+    if vehicle.imu:  # its own generator: the other sensors' draws stay the same
+        import numpy as np
+
+        imu_rng = np.random.default_rng(np.random.SeedSequence(seed).spawn(64)[-1])
+        for t_imu, gyro in imu_gyro(world, start_ns, imu_rng):
+            events.push(t_imu, TOPIC_IMU, ("imu", gyro))
+    for f in rtk_fixes(world, rtk, start_ns, rng):
+        events.push(f.log_time_ns, TOPIC_FIX, ("fix", f))
+
+
+def _add_topics(
+    writer: Any, fmt: str, camera: CameraModel, video: bool, vehicle: VehicleOptions
+) -> None:
+    """Declare the recording's topics (and, in MCAP, the camera metadata record)."""
+    for topic, msgtype in (
+        (TOPIC_TF, "tf2_msgs/msg/TFMessage"),
+        (TOPIC_INFO, "sensor_msgs/msg/CameraInfo"),
+        (
+            TOPIC_IMAGE,
+            "foxglove_msgs/msg/CompressedVideo" if video else "sensor_msgs/msg/CompressedImage",
+        ),
+        (TOPIC_CAN, "can_msgs/msg/Frame"),
+        (TOPIC_FIX, "sensor_msgs/msg/NavSatFix"),
+        *([(TOPIC_CAN2, "can_msgs/msg/Frame")] if vehicle.second_bus else []),
+        *([(TOPIC_IMU, "sensor_msgs/msg/Imu")] if vehicle.imu else []),
+    ):
+        writer.add_topic(topic, msgtype)
+    add_metadata = getattr(writer, "add_metadata", None)
+    if fmt == "mcap" and add_metadata is not None:
+        add_metadata(METADATA_NAME, camera_metadata(camera, FRAME_VEHICLE, FRAME_CAMERA))
+
+
+@dataclass
+class _FrameWriter:
+    """Renders one frame and writes it everywhere: recording, ground truth, TuSimple, labels."""
+
+    writer: Any
+    gt_writer: ParquetStreamWriter
+    tus: Any
+    events: _SensorEvents
+    camera: CameraModel
+    encoder: Any
+    quality: int
+    labels_dir: Path | None
+    rows: list[int]
+    written: int = 0
+    seconds: dict[str, float] = field(
+        default_factory=lambda: {"world": 0.0, "render": 0.0, "encode": 0.0, "write": 0.0}
+    )
+    batch: list[dict[str, object]] = field(default_factory=list)
+
+    def add(self, i: int, t_ns: int, fw: Any, truth: Any) -> None:
+        """Render frame ``i`` of the world ``fw`` and write it with the messages before it."""
+        from superlane_tools.recording import messages as msgs
+        from superlane_tools.simulation.render import render
+
+        t1 = time.perf_counter()
+        try:
+            frame = render(fw.scene)
+        except Exception as err:  # the renderer is a separate stage; report it as such
+            raise SimulationError(f"renderer failed on frame {i}: {err}") from err
+        t2 = time.perf_counter()
+        jpeg = encode_jpeg(frame.image_bgr, self.quality)
+        lanes = tusimple_lanes(
+            fw.scene.road, self.camera, truth.profile_index, self.rows, labels=frame.labels
+        )
+        t3 = time.perf_counter()
+        self.written += self.events.write_until(self.writer, t_ns)
+        k = self.camera.intrinsics
+        self.writer.write(
+            TOPIC_INFO,
+            t_ns,
+            msgs.camera_info(t_ns, FRAME_CAMERA, k.width, k.height, k.matrix, list(k.dist)),
+        )
+        self.writer.write(
+            TOPIC_IMAGE,
+            t_ns,
+            msgs.compressed_image(t_ns, FRAME_CAMERA, "jpeg", jpeg)
+            if self.encoder is None
+            else msgs.compressed_video(
+                t_ns, FRAME_CAMERA, self.encoder.fmt, self.encoder.encode(frame.image_bgr)
+            ),
+        )
+        self.written += 2
+        name = f"{i:06d}"
+        self.tus.write(
+            json.dumps(
+                {
+                    "raw_file": f"frames/{name}.jpg",
+                    "lanes": lanes,
+                    "h_samples": self.rows,
+                    "color": list(truth.colors),
+                    "style": list(truth.styles),
+                },
+                separators=(",", ":"),
+            )
+            + "\n"
+        )
+        self.batch.append(gt_row(fw, truth, i))
+        if len(self.batch) >= 64:
+            self.flush()
+        if self.labels_dir is not None:
+            (self.labels_dir / "frames" / f"{name}.jpg").write_bytes(jpeg)
+            (self.labels_dir / "labels" / f"{name}.png").write_bytes(encode_png(frame.labels))
+            (self.labels_dir / "corridor" / f"{name}.png").write_bytes(
+                encode_png(frame.corridor.astype("uint8") * 255)
+            )
+        t4 = time.perf_counter()
+        self.seconds["render"] += t2 - t1
+        self.seconds["encode"] += t3 - t2
+        self.seconds["write"] += t4 - t3
+
+    def flush(self) -> None:
+        """Write the batched ground-truth rows."""
+        if self.batch:
+            self.gt_writer.write({key: [r[key] for r in self.batch] for key in GT_SCHEMA.names})
+            self.batch.clear()

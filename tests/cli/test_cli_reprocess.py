@@ -9,11 +9,13 @@ import pandas as pd
 import pytest
 import typer
 import yaml
+from pyarrow.parquet import read_table
 from typer.testing import CliRunner
 
 from superlane_tools.cli import reprocess, tables
 from superlane_tools.commands.reprocess import ReprocessConfig
 from superlane_tools.reporting import read_provenance
+from superlane_tools.reporting.run_layout import DERIVED_TABLES, RunLayout, checked_table
 from superlane_tools.simulation.drive import simulate_drive
 
 SAMPLE = Path(__file__).resolve().parents[2] / "fixtures" / "sample_drive.mcap"
@@ -128,6 +130,9 @@ def test_sample_drive_with_no_options(tmp_path: Path, monkeypatch: pytest.Monkey
     run = tmp_path / "runs" / "sample_drive"
     for name in ("report.md", "report.html", "annotations.mcap", "plots/curvature_time.png"):
         assert (run / name).is_file(), name
+    for name in DERIVED_TABLES:  # every derived table as its schema declares it
+        table = read_table(RunLayout(run).table(name))
+        assert checked_table(name, table).num_rows > 0, name
     frames = pd.read_parquet(run / "frames.parquet")
     assert len(frames) == 240
     assert frames["ok"].all()

@@ -12,6 +12,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import fuzzcases as fc  # tests/fuzz/conftest.py puts the harness on sys.path
+import fuzzcases_wave2  # noqa: F401 - registers the second-wave families
 import pytest
 
 FAST = {
@@ -27,6 +28,11 @@ FAST = {
     "paths_configs": 12,
     "reprocess": 2,
     "disk_full": 6,
+    "sqlite": 4,  # second wave (issue 27 item 8): few each, the campaign runs hundreds
+    "text_junk": 5,
+    "wrong_topic": 4,
+    "manifest": 2,
+    "recover": 4,
 }
 
 pytestmark = pytest.mark.skipif(not hasattr(os, "fork"), reason="the harness forks")

@@ -132,6 +132,42 @@ def test_filter_refuses_outputs_it_cannot_copy_into(realdata: Path, tmp_path: Pa
     assert not (tmp_path / "folder").exists()
 
 
+def _payloads(path: Path, topic: str) -> list[tuple[int, bytes]]:
+    from superlane_tools.recording.scan import scan_mcap
+
+    return [(x.log_time_ns, x.payload) for x in scan_mcap(path).messages([topic])]
+
+
+@pytest.mark.parametrize("damage", ["truncated", "zeroed"])
+def test_filter_salvages_a_damaged_mcap_like_recover(tmp_path: Path, damage: str) -> None:
+    whole = _drive(tmp_path / "d.mcap").read_bytes()
+    data = bytearray(whole[: len(whole) // 2] if damage == "truncated" else whole)
+    if damage == "zeroed":
+        at = len(whole) * 2 // 5
+        data[at : at + 4096] = bytes(4096)
+    src = tmp_path / "bad.mcap"
+    src.write_bytes(bytes(data))
+    out = tmp_path / "f.mcap"
+    result = runner.invoke(app, ["filter", str(src), "-o", str(out), "-t", "^/fix$", "--end", "4"])
+    assert result.exit_code == 3, result.output
+    assert "slt: skipped: " in result.stderr
+    end = T0 + 4_000_000_000
+    want = [(t, p) for t, p in _payloads(src, "/fix") if t < end]
+    assert 5 < len(want) < 40  # some lost to the damage, some past --end
+    assert _payloads(out, "/fix") == want  # byte for byte, nothing readable lost
+    with open_recording(out) as rec:
+        assert {t.topic for t in rec.topics()} == {"/fix"}
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.mcap", "d.mcap", "f.mcap"]
+
+
+def test_filter_of_a_text_log_says_what_filter_reads(realdata: Path, tmp_path: Path) -> None:
+    log = realdata / "can_logs" / "ford_fusion" / "nothing.log"
+    res = runner.invoke(app, ["filter", str(log), "-o", str(tmp_path / "x.bag")])
+    assert res.exit_code == 1
+    assert "reads MCAP files and ROS bags" in res.stderr, res.stderr
+    assert "OUT.mcap" not in res.stderr  # not "an MCAP filters to OUT.mcap"
+
+
 def test_filter_real_rosbag2_mcap(realdata: Path, tmp_path: Path) -> None:
     src = next((realdata / "bags" / "ros2_format_fixtures" / "mcap" / "talker").glob("*.mcap"))
     out = tmp_path / "topic.mcap"

@@ -8,6 +8,7 @@ import pytest
 
 from superlane_tools.reporting import run_layout
 from superlane_tools.reporting.run_layout import (
+    DERIVED_SCHEMAS,
     DERIVED_TABLES,
     STREAMED_SCHEMAS,
     STREAMED_TABLES,
@@ -21,6 +22,7 @@ def test_layout_paths_are_under_the_root_and_distinct(tmp_path: Path) -> None:
     tables = {**layout.streamed(), **layout.derived()}
     assert list(tables) == [*STREAMED_TABLES, *DERIVED_TABLES]
     assert set(STREAMED_SCHEMAS) == set(STREAMED_TABLES)
+    assert list(DERIVED_SCHEMAS) == list(DERIVED_TABLES)
     paths = [*tables.values(), layout.annotations, layout.overlay, layout.report, layout.plots]
     assert len(set(paths)) == len(paths)
     assert all(p.parent == tmp_path for p in paths)

@@ -116,7 +116,8 @@ def _kind(value: Any) -> str:
     elif isinstance(value, bool):
         kind = "a boolean"
     else:
-        kind = f"a {type(value).__name__}"
+        name = type(value).__name__
+        kind = f"{'an' if name[0] in 'aeiou' else 'a'} {name}"
     return f"{kind} ({reprlib.repr(value)})"
 
 
@@ -144,12 +145,16 @@ def _path_text(value: Any, where: str) -> str:
         return ""
     if not isinstance(value, str):
         raise ConfigError(f"{where}: path must be one recording path (text), not {_kind(value)}")
+    if "\x00" in value:  # the OS refuses it: an internal ValueError otherwise
+        raise ConfigError(f"{where}: path holds a NUL byte ({reprlib.repr(value)})")
     return value.strip()
 
 
 def _seconds(value: Any, column: str, where: str) -> float | None:
     if isinstance(value, bool) or not (_missing(value) or isinstance(value, str | numbers.Real)):
         raise ConfigError(f"{where}: {column} must be a number of seconds, not {_kind(value)}")
+    if isinstance(value, float) and math.isnan(value):  # YAML .nan (empty cells are None here)
+        raise ConfigError(f"{where}: {column} must be a finite number >= 0 s, not nan")
     text = _text(value, column, where)
     if not text:
         return None
@@ -182,7 +187,12 @@ def _rows(path: Path) -> list[Any]:
         if suffix == ".parquet":
             frame = pd.read_parquet(path)
         elif suffix in {".csv", ".tsv"}:
-            frame = pd.read_csv(path, sep="\t" if suffix == ".tsv" else ",", dtype=str)
+            import warnings
+
+            with warnings.catch_warnings():  # a row with more fields than the header: refused
+                warnings.simplefilter("error", pd.errors.ParserWarning)
+                sep = "\t" if suffix == ".tsv" else ","
+                frame = pd.read_csv(path, sep=sep, dtype=str, index_col=False)
         else:
             raise ConfigError(f"{path}: manifest must be .csv, .tsv, .parquet, .yaml or .yml")
     except ConfigError:

@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 
 from superlane_tools.commands.batch.status import read_status
-from superlane_tools.evaluation.curvature import curvature_errors
+from superlane_tools.evaluation import curvature_errors
 from superlane_tools.reporting import Provenance, write_table
 from superlane_tools.reporting.names import UNCATEGORISED
 from superlane_tools.reporting.report import Section, write_report

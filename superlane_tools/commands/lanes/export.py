@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 from superlane_tools.camera.model import CameraModel
 from superlane_tools.commands.errors import PipelineError
 from superlane_tools.errors import ConfigError
-from superlane_tools.evaluation.tusimple import format_record, load_jsonl
+from superlane_tools.evaluation import format_record, load_jsonl
 from superlane_tools.evaluation.tusimple_export import (
     ExportOptions,
     export_records,
@@ -110,7 +110,7 @@ def export_kitti_ego_lane(
     Raises:
         PipelineError: If the file is not a ``lanes.parquet`` written by ``slt lanes fit``.
     """
-    from superlane_tools.evaluation.kitti import ego_lane_mask
+    from superlane_tools.evaluation import ego_lane_mask
 
     src = Path(lanes_parquet)
     try:

@@ -17,10 +17,10 @@ from superlane_tools.reporting import Provenance, input_identity, write_table
 from superlane_tools.reporting.drive_sections import ReportFacts
 from superlane_tools.reporting.plots import ExampleFrame
 from superlane_tools.reporting.report import write_report
-from superlane_tools.reporting.run_layout import RunLayout
+from superlane_tools.reporting.run_layout import RunLayout, checked_table
 
 if TYPE_CHECKING:
-    import pandas as pd
+    import pyarrow as pa
 
     from superlane_tools.camera.model import CameraModel
     from superlane_tools.corridor import TimeSegment
@@ -124,9 +124,19 @@ def open_sinks(
         raise
 
 
-def table_files(out: Path, result: DriveTables) -> dict[Path, pd.DataFrame]:
-    """Return output path -> table of the derived tables (named by :class:`RunLayout`)."""
-    return {path: getattr(result, name) for name, path in RunLayout(out).derived().items()}
+def table_files(out: Path, result: DriveTables) -> dict[Path, pa.Table]:
+    """Return output path -> table of the derived tables (named by :class:`RunLayout`).
+
+    Each table is checked against its schema (:data:`~.run_layout.DERIVED_SCHEMAS`).
+
+    Raises:
+        ~superlane_tools.reporting.run_layout.SchemaMismatchError: If a builder's table
+            disagrees with its declared schema.
+    """
+    return {
+        path: checked_table(name, getattr(result, name))
+        for name, path in RunLayout(out).derived().items()
+    }
 
 
 def write_outputs(

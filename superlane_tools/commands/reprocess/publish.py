@@ -34,11 +34,10 @@ def reprocess_run(
     Raises:
         OutputError: If ``target`` is a file or a foreign folder, or cannot be written.
     """
-    from superlane_tools.lanes import FitParams
     from superlane_tools.lanes.multilane_fit import warm_up_in_background
     from superlane_tools.reporting.run_folder import staged_run
 
-    warm_up_in_background(FitParams.from_dict(dict(getattr(config, "fit", {}))).backend, compiler)
+    warm_up_in_background(config.fit_params.backend, compiler)
     with staged_run(target) as stage:  # the whole run appears at once, or not at all
         return reprocess(
             recording_path, stage, config, progress, command, with_signals=with_signals

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable
 from pathlib import Path
 
@@ -184,3 +185,30 @@ def test_job_units_split_or_grouped() -> None:
         ],
     }
     assert grouped[1][1] == {"category": "rain"}
+
+
+@pytest.mark.parametrize(
+    ("name", "text", "message"),
+    [
+        (
+            "m.yaml",
+            "- path: d.mcap\n  end_s: .nan\n",
+            "end_s must be a finite number >= 0 s, not nan",
+        ),
+        ("m.csv", "path,category\nd.mcap,a,b,c\n", "cannot read manifest: Length of header"),
+        ("m.yaml", "- path: 12\n", "path must be one recording path (text), not an int (12)"),
+        ("m.csv", "path\n\x00\x01\n", "row 1: path holds a NUL byte"),
+    ],
+)
+def test_manifest_nan_window_and_ragged_csv_row_are_refused(
+    tmp_path: Path, name: str, text: str, message: str
+) -> None:
+    """Fuzz findings: a YAML .nan window was taken as no window; a CSV row with more fields
+    than the header shifted its cells (``b`` read as the path)."""
+    from superlane_tools.commands.batch.manifest import read_manifest
+
+    (tmp_path / "d.mcap").write_bytes(b"")
+    manifest = tmp_path / name
+    manifest.write_text(text)
+    with pytest.raises(ConfigError, match=re.escape(message)):
+        read_manifest(manifest)

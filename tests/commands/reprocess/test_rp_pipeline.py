@@ -7,11 +7,19 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import pyarrow.parquet as pq
 import pytest
 
 from superlane_tools.commands.reprocess import ReprocessConfig, reprocess
 from superlane_tools.recording import open_recording
 from superlane_tools.reporting import read_provenance
+from superlane_tools.reporting.run_layout import (
+    CURVATURE_SCHEMA,
+    DERIVED_TABLES,
+    RunLayout,
+    SchemaMismatchError,
+    checked_table,
+)
 from superlane_tools.scene.onnx_backend import DEFAULT_SEGMENTATION_MODEL
 from superlane_tools.simulation.drive import simulate_drive
 
@@ -262,3 +270,25 @@ def test_mcap_without_metadata_uses_tf_static(drive: Path, tmp_path: Path) -> No
     extr = prov["config"]["resolved"]["camera"]["extrinsics"]
     assert math.isclose(extr["height_m"], 1.5, abs_tol=1e-6)
     assert math.isclose(extr["pitch_rad"], 0.06, abs_tol=1e-6)
+
+
+def test_derived_tables_match_their_schemas(run_dir: Path) -> None:
+    """Each derived table as built matches run_layout's schema; a drifted builder fails."""
+    layout = RunLayout(run_dir)
+    tables = {name: pq.read_table(layout.table(name)) for name in DERIVED_TABLES}
+    for name, table in tables.items():
+        assert checked_table(name, table).num_rows > 0, name
+    tracked = set(CURVATURE_SCHEMA.optional.names)  # the tracker ran on this drive
+    assert tracked <= set(tables["curvature"].column_names)
+    curv = tables["curvature"].to_pandas()
+    curv["super_new_curvature"] = 0.0  # a builder that adds a column without declaring it
+    with pytest.raises(SchemaMismatchError, match=r"undeclared columns \['super_new_curvature'\]"):
+        checked_table("curvature", curv)
+    with pytest.raises(SchemaMismatchError, match=r"missing columns \['rtk_valid'\]"):
+        checked_table("curvature", curv.drop(columns=["super_new_curvature", "rtk_valid"]))
+    summary = tables["curvature_summary"].to_pandas().astype({"n": float})
+    with pytest.raises(SchemaMismatchError, match="n is double, declared int64"):
+        checked_table("curvature_summary", summary)
+    # A drive without Mobileye has an empty table of only its time column: declared, passes.
+    empty = tables["mobileye"].select(["log_time_ns"]).slice(0, 0)
+    assert checked_table("mobileye", empty).num_rows == 0
