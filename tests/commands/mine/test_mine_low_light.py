@@ -8,6 +8,7 @@ oracle segmentation; mining must pick exactly those frames, from the recording's
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -79,7 +80,9 @@ def _rewrite(src: Path, dst: Path) -> None:
 
 
 @pytest.fixture(scope="module")
-def night_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+def night_run(
+    tmp_path_factory: pytest.TempPathFactory, oracle_config: Callable[[Path], ReprocessConfig]
+) -> Path:
     """A reprocess run of a 1.6 s drive whose recording has the DARK and FLAT frames."""
     root = tmp_path_factory.mktemp("night")
     day = root / "sim" / "day.mcap"
@@ -88,14 +91,7 @@ def night_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     rec = root / "drives" / "night.mcap"
     rec.parent.mkdir()
     _rewrite(day, rec)
-    config = ReprocessConfig().with_overrides(
-        {
-            "segmentation.backend": "oracle",
-            "segmentation.oracle_labels": str(root / "sim" / "day_labels" / "labels"),
-            "output.plots": False,
-            "output.example_frames": 0,
-        }
-    )
+    config = oracle_config(root / "sim" / "day_labels" / "labels")
     out = root / "run" / "night"
     with staged_run(out) as stage:
         assert reprocess(rec, stage, config, command="test night").frames == 24
