@@ -7,8 +7,8 @@ from pathlib import Path
 from types import SimpleNamespace
 
 from superlane_tools.recording.errors import RecordingError
+from superlane_tools.recording.mcap_copy import McapCopier
 from superlane_tools.recording.scan import RecordingScan, ScannedMessage, ScanSchema, scan_mcap
-from superlane_tools.recording.tools import McapCopier
 from superlane_tools.recording.writers import LIBRARY
 
 

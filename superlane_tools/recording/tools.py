@@ -14,6 +14,7 @@ import numpy as np
 from superlane_tools.errors import UsageError
 from superlane_tools.recording.base import Recording
 from superlane_tools.recording.errors import RecordingError
+from superlane_tools.recording.mcap_copy import McapCopier
 from superlane_tools.recording.times import parse_time
 from superlane_tools.records import Message, Skipped
 
@@ -146,38 +147,6 @@ def cat_messages(
         raise UsageError(f"no topic matches {topics!r} (topics: {known})")
     start_ns, end_ns = time_range(first_log_time(rec) if start or end else None, start, end)
     return rec.messages(topics=names, start_ns=start_ns, stop_ns=end_ns)
-
-
-class McapCopier:
-    """Copies messages from an MCAP reader into an MCAP writer, byte for byte.
-
-    Schemas and channels (with their metadata) are registered in the writer the first time a
-    message of theirs is copied.
-    """
-
-    def __init__(self, writer: Any) -> None:
-        self._writer = writer
-        self._schemas: dict[int, int] = {}
-        self._channels: dict[int, int] = {}
-
-    def add(self, schema: Any, channel: Any, message: Any) -> None:
-        """Copy one ``(schema, channel, message)`` as the mcap reader yields them."""
-        cid = self._channels.get(channel.id)
-        if cid is None:
-            sid = 0
-            if schema is not None:
-                if schema.id not in self._schemas:
-                    self._schemas[schema.id] = self._writer.register_schema(
-                        schema.name, schema.encoding, schema.data
-                    )
-                sid = self._schemas[schema.id]
-            cid = self._writer.register_channel(
-                channel.topic, channel.message_encoding, sid, dict(channel.metadata)
-            )
-            self._channels[channel.id] = cid
-        self._writer.add_message(
-            cid, message.log_time, message.data, message.publish_time, message.sequence
-        )
 
 
 @dataclass(frozen=True)

@@ -198,7 +198,7 @@ def add_signals(
     from mcap.reader import make_reader
     from mcap.writer import CompressionType, Writer
 
-    from superlane_tools.recording.tools import McapCopier
+    from superlane_tools.recording.mcap_copy import McapCopier
 
     rows: list[tuple[int, str, dict[str, Any]]] = []
     schemas: dict[str, dict[str, Any]] = {}
