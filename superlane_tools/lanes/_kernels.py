@@ -28,12 +28,7 @@ import numba
 import numpy as np
 from numba.core import event
 
-from superlane_tools.lanes.kernel_cache import (
-    COMPILE_NOTE,
-    kernel_cache_dir,
-    mark_complete,
-    writable,
-)
+from superlane_tools.lanes._cache_folder import COMPILE_NOTE, kernel_cache_dir, writable
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -700,8 +695,10 @@ def compile_all() -> None:
     """Compile (or load from the cache) every kernel for the argument types the fit passes.
 
     A cold cache's compiler process runs this
-    (:func:`superlane_tools.lanes.kernel_cache.start_compiling`): it needs neither the fit's
-    modules nor data. The tests check that a fit afterwards compiles nothing more.
+    (:func:`superlane_tools.lanes.kernel_cache.start_compiling`, which then marks the cache
+    complete), and so does :func:`superlane_tools.lanes.kernel_cache.warm_up`, which loads the
+    kernels in process: it needs neither the fit's modules nor data. The tests check that a
+    fit afterwards compiles nothing more.
     """
     from numba import types
 
@@ -722,4 +719,3 @@ def compile_all() -> None:
     }
     for kernel, signature in signatures.items():
         kernel.compile(signature)
-    mark_complete()

@@ -15,7 +15,7 @@ from superlane_tools.lanes import _kernels
 from superlane_tools.lanes._kernels import COMPILE_NOTE, kernel_cache_dir
 
 PACKAGE = Path(_kernels.__file__).resolve().parents[1]
-WARM = "from superlane_tools.lanes.multilane_fit import warm_up; warm_up()"
+WARM = "from superlane_tools.lanes.kernel_cache import warm_up; warm_up()"
 
 
 def test_cache_dir_follows_env(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
@@ -110,7 +110,9 @@ print(len(first.lanes), len(again.lanes), len(compiled.buffer))
 def test_compile_all_covers_every_kernel_the_fit_calls(tmp_path: Path) -> None:
     """What the compiler process caches is all a fit needs: the fit then compiles nothing."""
     env = {**os.environ, "SLT_CACHE_DIR": str(tmp_path)}
-    compile_all = "from superlane_tools.lanes._kernels import compile_all; compile_all()"
+    compile_all = (
+        "from superlane_tools.lanes.kernel_cache import compile_into_cache; compile_into_cache()"
+    )
     done = subprocess.run(
         [sys.executable, "-c", compile_all], env=env, capture_output=True, text=True, check=True
     )
