@@ -32,7 +32,9 @@ from superlane_tools.lanes._cache_folder import (
 __all__ = [
     "CACHE_ENV",
     "COMPILE_NOTE",
+    "KERNEL_SOURCES",
     "cache_is_cold",
+    "compile_all",
     "compile_into_cache",
     "kernel_cache_dir",
     "kernels_loading",
@@ -45,11 +47,13 @@ __all__ = [
     "writable",
 ]
 
+KERNEL_SOURCES = ("_kernels.py", "_refit_kernels.py")
+"""The kernel modules beside this one; the completeness marker hashes them all."""
 _COMPILE = "from superlane_tools.lanes.kernel_cache import compile_into_cache; compile_into_cache()"
 
 
 def _complete_marker() -> Path | None:
-    """The file that says the cache holds every kernel of this source, numba and Python.
+    """The file that says the cache holds every kernel of these sources, numba and Python.
 
     None where the kernels' source or numba's version cannot be read (then numba's own checks
     decide, in process).
@@ -57,7 +61,7 @@ def _complete_marker() -> Path | None:
     from importlib.metadata import PackageNotFoundError, version
 
     try:
-        source = Path(__file__).with_name("_kernels.py").read_bytes()
+        source = b"".join(Path(__file__).with_name(name).read_bytes() for name in KERNEL_SOURCES)
         tag = f"{version('numba')} {sys.version_info[:2]}".encode()
     except (OSError, PackageNotFoundError):
         return None
@@ -68,7 +72,8 @@ def _complete_marker() -> Path | None:
 def mark_complete() -> None:
     """Record that the cache holds every kernel (the compiler child ends with this).
 
-    A changed ``_kernels.py`` (an upgrade), numba or Python makes the cache cold again.
+    A changed kernel source (:data:`KERNEL_SOURCES`: an upgrade), numba or Python makes the
+    cache cold again.
     """
     marker = _complete_marker()
     if marker is not None:
@@ -76,13 +81,24 @@ def mark_complete() -> None:
             marker.touch()
 
 
+def compile_all() -> None:
+    """Compile (or load from the cache) every kernel for the argument types the fit passes.
+
+    Both kernel modules, from their argument types alone: no fit, no data, no scipy. The tests
+    check that a fit afterwards compiles nothing more.
+    """
+    from superlane_tools.lanes import _kernels, _refit_kernels
+
+    for module in (_kernels, _refit_kernels):
+        for kernel, signature in module.signatures().items():
+            kernel.compile(signature)
+
+
 def compile_into_cache() -> None:
     """Compile every kernel into the cache, then mark it complete: what the compiler child runs.
 
     :func:`warm_up` loads the same kernels in process without marking anything.
     """
-    from superlane_tools.lanes._kernels import compile_all
-
     compile_all()
     mark_complete()
 
@@ -235,8 +251,6 @@ def warm_up(
                     compiler.wait()
         _WARM_BACKENDS.add(backend)
         if backend == "numba":
-            from superlane_tools.lanes._kernels import compile_all
-
             compile_all()  # loads what the child compiled; compiles here should it have failed
         _READY_BACKENDS.add(backend)
         return time.perf_counter() - t0

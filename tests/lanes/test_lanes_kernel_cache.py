@@ -127,7 +127,7 @@ def test_compile_all_covers_every_kernel_the_fit_calls(tmp_path: Path) -> None:
     assert fitted.stdout.split() == ["3", "3", "0"], fitted.stdout + fitted.stderr
     assert COMPILE_NOTE not in fitted.stderr
     # The cache is marked complete for this kernel source: an identical copy of the package
-    # finds it warm; an upgrade (a changed _kernels.py) finds it cold again.
+    # finds it warm; an upgrade (a changed _kernels.py or _refit_kernels.py) finds it cold again.
     site = tmp_path / "site"
     shutil.copytree(PACKAGE, site / "superlane_tools", ignore=shutil.ignore_patterns("__pycache__"))
     cold = "from superlane_tools.lanes.kernel_cache import cache_is_cold; print(cache_is_cold())"
@@ -144,9 +144,13 @@ def test_compile_all_covers_every_kernel_the_fit_calls(tmp_path: Path) -> None:
         return done.stdout.strip()
 
     assert is_cold() == "False"
-    kernels = site / "superlane_tools" / "lanes" / "_kernels.py"
-    kernels.write_text(kernels.read_text() + "\n# a new release\n")
-    assert is_cold() == "True"
+    for name in ("_kernels.py", "_refit_kernels.py"):  # each kernel source counts
+        kernels = site / "superlane_tools" / "lanes" / name
+        original = kernels.read_text()
+        kernels.write_text(original + "\n# a new release\n")
+        assert is_cold() == "True", name
+        kernels.write_text(original)
+        assert is_cold() == "False", name
 
 
 @pytest.mark.skipif(not Path("/proc/self/environ").exists(), reason="reads /proc")
