@@ -509,7 +509,13 @@ def _lookahead(
 def _build_lanes(
     lane: _Points, model: SharedModel, codes: IntArray | None, height: float, p: FitParams
 ) -> tuple[list[Lane], float]:
-    """Assign all usable points to the lines, add local corrections, ranges and attributes."""
+    """Assign all usable points to the lines, add local corrections, ranges and attributes.
+
+    The numpy reference (``backend="numpy"``) is the body below; ``numba`` runs its deliberate
+    twin :func:`_build_lanes_compiled` (same formulas, single passes over the points). They are
+    kept apart on purpose, like the cost's two backends, and tested against each other through
+    :func:`fit_frame` (``tests/lanes/test_lanes_kernels.py``, ``test_lanes_vertical.py``).
+    """
     if model.offsets.size == 0:
         return [], 0.0
     if p.backend == "numba":
@@ -568,7 +574,11 @@ def _build_lanes(
 def _build_lanes_compiled(
     lane: _Points, model: SharedModel, codes: IntArray | None, height: float, p: FitParams
 ) -> tuple[list[Lane], float]:
-    """:func:`_build_lanes` with single-pass kernels over the points (same results)."""
+    """:func:`_build_lanes` with single-pass kernels over the points (same results).
+
+    A deliberate twin of the numpy reference in :func:`_build_lanes`, not a copy to merge: a
+    change to one must be made to the other (the backend-comparison tests fail otherwise).
+    """
     k = kernels()
     offsets = np.ascontiguousarray(model.offsets, dtype=np.float64)
     x, resid, labels = _assign_compiled(lane.iq, lane.r, model, height, p)
