@@ -26,7 +26,8 @@ def mine_cmd(
         typer.Option(
             "--criteria",
             help="Comma-separated: disagree, availability_drop, fit_quality, lane_change, "
-            "curvature_extreme, span (see docs/compare.md).",
+            "curvature_extreme, span, low_light (night / low contrast: decodes every frame of "
+            "the recording, so not a default; see docs/compare.md).",
         ),
     ] = "disagree,availability_drop,fit_quality,lane_change,curvature_extreme,span",
     require_all: Annotated[

@@ -11,6 +11,11 @@ Criteria (each a per-frame score 0-1; a frame *fires* a criterion at score >= 0.
 * ``curvature_extreme``: |curvature| (RTK truth, else SUPER's tracked path) above
   ``curvature_per_m`` (score 0.5 there, 1 at twice it).
 * ``span``: inside a ``slt compare`` disagreement span of this drive.
+* ``low_light``: the camera frame is night-dark or low in contrast
+  (:func:`superlane_tools.fleet.lighting.low_light_score`: mean luminance under 0.2 or RMS
+  contrast under 0.08). The one criterion that reads the recording (every frame decoded,
+  reduced, grayscale), so it is not a default: only computed when chosen; a frame without
+  statistics (recording not found, frame not decodable) gets no score (NaN), never 0.
 
 Frames are picked by summed score, at most ``max_frames``, never two of one drive closer than
 ``min_gap_s`` (near-duplicate neighbours), so picks spread over time.
@@ -30,7 +35,7 @@ from superlane_tools.fleet.kpis import DriveTables
 from superlane_tools.fleet.spans import per_method
 
 FloatArray = NDArray[np.float64]
-CRITERIA = (
+TABLE_CRITERIA = (
     "disagree",
     "availability_drop",
     "fit_quality",
@@ -38,6 +43,10 @@ CRITERIA = (
     "curvature_extreme",
     "span",
 )
+"""Criteria computed from the run's tables: the default."""
+IMAGE_CRITERIA = ("low_light",)
+"""Criteria that decode the recording's frames: chosen explicitly."""
+CRITERIA = TABLE_CRITERIA + IMAGE_CRITERIA
 FIRES = 0.5
 
 
@@ -45,7 +54,7 @@ FIRES = 0.5
 class MineParams:
     """Which criteria, how they combine, and how many frames how far apart."""
 
-    criteria: tuple[str, ...] = CRITERIA
+    criteria: tuple[str, ...] = TABLE_CRITERIA
     require_all: bool = False
     max_frames: int = 50
     min_gap_s: float = 1.0
@@ -65,11 +74,17 @@ def _by_frame(series: pd.Series, index: NDArray[np.int64]) -> FloatArray:
 
 
 def frame_scores(
-    tables: DriveTables, spans: Sequence[tuple[int, int]], params: MineParams
+    tables: DriveTables,
+    spans: Sequence[tuple[int, int]],
+    params: MineParams,
+    lighting: pd.DataFrame | None = None,
 ) -> pd.DataFrame:
     """Return one row per frame: ``frame_index``, ``log_time_ns`` and a score per criterion.
 
     ``spans``: ``[start_ns, stop_ns)`` disagreement spans of this drive (may be empty).
+    ``lighting``: ``log_time_ns`` and ``low_light`` per camera frame
+    (:func:`~superlane_tools.fleet.lighting.lighting_table`); with ``low_light`` chosen, the
+    frames it lacks (or all, when None) score NaN. The column is there only when chosen.
     """
     fr = tables.availability_frames
     times = fr.drop_duplicates("frame_index").set_index("frame_index")["log_time_ns"].sort_index()
@@ -108,7 +123,15 @@ def frame_scores(
     for start, stop in spans:
         inside |= (t >= start) & (t < stop)
     out["span"] = inside.astype(float)
+    if "low_light" in params.criteria:
+        light = pd.Series(dtype=float) if lighting is None else _by_time(lighting)
+        out["low_light"] = light.reindex(t).to_numpy(np.float64)
     return out
+
+
+def _by_time(lighting: pd.DataFrame) -> pd.Series:
+    series = lighting.set_index("log_time_ns")["low_light"].astype(float)
+    return series[~series.index.duplicated()]
 
 
 def _column(frame: pd.DataFrame | None, name: str, idx: NDArray[np.int64]) -> FloatArray:

@@ -9,6 +9,7 @@ there: a drive built to have one disagreement span.
 from __future__ import annotations
 
 import shutil
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -50,6 +51,12 @@ def _config(labels: Path) -> ReprocessConfig:
             "output.example_frames": 0,
         }
     )
+
+
+@pytest.fixture(scope="session")
+def oracle_config() -> Callable[[Path], ReprocessConfig]:
+    """The runs' configuration for oracle label images under a folder (for tests' own drives)."""
+    return _config
 
 
 @pytest.fixture(scope="session")

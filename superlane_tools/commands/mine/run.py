@@ -10,6 +10,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import pandas as pd
 
@@ -17,8 +18,9 @@ from superlane_tools.camera.model import CameraModel
 from superlane_tools.evaluation.culane import SUFFIX as CULANE_SUFFIX
 from superlane_tools.evaluation.tusimple import format_record
 from superlane_tools.fleet import DriveRun, FleetError, find_drives, read_tables
-from superlane_tools.fleet.frames import frame_jpegs
+from superlane_tools.fleet.frames import frame_jpegs, gray_frames
 from superlane_tools.fleet.label_export import pre_annotation
+from superlane_tools.fleet.lighting import lighting_table
 from superlane_tools.fleet.mining import MineParams, candidates, frame_scores, select_frames
 from superlane_tools.fleet.runs import read_lanes
 from superlane_tools.records import Skipped
@@ -59,6 +61,31 @@ def _spans(compare_dir: Path | None) -> pd.DataFrame:
     return pd.read_parquet(path)
 
 
+def _resolved(drive: DriveRun) -> dict[str, Any]:
+    config = drive.provenance.get("config") or {}
+    return dict(config.get("resolved") or {})
+
+
+def _lighting(drive: DriveRun, recordings: Sequence[Path]) -> pd.DataFrame | None:
+    """The drive's per-frame ``low_light`` statistics, or None without its recording."""
+    recording = _recording(drive, recordings)
+    if recording is None:
+        return None
+    topic = str(_resolved(drive)["streams"]["frames"])
+    return lighting_table(gray_frames(recording, topic))
+
+
+def _unscored(label: str, drive: DriveRun, found: bool, missing: int) -> Skipped:
+    """The skipped entry of a drive's frames that got no ``low_light`` score."""
+    if not found:
+        return Skipped(
+            "low_light unscored: recording not found",
+            f"{label}: {drive.recording} not found (give --recordings DIR)",
+            missing,
+        )
+    return Skipped("low_light unscored: frame not decodable", label, missing)
+
+
 def mine_runs(
     inputs: Sequence[Path],
     out: Path,
@@ -83,19 +110,22 @@ def mine_runs(
     spans = _spans(compare_dir)
     layout = MineLayout(out)
     pool = []
+    skipped: list[Skipped] = []
     for label, drive in by_name.items():
         mine = spans[spans["recording"] == drive.recording]
         ranges = list(zip(mine["start_ns"].astype(int), mine["stop_ns"].astype(int), strict=True))
-        scores = frame_scores(read_tables(drive), ranges, params)
+        lit = "low_light" in params.criteria
+        lighting = _lighting(drive, recordings) if lit else None
+        scores = frame_scores(read_tables(drive), ranges, params, lighting)
+        if lit and (missing := int(scores["low_light"].isna().sum())):
+            skipped.append(_unscored(label, drive, lighting is not None, missing))
         pool.append(candidates(scores, params).assign(drive=label))
     picks = select_frames(pd.concat(pool, ignore_index=True), params)
-    skipped: list[Skipped] = []
     written: list[Path] = []
     labels, rows = [], []
     for name, group in picks.groupby("drive", sort=True):
         drive = by_name[str(name)]
-        config = drive.provenance.get("config") or {}
-        resolved = config.get("resolved") or {}
+        resolved = _resolved(drive)
         recording = _recording(drive, recordings)
         if recording is None:
             skipped.append(
