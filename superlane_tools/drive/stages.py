@@ -31,7 +31,7 @@ from superlane_tools.corridor import (
 )
 from superlane_tools.drive.config import ReprocessConfig
 from superlane_tools.lanes import LaneFit
-from superlane_tools.lanes.multilane_fit import kernels_loading, warm_up_in_background
+from superlane_tools.lanes.kernel_cache import kernels_loading, warm_up_in_background
 from superlane_tools.lanes.points import lane_points, road_points
 from superlane_tools.lanes.sequence import SequentialFit, max_plausible_slope
 from superlane_tools.recording.images import decode_frame, decode_reduced
@@ -304,7 +304,7 @@ class FrameStages:
         """Pop the prepared frames that :meth:`finish` must take now, oldest first.
 
         Normally all but ``2 * workers`` of them. While the fit's kernels load on a side
-        thread (:func:`~superlane_tools.lanes.multilane_fit.warm_up_in_background`; on the
+        thread (:func:`~superlane_tools.lanes.kernel_cache.warm_up_in_background`; on the
         first run after an install that means compiling them in a child process), up to
         :data:`WARM_UP_LOOK_AHEAD` may wait, so the image stages keep working instead of
         idling behind the first fit; the newest frame is awaited first, so that one core

@@ -247,7 +247,7 @@ def _with_cov(
 ) -> SharedModel:
     """Attach :func:`shared_covariance` (from the last Gauss-Newton step) to ``model``."""
     if compiled:
-        from superlane_tools.lanes._kernels import refit_ssr
+        from superlane_tools.lanes._refit_kernels import refit_ssr
 
         ssr, n_used = refit_ssr(
             iq, r, labels, model.offsets, model.a1, model.a2, model.b, model.c,
@@ -273,7 +273,7 @@ def _refit_compiled(
     iterations: int,
     vertical_bound: float,
 ) -> SharedModel:
-    """:func:`refit_shared` on normal equations accumulated by ``_kernels.refit_normal``."""
+    """:func:`refit_shared` on normal equations accumulated by ``_refit_kernels.refit_normal``."""
     if int((labels >= 0).sum()) < n_lines + order + 1:
         return start
     fit_slope = fit_slope and n_lines >= 2
@@ -314,7 +314,7 @@ def _gauss_newton(
     Returns:
         ``a1, a2, b, c, offsets`` and the last step's normal matrix (for the covariance).
     """
-    from superlane_tools.lanes._kernels import refit_normal, solve_ridged
+    from superlane_tools.lanes._refit_kernels import refit_normal, solve_ridged
 
     fit_vertical = vertical_bound > 0
     a1, a2, b, cv = float(start.a1), float(start.a2), float(start.b), float(start.c)
@@ -431,7 +431,7 @@ def local_corrections_compiled(
     in Python (one kernel less to compile on the first run) around the compiled
     ``solve_ridged``; the arithmetic and its order are those of the former compiled loop.
     """
-    from superlane_tools.lanes._kernels import solve_ridged
+    from superlane_tools.lanes._refit_kernels import solve_ridged
 
     n_lines = sums_x.shape[0]
     out = np.zeros((n_lines, 3))

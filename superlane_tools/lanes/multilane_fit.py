@@ -11,17 +11,14 @@ bounded per-line correction.
 
 from __future__ import annotations
 
-import contextlib
 import math
-import subprocess
-import threading
 import time
 
 import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import minimize
 
-from superlane_tools.camera.model import CameraModel, Extrinsics, Intrinsics
+from superlane_tools.camera.model import CameraModel
 from superlane_tools.lanes._refit import (
     NEAR_WEIGHT_M,
     LocalCorrection,
@@ -40,7 +37,7 @@ from superlane_tools.lanes.attributes import (
 from superlane_tools.lanes.cost import CostFunction, CostSetup, kernels, ray_points
 from superlane_tools.lanes.errors import LaneFitError
 from superlane_tools.lanes.fit_lookahead import effective_lookahead, refit_sqrt_weights
-from superlane_tools.lanes.kernel_cache import one_cpu_for, start_compiling
+from superlane_tools.lanes.kernel_cache import warm_up
 from superlane_tools.lanes.params import FitParams
 from superlane_tools.lanes.peaks import assign, find_offsets, merge_close
 from superlane_tools.lanes.result import Lane, LaneFit
@@ -281,100 +278,6 @@ def _road_only(
     )
 
 
-_WARM_BACKENDS: set[str] = set()
-_READY_BACKENDS: set[str] = set()
-_LOADING_BACKENDS: set[str] = set()
-_WARM_LOCK = threading.RLock()  # re-entered by the warm-up's own fit_frame call
-
-
-def kernels_ready(backend: str = "numba") -> bool:
-    """Return whether :func:`fit_frame` can run on ``backend`` now, without loading kernels.
-
-    True for the numpy reference and once :func:`warm_up` has finished (on any thread). A
-    pipeline asks :func:`kernels_loading` instead, to keep its other stages busy meanwhile.
-    """
-    return backend != "numba" or backend in _READY_BACKENDS
-
-
-def kernels_loading(backend: str = "numba") -> bool:
-    """Return whether a :func:`warm_up_in_background` of ``backend`` is still running."""
-    return backend in _LOADING_BACKENDS
-
-
-def warm_up_in_background(
-    backend: str = "numba", compiler: subprocess.Popen[bytes] | None = None
-) -> None:
-    """Load the kernels on a side thread (compiling them first in a child on a cold cache).
-
-    The first run after an install compiles them (seconds, with a ``note:`` line) in a child
-    process (``compiler`` when the caller started it, else started here); the side thread
-    waits for it and loads the result while the caller's image stages run ahead. Nothing
-    happens when ``backend`` needs no kernels or a warm-up already ran or runs; a failure is
-    left to the fit itself to report.
-    """
-    if backend != "numba" or backend in _READY_BACKENDS or backend in _LOADING_BACKENDS:
-        if compiler is not None and backend != "numba":
-            compiler.terminate()  # the numpy reference needs no kernels
-            compiler.wait()
-        return
-    _LOADING_BACKENDS.add(backend)
-    compiler = compiler if compiler is not None else start_compiling()
-
-    def warm() -> None:
-        try:
-            with contextlib.suppress(Exception):  # the fit raises the same error, with context
-                warm_up(backend, compiler=compiler)
-        finally:
-            _LOADING_BACKENDS.discard(backend)
-
-    threading.Thread(target=warm, name="slt-kernel-warm-up", daemon=True).start()
-
-
-def warm_up(
-    backend: str = "numba",
-    *,
-    compiler: subprocess.Popen[bytes] | None = None,
-) -> float:
-    """Load (or compile) the fit's kernels once per process by fitting a small synthetic frame.
-
-    :func:`fit_frame` calls this before it starts its clock, so ``fit_time_s`` (and the
-    TuSimple ``run_time`` derived from it) is the per-frame cost, not numba's one-off kernel
-    loading (about 0.4 s from its cache, seconds when it must compile). Thread-safe: a call
-    made while another thread warms up (``slt reprocess`` starts one early, on a side thread)
-    waits for it, outside the caller's clock.
-
-    Args:
-        backend: ``numba`` or ``numpy``.
-        compiler: A child already compiling the kernels into the cache
-            (:func:`superlane_tools.lanes.kernel_cache.start_compiling`): waited for, then
-            its result is loaded.
-
-    Returns:
-        Seconds spent, 0 when the backend was already warm.
-    """
-    with _WARM_LOCK:
-        if backend in _WARM_BACKENDS:
-            return 0.0
-        t0 = time.perf_counter()
-        if compiler is not None:
-            with one_cpu_for(compiler):
-                try:
-                    compiler.wait(timeout=900)
-                except subprocess.TimeoutExpired:
-                    compiler.kill()  # and compile here instead
-                    compiler.wait()
-        _WARM_BACKENDS.add(backend)
-        cam = CameraModel(Intrinsics(640, 360, 500.0, 500.0, 319.5, 179.5), Extrinsics(1.5, 0.05))
-        x = np.linspace(5.0, 40.0, 120)
-        lines = [
-            cam.project(np.stack([x, np.full_like(x, off), np.zeros_like(x)], axis=1))[0]
-            for off in (-5.25, -1.75, 1.75, 5.25)
-        ]
-        fit_frame(np.concatenate(lines), None, cam, FitParams(backend=backend))  # type: ignore[arg-type]
-        _READY_BACKENDS.add(backend)
-        return time.perf_counter() - t0
-
-
 def fit_frame(
     lane_uv: FloatArray,
     road_uv: FloatArray | None,
@@ -606,7 +509,13 @@ def _lookahead(
 def _build_lanes(
     lane: _Points, model: SharedModel, codes: IntArray | None, height: float, p: FitParams
 ) -> tuple[list[Lane], float]:
-    """Assign all usable points to the lines, add local corrections, ranges and attributes."""
+    """Assign all usable points to the lines, add local corrections, ranges and attributes.
+
+    The numpy reference (``backend="numpy"``) is the body below; ``numba`` runs its deliberate
+    twin :func:`_build_lanes_compiled` (same formulas, single passes over the points). They are
+    kept apart on purpose, like the cost's two backends, and tested against each other through
+    :func:`fit_frame` (``tests/lanes/test_lanes_kernels.py``, ``test_lanes_vertical.py``).
+    """
     if model.offsets.size == 0:
         return [], 0.0
     if p.backend == "numba":
@@ -665,7 +574,11 @@ def _build_lanes(
 def _build_lanes_compiled(
     lane: _Points, model: SharedModel, codes: IntArray | None, height: float, p: FitParams
 ) -> tuple[list[Lane], float]:
-    """:func:`_build_lanes` with single-pass kernels over the points (same results)."""
+    """:func:`_build_lanes` with single-pass kernels over the points (same results).
+
+    A deliberate twin of the numpy reference in :func:`_build_lanes`, not a copy to merge: a
+    change to one must be made to the other (the backend-comparison tests fail otherwise).
+    """
     k = kernels()
     offsets = np.ascontiguousarray(model.offsets, dtype=np.float64)
     x, resid, labels = _assign_compiled(lane.iq, lane.r, model, height, p)

@@ -15,7 +15,7 @@ from superlane_tools.lanes import _kernels
 from superlane_tools.lanes._kernels import COMPILE_NOTE, kernel_cache_dir
 
 PACKAGE = Path(_kernels.__file__).resolve().parents[1]
-WARM = "from superlane_tools.lanes.multilane_fit import warm_up; warm_up()"
+WARM = "from superlane_tools.lanes.kernel_cache import warm_up; warm_up()"
 
 
 def test_cache_dir_follows_env(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
@@ -110,7 +110,9 @@ print(len(first.lanes), len(again.lanes), len(compiled.buffer))
 def test_compile_all_covers_every_kernel_the_fit_calls(tmp_path: Path) -> None:
     """What the compiler process caches is all a fit needs: the fit then compiles nothing."""
     env = {**os.environ, "SLT_CACHE_DIR": str(tmp_path)}
-    compile_all = "from superlane_tools.lanes._kernels import compile_all; compile_all()"
+    compile_all = (
+        "from superlane_tools.lanes.kernel_cache import compile_into_cache; compile_into_cache()"
+    )
     done = subprocess.run(
         [sys.executable, "-c", compile_all], env=env, capture_output=True, text=True, check=True
     )
@@ -125,7 +127,7 @@ def test_compile_all_covers_every_kernel_the_fit_calls(tmp_path: Path) -> None:
     assert fitted.stdout.split() == ["3", "3", "0"], fitted.stdout + fitted.stderr
     assert COMPILE_NOTE not in fitted.stderr
     # The cache is marked complete for this kernel source: an identical copy of the package
-    # finds it warm; an upgrade (a changed _kernels.py) finds it cold again.
+    # finds it warm; an upgrade (a changed _kernels.py or _refit_kernels.py) finds it cold again.
     site = tmp_path / "site"
     shutil.copytree(PACKAGE, site / "superlane_tools", ignore=shutil.ignore_patterns("__pycache__"))
     cold = "from superlane_tools.lanes.kernel_cache import cache_is_cold; print(cache_is_cold())"
@@ -142,9 +144,13 @@ def test_compile_all_covers_every_kernel_the_fit_calls(tmp_path: Path) -> None:
         return done.stdout.strip()
 
     assert is_cold() == "False"
-    kernels = site / "superlane_tools" / "lanes" / "_kernels.py"
-    kernels.write_text(kernels.read_text() + "\n# a new release\n")
-    assert is_cold() == "True"
+    for name in ("_kernels.py", "_refit_kernels.py"):  # each kernel source counts
+        kernels = site / "superlane_tools" / "lanes" / name
+        original = kernels.read_text()
+        kernels.write_text(original + "\n# a new release\n")
+        assert is_cold() == "True", name
+        kernels.write_text(original)
+        assert is_cold() == "False", name
 
 
 @pytest.mark.skipif(not Path("/proc/self/environ").exists(), reason="reads /proc")

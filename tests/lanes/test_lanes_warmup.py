@@ -42,7 +42,7 @@ def test_first_fit_time_excludes_kernel_loading():
 
 READY = """
 import threading
-from superlane_tools.lanes.multilane_fit import kernels_ready, warm_up
+from superlane_tools.lanes.kernel_cache import kernels_ready, warm_up
 before = kernels_ready("numba")
 side = threading.Thread(target=warm_up, args=("numba",))
 side.start()
@@ -58,9 +58,8 @@ def test_kernels_ready_after_a_warm_up_on_another_thread():
 BACKGROUND = """
 import subprocess, sys, time
 from superlane_tools.lanes._kernels import _CompileNote
-from superlane_tools.lanes.kernel_cache import cache_is_cold, start_compiling
-from superlane_tools.lanes.multilane_fit import (
-    kernels_loading, kernels_ready, warm_up_in_background,
+from superlane_tools.lanes.kernel_cache import (
+    cache_is_cold, kernels_loading, kernels_ready, start_compiling, warm_up_in_background,
 )
 cold = cache_is_cold()
 warm_up_in_background("numba")

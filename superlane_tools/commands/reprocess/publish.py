@@ -34,7 +34,7 @@ def reprocess_run(
     Raises:
         OutputError: If ``target`` is a file or a foreign folder, or cannot be written.
     """
-    from superlane_tools.lanes.multilane_fit import warm_up_in_background
+    from superlane_tools.lanes.kernel_cache import warm_up_in_background
     from superlane_tools.reporting.run_folder import staged_run
 
     warm_up_in_background(config.fit_params.backend, compiler)
