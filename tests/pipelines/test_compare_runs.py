@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import runpy
 import shutil
 from pathlib import Path
@@ -37,3 +38,14 @@ def test_reprocess_is_reproducible_and_a_changed_cell_is_found(tmp_path: Path) -
     _, diffs = compare(tmp_path / "a", changed)
     assert len(diffs) == 1
     assert diffs[0].startswith("curvature.parquet.super_curvature: 1 cells differ, first row 3")
+
+    # The self-check's measured wall time is masked in report.md; any other change is not.
+    timed = tmp_path / "t"
+    shutil.copytree(tmp_path / "b", timed)
+    report = (timed / "report.md").read_text(encoding="utf-8")
+    retimed = re.sub(r"(self-check on \d+ frames \()\d+(?:\.\d+)? s\)", r"\g<1>99.9 s)", report)
+    assert retimed != report
+    (timed / "report.md").write_text(retimed, encoding="utf-8")
+    assert compare(tmp_path / "a", timed)[1] == []
+    (timed / "report.md").write_text(report.replace("Run", "Ran", 1), encoding="utf-8")
+    assert any(d.startswith("report.md differs") for d in compare(tmp_path / "a", timed)[1])
