@@ -102,7 +102,7 @@ def test_camera_only_clip(dashcam: Path, tmp_path: Path) -> None:
 def test_camera_with_gnss_without_can(realdata: Path, dashcam: Path, tmp_path: Path) -> None:
     out = tmp_path / "run"
     result = reprocess(_convert(tmp_path, dashcam, realdata / "gnss" / "nmea.log"), out, FAST)
-    assert result.notes == (
+    assert _without_self_check(result.notes) == (
         CAMERA_NOTE,
         NO_CAN,
         "speed: estimated from the GNSS fixes (no CAN stream)",
@@ -202,7 +202,7 @@ def test_full_simulated_drive(tmp_path: Path) -> None:
         "truth: 42 of 60 instants; no sample below 2.0 m/s (0 fixes while standing or "
         "crawling); fixes decimated to >= 0.25 m steps; noise floor 7.23e-05 1/m",
         "yaw-rate / speed reference: CAN yaw rate, speed from CAN; gyro bias 0.00e+00 rad/s (none)",
-        "lane tracker: 60 of 60 frame fits used, 0 rejected by the innovation gate; distance "
+        "lane tracker: 58 of 60 frame fits used, 2 rejected by the innovation gate; distance "
         "travelled from the CAN speed",
     ]
     latency = [n for n in result.notes if n.startswith("Mobileye latency")]
