@@ -67,6 +67,12 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--timeout", type=float, default=90.0, help="seconds per case")
     parser.add_argument("--out", type=Path, default=RESULTS)
+    parser.add_argument(
+        "--only",
+        default="",
+        help="comma-separated case names: rerun just those cases of the campaign (same --cases "
+        "and --seed), e.g. the findings of an earlier run after a fix; no kill trials",
+    )
     args = parser.parse_args()
     per_family = {f: max(1, round(args.cases * share)) for f, share in SHARE.items()}
     started = time.time()
@@ -75,6 +81,12 @@ def main() -> None:
         root = Path(tmp)
         fc.preload()
         cases = fc.all_cases(per_family, seed=args.seed)
+        only = {name for name in args.only.split(",") if name}
+        if only:
+            cases = [case for case in cases if case.name in only]
+            if {case.name for case in cases} != only:
+                missing = sorted(only - {case.name for case in cases})
+                raise SystemExit(f"fuzz: no such case (check --cases and --seed): {missing}")
         outcomes = []
         for n, case in enumerate(cases, start=1):
             outcomes.append(fc.run_case(case, root / "cases", timeout_s=args.timeout))
@@ -83,8 +95,8 @@ def main() -> None:
                 _write(args, outcomes, [], time.time() - started, started, len(cases))
         fuzz_s = time.time() - started
         kills: list[dict[str, object]] = []
-        commands = [(c, args.kills) for c in ("extract", "reprocess", "batch")]
-        if args.ray_kills:
+        commands = [] if only else [(c, args.kills) for c in ("extract", "reprocess", "batch")]
+        if args.ray_kills and not only:
             commands.append(("batch-ray", args.ray_kills))
         for command, n in commands:
             t0 = time.time()
