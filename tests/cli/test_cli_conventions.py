@@ -408,7 +408,6 @@ NOT_PARTIAL = {
     "train": "training data is read whole; a bad sample is an error",
 }
 SLOW_PARTIAL = {"batch", "camera calibrate"}
-KNOWN_BROKEN: dict[str, str] = {}
 
 
 def test_every_command_has_a_partial_case_or_a_reason() -> None:
@@ -421,8 +420,6 @@ def _partial_params() -> list[Any]:
     marks: dict[str, list[Any]] = {}
     for name in SLOW_PARTIAL:
         marks.setdefault(name, []).append(pytest.mark.slow)
-    for name, why in KNOWN_BROKEN.items():
-        marks.setdefault(name, []).append(pytest.mark.xfail(reason=why, strict=True))
     return [pytest.param(name, marks=marks.get(name, []), id=name) for name in PARTIAL]
 
 
