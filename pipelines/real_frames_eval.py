@@ -33,9 +33,11 @@ Usage:
 them again (the chains are deterministic; only the official score's run-time gate depends on
 the machine's load): a new model is then compared with the earlier backends' numbers.
 
-The same chain runs on the 10 CULane night frames (another, unknown camera, estimated from the
-frames without their labels; ``pipelines/culane_night.py``), scored with ``slt eval culane``
-(F1 at IoU 0.5), and every ONNX model is scored on CamVid ``val`` (level-1 / level-2 mIoU).
+The same chain runs on the 10 CULane night frames and on the held-out CULane day clip (driver
+161, 60 frames; the driver-23 clip is the one trained on): another, unknown camera, estimated
+from each set's frames without their labels (``pipelines/culane_night.py``), scored with ``slt
+eval culane`` (F1 at IoU 0.5); every ONNX model is scored on CamVid ``val`` (level-1 / level-2
+mIoU).
 
 ``--update-cards`` writes each ONNX model's numbers on every real set (and the classical
 backend's from the same run) into its model card, where ``--backend auto`` reads them.
@@ -45,7 +47,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import itertools
 import json
 import os
 import shlex
@@ -70,7 +71,8 @@ from superlane_tools.reporting.atomic import write_text_atomic
 from superlane_tools.reporting.run_layout import TUSIMPLE_LABELS_FILE
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from culane_night import culane_chain, estimate_camera
+from culane_night import DAY_DEV_FOLDER, culane_chain, estimate_camera
+from real_frames_overlays import kitti_overlay, overlay_sheet
 
 REPO = Path(__file__).resolve().parents[1]
 SLT = str(Path(sys.executable).with_name("slt"))
@@ -257,37 +259,6 @@ def ego_lane_mask(row: dict[str, Any], camera: Any, shape: tuple[int, int]) -> n
     return lane_area_mask(cols_l, cols_r, rows, shape)
 
 
-def _draw_lanes(img: np.ndarray, rec: Any, colour: tuple[int, int, int]) -> None:
-    for lane in rec.lanes:
-        pts = [(round(x), int(y)) for x, y in zip(lane, rec.h_samples, strict=True) if x >= 0]
-        for a, b in itertools.pairwise(pts):
-            cv2.line(img, a, b, colour, 2)
-
-
-def overlay_sheet(
-    seg: Path, pred: Path, labels: Path | None, images: list[Path], out: Path
-) -> None:
-    """Write a half-size contact sheet: markings magenta, labels green, predictions red."""
-    gts = {r.raw_file: r for r in load_jsonl(labels)} if labels else {}
-    preds = {r.raw_file: r for r in load_jsonl(pred)}
-    tiles = []
-    for src in images:
-        img = cv2.imread(str(src))
-        lab = cv2.imread(str(next(seg.rglob(f"{src.stem}.png"))), cv2.IMREAD_UNCHANGED)
-        img[lab == leaf_ids_under("road")[0]] //= 2
-        img[np.isin(lab, MARKING_IDS)] = (255, 0, 255)
-        if src.name in gts:
-            _draw_lanes(img, gts[src.name], (0, 255, 0))
-        key = next((k for k in preds if Path(k).stem == src.stem), None)
-        if key is not None:
-            _draw_lanes(img, preds[key], (0, 0, 255))
-        tiles.append(cv2.resize(img, (img.shape[1] // 2, img.shape[0] // 2)))
-    if len(tiles) % 2:
-        tiles.append(np.zeros_like(tiles[0]))
-    sheet = np.vstack([np.hstack(tiles[i : i + 2]) for i in range(0, len(tiles), 2)])
-    cv2.imwrite(str(out), sheet, [cv2.IMWRITE_PNG_COMPRESSION, 9])
-
-
 def unlabeled_chain(spec: str, data: Path, work: Path) -> Path:
     """Segment, fit and export the unlabelled TuSimple frames (for overlays only)."""
     backend, options = backend_args(spec)
@@ -299,18 +270,6 @@ def unlabeled_chain(spec: str, data: Path, work: Path) -> Path:
     slt("lanes", "export-tusimple", lanes, "--camera", "tusimple", "--h-samples", "160:720:10",
         "--out", pred, "--raw-ext", ".jpg")  # fmt: skip
     return pred
-
-
-def kitti_overlay(data: Path, result: dict[str, Any], out: Path) -> None:
-    """Write the KITTI frame with GT ego lane (green), fitted ego lane (red) and markings."""
-    img = cv2.imread(str(data / "kitti_road" / f"image_{KITTI_NAME}.png"))
-    gt_bgr = cv2.imread(str(data / "kitti_road" / f"gt_um_lane_{KITTI_NAME[3:]}.png"))
-    gt = decode_ground_truth(gt_bgr[:, :, ::-1]).positive
-    lab = cv2.imread(str(Path(result["seg"]) / f"image_{KITTI_NAME}.png"), cv2.IMREAD_UNCHANGED)
-    img[gt] = (0.6 * img[gt] + (0, 100, 0)).astype(np.uint8)
-    img[result["mask"]] = (0.6 * img[result["mask"]] + (0, 0, 100)).astype(np.uint8)
-    img[np.isin(lab, MARKING_IDS)] = (255, 0, 255)
-    cv2.imwrite(str(out), img, [cv2.IMWRITE_PNG_COMPRESSION, 9])
 
 
 NOTES = """\
@@ -342,13 +301,14 @@ def render_report(results: dict[str, Any], data: Path, work: Path, backends: str
         "reports/real_frames.md`",
         "(numbers below are from that run). Real validation split, never trained on: the last",
         "30 frames of TuSimple `train_frames/` (`val_NNNN.png`) and the 6 labelled frames of",
-        "`frames/` (`000N.png`), 36 frames; KITTI `um_000000`. DATA = the real-data folder,",
+        "`frames/` (`000N.png`), 36 frames; KITTI `um_000000`; CULane night (10 frames) and the",
+        f"held-out CULane day clip `{DAY_DEV_FOLDER}` (60 frames). DATA = the real-data folder,",
         "WORK = the work folder.",
         "",
         "| backend | LaneEval acc | FP | FN | F1 | acc without run-time gate | marking recall 3 px"
         " | marking precision 10 px | KITTI ego IoU | KITTI F / P / R | CULane night F1@50"
-        " | CamVid val mIoU L1 / L2 |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|",
+        " | CULane day (held-out clip) F1@50 | CamVid val mIoU L1 / L2 |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for name, res in results.items():
         off, ung, k = res["tusimple"]["official"], res["tusimple"]["ungated"], res["kitti"]["score"]
@@ -360,6 +320,7 @@ def render_report(results: dict[str, Any], data: Path, work: Path, backends: str
             f"| {t['marking_precision_10px']:.3f} | {k['iou']:.3f} "
             f"| {k['f_measure']:.3f} / {k['precision']:.3f} / {k['recall']:.3f} "
             f"| {culane_f1(res):.3f} | "
+            + (f"{culane_f1(res, 'culane_day'):.3f} | " if "culane_day" in res else "- | ")
             + ("- |" if camvid is None else f"{camvid['miou_l1']:.3f} / {camvid['miou_l2']:.3f} |")
         )
     lines += ["", "## Per frame (run-time gate off) and fit run times", ""]
@@ -374,7 +335,8 @@ def render_report(results: dict[str, Any], data: Path, work: Path, backends: str
     for name, res in results.items():
         lines += [f"{name}:", "", "```"]
         lines += res["tusimple"]["commands"] + res["kitti"]["commands"]
-        lines += res["culane"]["commands"] + ["```", ""]
+        lines += res["culane"]["commands"] + res.get("culane_day", {}).get("commands", [])
+        lines += ["```", ""]
     lines += ["", NOTES]
     text = "\n".join(lines)
     return text.replace(f"{work}/", "WORK/").replace(f"{data}/", "DATA/")
@@ -389,9 +351,9 @@ CHAIN_TEXT = (
 )
 
 
-def culane_f1(result: dict[str, Any]) -> float:
-    """Return a backend's CULane night F1 at IoU 0.5."""
-    scores = result["culane"]["score"]  # {"all": {"f1_50": ...}}: one set, all 10 frames
+def culane_f1(result: dict[str, Any], key: str = "culane") -> float:
+    """Return a backend's CULane F1 at IoU 0.5: night (``culane``) or day (``culane_day``)."""
+    scores = result[key]["score"]  # {"all": {"f1_50": ...}}: one set, all its frames
     return float(next(iter(scores.values()))["f1_50"])
 
 
@@ -401,8 +363,8 @@ def real_sets(result: dict[str, Any], classical: dict[str, Any]) -> dict[str, An
     Each lane set gives the model's score and the classical backend's from the same run: TuSimple
     dev end to end (LaneEval accuracy without the 200 ms run-time gate: on a loaded machine the
     gate scores the fit's wall time, not the lanes), KITTI ``um_000000`` fitted ego lane (F),
-    CULane night (F1@50). CamVid val (level-2 mIoU) has no classical number (the classical
-    backend finds markings only).
+    CULane night and the held-out CULane day clip (F1@50). CamVid val (level-2 mIoU) has no
+    classical number (the classical backend finds markings only).
     """
     sets = {
         "tusimple_dev_laneeval": (
@@ -414,8 +376,9 @@ def real_sets(result: dict[str, Any], classical: dict[str, Any]) -> dict[str, An
             classical["kitti"]["score"]["f_measure"],
         ),
     }
-    if "culane" in result and "culane" in classical:
-        sets["culane_night_f1"] = (culane_f1(result), culane_f1(classical))
+    for key, name in (("culane", "culane_night_f1"), ("culane_day", "culane_day_f1")):
+        if key in result and key in classical:
+            sets[name] = (culane_f1(result, key), culane_f1(classical, key))
     out: dict[str, Any] = {
         name: {"model": round(float(m), 4), "classical": round(float(c), 4)}
         for name, (m, c) in sets.items()
@@ -464,6 +427,19 @@ def card_metrics(result: dict[str, Any], classical: dict[str, Any]) -> dict[str,
                 }
             }
             if "culane" in result and "culane" in classical
+            else {}
+        ),
+        **(
+            {
+                "culane_day_end_to_end": {
+                    "f1_iou50": round(culane_f1(result, "culane_day"), 4),
+                    "classical_f1_iou50": round(culane_f1(classical, "culane_day"), 4),
+                    "frames": 60,
+                    "clip": f"{DAY_DEV_FOLDER} (held out: the driver-23 clip is trained on)",
+                    "camera": "estimated from the clip's frames, labels unused (culane_night.py)",
+                }
+            }
+            if "culane_day" in result and "culane_day" in classical
             else {}
         ),
     }
@@ -532,6 +508,7 @@ def main(argv: list[str] | None = None) -> int:
         work.mkdir(parents=True, exist_ok=True)
         groups, labels, frame_paths = validation_frames(args.data, work)
         culane_camera = estimate_camera(args.data, work / "culane_night.yaml")
+        day_camera = estimate_camera(args.data, work / "culane_day.yaml", DAY_DEV_FOLDER)
         results: dict[str, Any] = {}
         if args.reuse is not None:
             # the chains are deterministic (only the official score's run-time gate depends on
@@ -545,7 +522,9 @@ def main(argv: list[str] | None = None) -> int:
             tus = tusimple_chain(spec, groups, labels, work)
             kit = kitti_chain(spec, args.data, work)
             cul = culane_chain(options, backend, args.data, work, culane_camera, slt)
-            results[backend] = {"tusimple": tus, "kitti": kit, "culane": cul}
+            day = culane_chain(options, backend, args.data, work, day_camera, slt,
+                               DAY_DEV_FOLDER, "culane_day")  # fmt: skip
+            results[backend] = {"tusimple": tus, "kitti": kit, "culane": cul, "culane_day": day}
             if spec.startswith("onnx"):
                 results[backend]["camvid"] = camvid_val(spec, args.data)
             off = tus["official"]
@@ -553,7 +532,8 @@ def main(argv: list[str] | None = None) -> int:
                 f"{backend}: LaneEval acc {off['accuracy']:.4f} FP {off['fp']:.4f} "
                 f"FN {off['fn']:.4f} (no run-time gate: {tus['ungated']['accuracy']:.4f}); "
                 f"KITTI ego IoU {kit['score']['iou']:.4f} F {kit['score']['f_measure']:.4f}; "
-                f"CULane night F1 {culane_f1(results[backend]):.4f}; "
+                f"CULane night F1 {culane_f1(results[backend]):.4f}, "
+                f"day {culane_f1(results[backend], 'culane_day'):.4f}; "
                 f"CamVid {results[backend].get('camvid')}",
                 flush=True,
             )
