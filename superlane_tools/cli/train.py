@@ -72,7 +72,10 @@ def train(
         str,
         typer.Option("--adapter", help="Label adapter (superlane, cityscapes, ..., or a YAML)."),
     ] = "superlane",
-    threads: Annotated[int, typer.Option("--threads", min=1, help="torch CPU threads.")] = 2,
+    threads: Annotated[
+        int | None,
+        typer.Option("--threads", min=1, help="torch CPU threads (default: every core)."),
+    ] = None,
     arch: Annotated[
         str,
         typer.Option(
@@ -100,8 +103,23 @@ def train(
         Path | None, typer.Option("--init", help="Start from a checkpoint's weights (fine-tune).")
     ] = None,
     resume: Annotated[
-        bool, typer.Option("--resume", help="Continue from MODEL.ckpt.pt if it exists.")
+        bool,
+        typer.Option("--resume", help="Continue from the checkpoint if it exists (more steps OK)."),
     ] = False,
+    checkpoint: Annotated[
+        Path | None,
+        typer.Option("--checkpoint", help="Resumable checkpoint (default MODEL.ckpt.pt)."),
+    ] = None,
+    checkpoint_s: Annotated[
+        float, typer.Option("--checkpoint-every-s", min=0, help="Save it every S seconds.")
+    ] = 300.0,
+    validate_every: Annotated[
+        int, typer.Option("--validate-every", min=0, help="Validate every N steps (0: off).")
+    ] = 300,
+    val_data: Annotated[
+        Path | None,
+        typer.Option("--val-data", help="Real-data folder of the dev sets (validation)."),
+    ] = None,
 ) -> None:
     """Train a network on CPU, export it to ONNX (opset 17) and write MODEL.card.yaml."""
     with cli_errors():
@@ -145,18 +163,24 @@ def train(
             seed=seed,
             max_frames=max_frames,
             adapter=adapter,
-            threads=threads,
             command=command_line(),
+            checkpoint=checkpoint,
+            checkpoint_s=checkpoint_s,
+            validate_every=validate_every,
+            val_data=val_data,
         )
+        if threads is not None:
+            params = replace(params, threads=threads)
         with progress(f"train {task}", unit="steps") as bar:
 
             def update(step: int, total: int, loss: float) -> None:
                 bar.update(step, total, note=f"loss {loss:.4f}")
 
-            result = run_training(params, update)
+            result = run_training(params, update, note)
         note(
             f"trained {task} model ({result.card.parameters} parameters, "
-            f"{result.seconds:.0f} s, final loss {result.epoch_losses[-1]:.4f}) -> "
+            f"{result.seconds:.0f} s, {result.seconds_per_step:.2f} s per step, "
+            f"final loss {result.epoch_losses[-1]:.4f}) -> "
             f"{result.model_path} + {result.card_path.name}"
         )
 

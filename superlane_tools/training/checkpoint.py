@@ -54,3 +54,19 @@ def load_checkpoint(path: Path, what: str, map_location: Any = "cpu") -> dict[st
     if not isinstance(state, dict) or "model" not in state:
         raise TrainingError(f"{what}: not a training checkpoint (no 'model' weights)")
     return state
+
+
+def save_checkpoint(path: Path, state: dict[str, Any]) -> Path:
+    """Write a checkpoint atomically (a crash mid-write leaves the previous one whole).
+
+    Args:
+        path: Target file; its folder is created.
+        state: Tensors and plain containers only (what :func:`load_checkpoint` reads back).
+    """
+    from superlane_tools.reporting.atomic import atomic_path
+
+    torch = require_torch()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_path(path, suffix=".pt") as tmp:
+        torch.save(state, tmp)
+    return path

@@ -12,7 +12,7 @@ import math
 import os
 import platform
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -21,7 +21,6 @@ import numpy as np
 import torch
 from torch import nn
 
-from superlane_tools.reporting.atomic import atomic_path
 from superlane_tools.reporting.provenance import file_sha256
 from superlane_tools.scene.adapters.heads import HEADS, IGNORE, head_target_lut
 from superlane_tools.scene.model_card import (
@@ -32,15 +31,7 @@ from superlane_tools.scene.model_card import (
     write_card,
 )
 from superlane_tools.training._blocks import count_parameters
-from superlane_tools.training.augment import (
-    MIRROR_SWAP,
-    RealAugment,
-    affine_theta,
-    jpeg,
-    photometric,
-    warp,
-)
-from superlane_tools.training.checkpoint import load_checkpoint
+from superlane_tools.training.augment import RealAugment
 from superlane_tools.training.corridor_net import EgoCorridorNet, PaperCorridorNet
 from superlane_tools.training.data import INDEX_NAME
 from superlane_tools.training.datasets import DatasetSpec, LoadedSet, load_set
@@ -50,22 +41,23 @@ from superlane_tools.training.lite_seg_net import (
     ENCODER_ORIGIN,
     LITE_MEAN,
     LITE_STD,
-    LiteHalfResolutionHeads,
     LiteHierarchicalSegNet,
     check_input_size,
 )
-from superlane_tools.training.losses import corridor_loss, segmentation_loss
-from superlane_tools.training.seg_net import HalfResolutionHeads, HierarchicalSegNet
-from superlane_tools.training.tusimple_targets import CORRIDOR_IGNORE
+from superlane_tools.training.loop import Note, Progress, exported_module, fit
+from superlane_tools.training.seg_net import HierarchicalSegNet
 
 TASKS = ("segmentation", "corridor")
 DEFAULT_SIZE: dict[str, tuple[int, int]] = {"segmentation": (512, 288), "corridor": (652, 360)}
 MEAN, STD = 0.45, 0.25
-HEAD_WEIGHTS = (1.0, 0.5, 1.0, 1.5, 1.0)
-"""Loss weight per head (root, vertical, support, drivable, lane_marking)."""
 
-Progress = Callable[[int, int, float], None]
-"""Called after every step with ``(step, total_steps, loss)``."""
+
+def cpu_cores() -> int:
+    """Return the CPU cores this process may run on (its affinity; ``os.cpu_count`` elsewhere)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):  # not Linux
+        return max(1, os.cpu_count() or 1)
 
 
 LICENCES = {
@@ -100,7 +92,7 @@ class TrainParams:
         seed: Seed of initialisation, sampling and augmentation.
         max_frames: Use at most this many frames per dataset (the first ones).
         adapter: Adapter of ``data_dir`` / ``extra_data`` label images (segmentation only).
-        threads: torch CPU threads.
+        threads: torch CPU threads (default: every core this process may use).
         augment: Augmentation strengths, or None to train on the frames as they are.
         crop: Train segmentation on ``(width, height)`` windows (random position, scale,
             roll and pitch); the network is fully convolutional and is exported at ``size``.
@@ -115,8 +107,16 @@ class TrainParams:
             ends when either is spent (the card records the steps run). None = steps only.
         encoder_lr: Learning rate of a pretrained encoder as a fraction of ``lr``.
         device: torch device (``cpu`` or ``cuda``).
-        checkpoint_every: Save a resumable checkpoint beside ``out`` every this many steps.
-        resume: Continue from that checkpoint when it exists.
+        checkpoint_every: Save the resumable checkpoint every this many steps (0: only by
+            time and at the end).
+        resume: Continue from the checkpoint when it exists (more steps or a longer budget
+            than the first run are fine: the schedule is rebuilt from this run's total).
+        checkpoint: The resumable checkpoint (weights, optimizer, step, elapsed seconds), written
+            atomically; None = ``MODEL.ckpt.pt`` beside ``out``.
+        checkpoint_s: Also save it every this many seconds of training (0 = off).
+        validate_every: Validate on the real dev sets every this many steps (segmentation,
+            with ``val_data``; 0 = off) and export the weights best on the worst set.
+        val_data: The real-data folder holding the dev sets (``training.validation``).
         init: Start from the weights of this checkpoint (fine-tuning; fresh optimiser).
         name: Model name for the card (default: the output file stem).
         command: The command line that started training, recorded in the card.
@@ -135,7 +135,7 @@ class TrainParams:
     seed: int = 0
     max_frames: int | None = None
     adapter: str = "superlane"
-    threads: int = 2
+    threads: int = field(default_factory=cpu_cores)
     augment: RealAugment | None = field(default_factory=RealAugment)
     crop: tuple[int, int] | None = None
     marking_dice: float = 1.0
@@ -145,6 +145,10 @@ class TrainParams:
     device: str = "cpu"
     checkpoint_every: int = 200
     resume: bool = False
+    checkpoint: Path | None = None
+    checkpoint_s: float = 300.0
+    validate_every: int = 300
+    val_data: Path | None = None
     init: Path | None = None
     budget_s: float | None = None
     encoder_lr: float = 0.25
@@ -160,6 +164,19 @@ class TrainParams:
     def architecture(self) -> str:
         """The network architecture (the task's first one when ``arch`` is empty)."""
         return self.arch or ARCHS[self.task][0]
+
+    @property
+    def checkpoint_path(self) -> Path:
+        """The resumable checkpoint (``checkpoint``, or ``MODEL.ckpt.pt`` beside ``out``)."""
+        return self.checkpoint or self.out.with_name(
+            self.out.name.removesuffix(".onnx") + ".ckpt.pt"
+        )
+
+    @property
+    def best_path(self) -> Path:
+        """Where validation keeps the weights best on the worst real set (``NAME.best.pt``)."""
+        ckpt = self.checkpoint_path
+        return ckpt.with_name(ckpt.name.removesuffix(".pt").removesuffix(".ckpt") + ".best.pt")
 
     def all_datasets(self) -> tuple[DatasetSpec, ...]:
         """Return every dataset entry: ``data_dir`` and ``extra_data`` first, then ``datasets``."""
@@ -178,7 +195,9 @@ class TrainResult:
         card: The card written.
         step_losses: Training loss of every step, in order.
         epoch_losses: Mean training loss per epoch.
-        seconds: Wall time of the training loop, seconds.
+        seconds: Wall time of the training loop, seconds (this run).
+        seconds_per_step: Median wall seconds per step of this run (NaN without steps).
+        validation: The validation summary (None when it did not run).
     """
 
     model_path: Path
@@ -187,6 +206,8 @@ class TrainResult:
     step_losses: tuple[float, ...]
     epoch_losses: tuple[float, ...]
     seconds: float
+    seconds_per_step: float = math.nan
+    validation: dict[str, Any] | None = None
 
 
 @contextlib.contextmanager
@@ -197,33 +218,6 @@ def _torch_threads(threads: int) -> Iterator[None]:
         yield
     finally:
         torch.set_num_threads(before)
-
-
-def _class_weights(sets: Sequence[LoadedSet]) -> list[torch.Tensor | None]:
-    """Return per-head class weights ``(median freq / freq) ** 0.5``, clipped to [0.2, 10].
-
-    Pixel counts come from every dataset that trains the head.
-    """
-    weights: list[torch.Tensor | None] = []
-    for k, head in enumerate(HEADS):
-        lut = head_target_lut(head)
-        counts = np.zeros(len(head.classes), float)
-        for loaded in sets:
-            if loaded.codes is None or not loaded.heads[k]:
-                continue
-            code_counts = np.bincount(loaded.codes.ravel(), minlength=256)
-            for code in np.nonzero(code_counts)[0]:
-                if lut[code] != IGNORE:
-                    counts[lut[code]] += code_counts[code]
-        seen = counts > 0
-        if not seen.any():
-            weights.append(None)
-            continue
-        freq = np.where(seen, counts, np.nan) / counts.sum()
-        w = np.sqrt(np.nanmedian(freq) / freq)
-        w = np.clip(np.nan_to_num(w, nan=1.0), 0.2, 10.0)
-        weights.append(torch.tensor(w, dtype=torch.float32))
-    return weights
 
 
 def _load_all(params: TrainParams, size: tuple[int, int]) -> list[LoadedSet]:
@@ -296,12 +290,16 @@ def _dataset_rows(sets: Sequence[LoadedSet]) -> list[dict[str, Any]]:
     return rows
 
 
-def train(params: TrainParams, progress: Progress | None = None) -> TrainResult:
+def train(
+    params: TrainParams, progress: Progress | None = None, note: Note | None = None
+) -> TrainResult:
     """Train one network, export it to ONNX and write its model card.
 
     Args:
         params: What to train and how.
         progress: Optional callback after every step.
+        note: Optional callback for one-line messages (seconds per step after the first
+            steps, resume, validation).
 
     Raises:
         TrainingError: If the parameters or the dataset are invalid, or export fails.
@@ -328,12 +326,13 @@ def train(params: TrainParams, progress: Progress | None = None) -> TrainResult:
     with _torch_threads(params.threads):
         model = _model(params)
         start = time.perf_counter()
-        step_losses, epoch_losses = _fit(model, sets, params, gen, progress)
+        spec = _input_spec(params.task, (width, height), _normalisation(params))
+        fitted = fit(model, sets, params, gen, spec, progress, note)
+        step_losses, epoch_losses = fitted.step_losses, fitted.epoch_losses
         seconds = time.perf_counter() - start
         model = model.cpu()
-        spec = _input_spec(params.task, (width, height), _normalisation(params))
         outputs = _outputs(params.task)
-        exported = _exported(model)
+        exported = exported_module(model)
         max_diff = export_onnx(
             exported, spec.shape, params.out, spec.name, [o.name for o in outputs], params.seed
         )
@@ -373,6 +372,8 @@ def train(params: TrainParams, progress: Progress | None = None) -> TrainResult:
             "loss": _loss_text(params),
             "final_epoch_loss": round(epoch_losses[-1], 5),
             "train_seconds": round(seconds, 1),
+            "seconds_per_step": round(fitted.seconds_per_step, 3),
+            **({"validation": fitted.validation} if fitted.validation is not None else {}),
             "torch_version": str(torch.__version__),
             "opset": OPSET,
             "onnx_vs_torch_max_abs_diff": float(f"{max_diff:.3g}"),
@@ -380,16 +381,16 @@ def train(params: TrainParams, progress: Progress | None = None) -> TrainResult:
         },
     )
     card_path = write_card(card, card_path_for(params.out))
-    return TrainResult(params.out, card_path, card, step_losses, epoch_losses, seconds)
-
-
-def _exported(model: nn.Module) -> nn.Module:
-    """Return the module to export: segmentation heads stop at half resolution."""
-    if isinstance(model, HierarchicalSegNet):
-        return HalfResolutionHeads(model)
-    if isinstance(model, LiteHierarchicalSegNet):
-        return LiteHalfResolutionHeads(model)
-    return model
+    return TrainResult(
+        params.out,
+        card_path,
+        card,
+        step_losses,
+        epoch_losses,
+        seconds,
+        fitted.seconds_per_step,
+        fitted.validation,
+    )
 
 
 def _loss_text(params: TrainParams) -> str:
@@ -421,236 +422,6 @@ _DESCRIPTIONS = {
         "one softmax head per parent node; decode by argmax down the tree."
     ),
 }
-
-
-def _sample(
-    loaded: LoadedSet,
-    index: int,
-    params: TrainParams,
-    gen: torch.Generator,
-    out_size: tuple[int, int],
-) -> tuple[torch.Tensor, torch.Tensor]:
-    """Return one augmented ``(C, H, W)`` image in ``[0, 1]`` and its ``(H, W)`` target."""
-    import cv2
-
-    image = loaded.images[index]
-    aug = params.augment
-    if aug is not None and float(torch.rand((), generator=gen)) < aug.jpeg_prob:
-        image = jpeg(image, int(torch.randint(25, 91, (), generator=gen)))
-    if params.task == "segmentation":
-        assert loaded.codes is not None
-        pixels = np.ascontiguousarray(image[..., ::-1])  # BGR -> RGB, the card's colour order
-        target, outside = loaded.codes[index], 0
-    else:
-        assert loaded.corridor is not None
-        pixels = np.asarray(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY), np.uint8)[..., None]
-        target, outside = loaded.corridor[index], CORRIDOR_IGNORE
-    x = torch.from_numpy(pixels).permute(2, 0, 1).float() / 255.0
-    y = torch.from_numpy(np.ascontiguousarray(target))
-    in_size = (x.shape[-1], x.shape[-2])
-    random_crop = params.task == "segmentation"
-    theta = affine_theta(in_size, out_size, aug, gen, random_crop)
-    return warp(x, y, theta, out_size, outside, MIRROR_SWAP if random_crop else None)
-
-
-def _batch(
-    sets: Sequence[LoadedSet],
-    probs: torch.Tensor,
-    params: TrainParams,
-    gen: torch.Generator,
-    out_size: tuple[int, int],
-) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-    """Draw a batch: dataset by weight, frame uniformly; return images, targets, head masks."""
-    xs, ys, heads = [], [], []
-    for d in torch.multinomial(probs, params.batch, replacement=True, generator=gen).tolist():
-        loaded = sets[d]
-        index = int(torch.randint(len(loaded.names), (), generator=gen))
-        x, y = _sample(loaded, index, params, gen, out_size)
-        xs.append(x)
-        ys.append(y)
-        heads.append(loaded.heads)
-    x = torch.stack(xs)
-    if params.augment is not None:
-        x = photometric(x, params.augment, gen)
-    return x, torch.stack(ys), torch.tensor(heads, dtype=torch.bool)
-
-
-def head_targets_masked(
-    codes: torch.Tensor, heads: torch.Tensor, luts: Sequence[torch.Tensor]
-) -> list[torch.Tensor]:
-    """Return per-head targets of a code batch, ``IGNORE`` where a frame's dataset skips a head.
-
-    Args:
-        codes: ``(N, H, W)`` int64 node codes.
-        heads: ``(N, n_heads)`` bool: does frame ``i``'s dataset train head ``k``.
-        luts: Per-head code -> class tables.
-    """
-    targets = []
-    for k, lut in enumerate(luts):
-        target = lut[codes]
-        target[~heads[:, k]] = IGNORE
-        targets.append(target)
-    return targets
-
-
-def _checkpoint_path(out: Path) -> Path:
-    return out.with_name(out.name.removesuffix(".onnx") + ".ckpt.pt")
-
-
-def _fit(
-    model: nn.Module,
-    sets: Sequence[LoadedSet],
-    params: TrainParams,
-    gen: torch.Generator,
-    progress: Progress | None,
-) -> tuple[tuple[float, ...], tuple[float, ...]]:
-    device = torch.device(params.device)
-    model.to(device)
-    optimizer = _optimizer(model, params)
-    n = sum(len(s.names) for s in sets)
-    steps_per_epoch = max(1, -(-n // params.batch))
-    total = params.steps or steps_per_epoch * params.epochs
-    clock = _BudgetClock(total, params.budget_s)
-    scheduler: Any
-    if params.budget_s is None:
-        scheduler = torch.optim.lr_scheduler.OneCycleLR(
-            optimizer, max_lr=[g["lr"] for g in optimizer.param_groups], total_steps=total,
-            pct_start=0.15,
-        )  # fmt: skip
-    else:
-        scheduler = torch.optim.lr_scheduler.LambdaLR(optimizer, clock.lr_factor)
-    seg = params.task == "segmentation"
-    luts = [torch.from_numpy(head_target_lut(h)).to(device) for h in HEADS]
-    class_weights = [
-        None if w is None else w.to(device) for w in (_class_weights(sets) if seg else [])
-    ]
-    probs = torch.tensor([s.spec.weight for s in sets], dtype=torch.float64)
-    out_size = params.crop if (seg and params.crop is not None) else params.input_size
-    step_losses: list[float] = []
-    first = 0
-    ckpt = _checkpoint_path(params.out)
-    if params.resume and ckpt.is_file():
-        state = load_checkpoint(ckpt, f"--resume {ckpt}", device)
-        try:
-            model.load_state_dict(state["model"])
-            optimizer.load_state_dict(state["optimizer"])
-            scheduler.load_state_dict(state["scheduler"])
-            gen.set_state(state["generator"])
-            step_losses = list(state["losses"])
-            first = int(state["step"])
-        except (KeyError, RuntimeError, TypeError, ValueError) as err:
-            raise TrainingError(f"--resume {ckpt}: not a checkpoint of this run: {err}") from err
-    elif params.init is not None:
-        state = load_checkpoint(params.init, f"--init {params.init}", device)
-        try:
-            model.load_state_dict(state["model"])
-        except (RuntimeError, TypeError, ValueError) as err:
-            raise TrainingError(
-                f"--init {params.init}: weights do not fit this {params.task} model"
-            ) from err
-    mean, std = _normalisation(params)
-    model.train()
-    clock.start(first)
-    for step in range(first, total):
-        if clock.spent(step):
-            break
-        x, y, heads = _batch(sets, probs, params, gen, out_size)
-        x, y, heads = ((x - mean) / std).to(device), y.to(device), heads.to(device)
-        if seg:
-            logits = model(x)
-            loss = segmentation_loss(
-                logits,
-                head_targets_masked(y, heads, luts),
-                HEAD_WEIGHTS,
-                class_weights,
-                params.marking_dice,
-                params.dice_bands,
-            )
-        else:
-            assert isinstance(model, EgoCorridorNet | PaperCorridorNet)
-            valid = (y != CORRIDOR_IGNORE).unsqueeze(1)
-            target = (y == 1).float().unsqueeze(1)
-            loss = corridor_loss(
-                model.logits(x),
-                target,
-                0.0 if params.architecture == "paper" else params.corridor_dice,
-                valid,
-                rmse=params.architecture == "paper",
-            )
-        optimizer.zero_grad(set_to_none=True)
-        loss.backward()  # type: ignore[no-untyped-call]
-        optimizer.step()
-        scheduler.step()
-        value = float(loss.detach())
-        if not np.isfinite(value):
-            raise TrainingError(f"training diverged at step {step} (loss {value}); lower --lr")
-        step_losses.append(value)
-        if progress is not None:
-            progress(step + 1, total, value)
-        done = step + 1
-        last = done == total or clock.spent(done)
-        if params.checkpoint_every > 0 and (done % params.checkpoint_every == 0 or last):
-            state = {
-                "model": model.state_dict(),
-                "optimizer": optimizer.state_dict(),
-                "scheduler": scheduler.state_dict(),
-                "generator": gen.get_state(),
-                "losses": step_losses,
-                "step": done,
-            }
-            with atomic_path(ckpt, suffix=".pt") as tmp:
-                torch.save(state, tmp)
-    model.eval()
-    epoch_losses = [
-        float(np.mean(step_losses[i : i + steps_per_epoch]))
-        for i in range(0, len(step_losses), steps_per_epoch)
-    ]
-    return tuple(step_losses), tuple(epoch_losses)
-
-
-def _optimizer(model: nn.Module, params: TrainParams) -> torch.optim.Adam:
-    """Adam; a pretrained encoder learns at ``encoder_lr`` x the decoder's rate."""
-    if isinstance(model, LiteHierarchicalSegNet):
-        groups = [
-            {"params": model.encoder_parameters(), "lr": params.lr * params.encoder_lr},
-            {"params": model.decoder_parameters(), "lr": params.lr},
-        ]
-        return torch.optim.Adam(groups, lr=params.lr)
-    return torch.optim.Adam(model.parameters(), lr=params.lr)
-
-
-class _BudgetClock:
-    """Training progress as a fraction of the steps or of a wall-clock budget, the larger.
-
-    The learning-rate factor follows the one-cycle shape over that fraction: a linear warm-up
-    over the first 15 % from 0.04 to 1, then a cosine decay to about 0.
-    """
-
-    def __init__(self, total: int, budget_s: float | None) -> None:
-        self.total, self.budget_s = total, budget_s
-        self.step0, self.t0 = 0, time.perf_counter()
-
-    def start(self, step: int) -> None:
-        """Start the clock at ``step`` (the first step of this run)."""
-        self.step0, self.t0 = step, time.perf_counter()
-
-    def fraction(self, step: int) -> float:
-        """Return the share of the training done before ``step``."""
-        by_steps = step / self.total
-        if self.budget_s is None:
-            return by_steps
-        return max(by_steps, (time.perf_counter() - self.t0) / self.budget_s)
-
-    def spent(self, step: int) -> bool:
-        """Return True when the step count or the budget is used up."""
-        return self.budget_s is not None and self.fraction(step) >= 1.0
-
-    def lr_factor(self, step: int) -> float:
-        """Return the learning-rate factor at ``step`` (``LambdaLR``)."""
-        f = min(1.0, self.fraction(step))
-        if f < 0.15:
-            return 0.04 + 0.96 * f / 0.15
-        return 0.5 * (1.0 + math.cos(math.pi * (f - 0.15) / 0.85)) + 1e-4
 
 
 def default_out(task: str, folder: str | os.PathLike[str]) -> Path:

@@ -12,9 +12,9 @@ from superlane_tools.cli.app import app
 from superlane_tools.scene.adapters.heads import HEADS, IGNORE, NODE_CODES, head_target_lut
 from superlane_tools.scene.model_card import load_card
 from superlane_tools.training.augment import RealAugment, affine_theta, warp
+from superlane_tools.training.loop import HEAD_WEIGHTS, head_targets_masked
 from superlane_tools.training.losses import segmentation_loss
 from superlane_tools.training.seg_net import HierarchicalSegNet
-from superlane_tools.training.train import HEAD_WEIGHTS, head_targets_masked
 
 DRIVABLE = [h.name for h in HEADS].index("head_drivable")
 

@@ -24,7 +24,7 @@ from superlane_tools.training.lite_seg_net import (
     fold_symmetric_padding,
     pretrained_encoder,
 )
-from superlane_tools.training.train import _BudgetClock
+from superlane_tools.training.schedule import Schedule as _BudgetClock
 
 REPO = Path(__file__).resolve().parents[2]
 

@@ -1,0 +1,279 @@
+"""Validation during training on the real dev sets; keep the weights best on the worst set.
+
+Every ``validate_every`` steps the model in training segments the real dev frames (never trained
+on) the way the shipped runtime does (resize to the card's input, the exported half-resolution
+heads, bilinear upsampling, argmax down the tree) and is scored per set:
+
+* ``tusimple_dev``: the last 30 TuSimple ``train_frames`` and the 6 labelled ``tusimple/frames``;
+* ``culane_day_dev``: the held-out CULane day clip (driver 161; the driver-23 clip is trained on);
+* ``culane_night``: the 10 CULane night frames;
+
+each by the lane-marking F-measure of the segmentation against the labelled lanes (recall:
+labelled lane points with a predicted marking pixel within 3 px; precision: predicted marking
+pixels within 10 px of a labelled lane polyline, at 640 px image width), and
+
+* ``camvid_val``: level-2 mIoU on every 4th CamVid ``val`` frame.
+
+The worst set's score decides: the weights whose worst set is the best so far are written
+(atomically) beside the checkpoint as ``NAME.best.pt``. The end-to-end chains
+(``pipelines/real_frames_eval.py``: lanes fitted and scored with LaneEval, CULane F1) are the
+release numbers; they take minutes and run on the exported model, not inside the loop.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from superlane_tools.training.checkpoint import save_checkpoint
+from superlane_tools.training.errors import TrainingError
+
+WIDTH = 640
+"""Frames are scored at this width (labels scaled alike): tolerances mean the same on every set."""
+RECALL_PX, PRECISION_PX = 3, 10
+CAMVID_STRIDE = 4
+CULANE_DAY_DEV = "culane/driver_161_06030819_0755"
+CULANE_NIGHT = "culane/nightblur_0531_2336_0004"
+
+Segmenter = Callable[[NDArray[np.uint8]], NDArray[np.uint8]]
+"""BGR image -> leaf-id image of the same size."""
+
+
+@dataclass(frozen=True)
+class DevSet:
+    """One real dev set, loaded once: scaled images and their labels.
+
+    Attributes:
+        name: Set name (the key of the scores).
+        images: BGR frames scaled to :data:`WIDTH`.
+        lanes: Per frame, the labelled lanes as ``(N, 2)`` pixel polylines (lane sets).
+        codes: Per frame, node-code labels (CamVid), empty for lane sets.
+    """
+
+    name: str
+    images: tuple[NDArray[np.uint8], ...]
+    lanes: tuple[tuple[NDArray[np.float64], ...], ...] = ()
+    codes: tuple[NDArray[np.uint8], ...] = ()
+
+
+def _scaled(path: Path) -> tuple[NDArray[np.uint8], float]:
+    import cv2
+
+    image = cv2.imread(str(path), cv2.IMREAD_COLOR)
+    if image is None:
+        raise TrainingError(f"validation: cannot read {path}")
+    scale = WIDTH / image.shape[1]
+    size = (WIDTH, round(image.shape[0] * scale))
+    return np.asarray(cv2.resize(image, size, interpolation=cv2.INTER_AREA), np.uint8), scale
+
+
+def _tusimple(root: Path) -> DevSet | None:
+    from superlane_tools.training.datasets import (
+        TUSIMPLE_VAL_FRAMES,
+        _split_rows,
+        tusimple_labels,
+    )
+
+    images, lanes = [], []
+    for folder, split in (
+        (root / "tusimple/train_frames", "val"),
+        (root / "tusimple/frames", "all"),
+    ):
+        if not (folder / "labels.json").is_file():
+            return None
+        labels = tusimple_labels(folder)
+        for label in labels[_split_rows(len(labels), split, TUSIMPLE_VAL_FRAMES)]:
+            image, scale = _scaled(folder / str(label["raw_file"]))
+            rows = np.asarray(label["h_samples"], np.float64)
+            polys = []
+            for xs in label["lanes"]:
+                x = np.asarray(xs, np.float64)
+                keep = x >= 0
+                if keep.sum() >= 2:
+                    polys.append(np.stack([x[keep], rows[keep]], axis=1) * scale)
+            images.append(image)
+            lanes.append(tuple(polys))
+    return DevSet("tusimple_dev", tuple(images), tuple(lanes))
+
+
+def _culane(root: Path, folder: str, name: str) -> DevSet | None:
+    from superlane_tools.evaluation.culane import read_lines_file
+
+    paths = sorted((root / folder).glob("*.jpg"))
+    if not paths:
+        return None
+    images, lanes = [], []
+    for path in paths:
+        image, scale = _scaled(path)
+        lines = read_lines_file(path.with_name(path.stem + ".lines.txt"))
+        images.append(image)
+        lanes.append(tuple(np.asarray(pts, np.float64) * scale for pts in lines if len(pts) >= 2))
+    return DevSet(name, tuple(images), tuple(lanes))
+
+
+def _camvid(root: Path) -> DevSet | None:
+    from superlane_tools.scene.adapters.loader import load_adapter
+    from superlane_tools.training.datasets import camvid_pairs
+    from superlane_tools.training.label_io import read_label_ids
+
+    if not (root / "camvid" / "val").is_dir():
+        return None
+    adapter = load_adapter("camvid")
+    images, codes = [], []
+    for image_path, label_path in camvid_pairs(root / "camvid", "val")[::CAMVID_STRIDE]:
+        import cv2
+
+        image = cv2.imread(str(image_path), cv2.IMREAD_COLOR)
+        if image is None:
+            raise TrainingError(f"validation: cannot read {image_path}")
+        images.append(np.asarray(image, np.uint8))
+        codes.append(adapter.to_codes(read_label_ids(label_path)))
+    return DevSet("camvid_val", tuple(images), codes=tuple(codes))
+
+
+def real_dev_sets(root: Path) -> list[DevSet]:
+    """Load every real dev set found under the real-data folder ``root``.
+
+    Raises:
+        TrainingError: If none is there.
+    """
+    found = [
+        _tusimple(root),
+        _culane(root, CULANE_DAY_DEV, "culane_day_dev"),
+        _culane(root, CULANE_NIGHT, "culane_night"),
+        _camvid(root),
+    ]
+    sets = [s for s in found if s is not None and s.images]
+    if not sets:
+        raise TrainingError(f"validation: no real dev set under {root}")
+    return sets
+
+
+def marking_f(
+    labels: Sequence[NDArray[np.uint8]], lanes: Sequence[Sequence[NDArray[np.float64]]]
+) -> float:
+    """Return the F-measure of lane-marking pixels against labelled lane polylines.
+
+    Recall: labelled lane points (the polylines' vertices) with a predicted marking pixel within
+    :data:`RECALL_PX`; precision: predicted marking pixels within :data:`PRECISION_PX` of a
+    labelled polyline. Frames without a labelled lane count for precision only.
+    """
+    import cv2
+
+    from superlane_tools.hierarchy import leaf_ids_under
+
+    ids = np.asarray(leaf_ids_under("lane_marking"))
+    hits = total = near = marked = 0
+    for label, polys in zip(labels, lanes, strict=True):
+        marking = np.isin(label, ids)
+        height, width = marking.shape
+        dist = cv2.distanceTransform((~marking).astype(np.uint8), cv2.DIST_L2, 3)
+        band = np.zeros(marking.shape, np.uint8)
+        for poly in polys:
+            cols = np.clip(np.round(poly[:, 0]).astype(int), 0, width - 1)
+            rows = np.clip(np.round(poly[:, 1]).astype(int), 0, height - 1)
+            total += len(cols)
+            hits += int(np.count_nonzero(dist[rows, cols] <= RECALL_PX))
+            pts = np.stack([cols, rows], axis=1).astype(np.int32)
+            cv2.polylines(band, [pts], False, 1, thickness=2 * PRECISION_PX + 1)
+        near += int(np.count_nonzero(marking & (band > 0)))
+        marked += int(np.count_nonzero(marking))
+    recall = hits / total if total else 0.0
+    precision = near / marked if marked else 0.0
+    return 2 * recall * precision / (recall + precision) if recall + precision > 0 else 0.0
+
+
+def score_sets(segment: Segmenter, sets: Sequence[DevSet]) -> dict[str, float]:
+    """Return each dev set's score (lane-marking F, or CamVid level-2 mIoU) for a segmenter."""
+    from superlane_tools.training.evaluate import level_miou
+
+    scores = {}
+    for dev in sets:
+        labels = [segment(image) for image in dev.images]
+        if dev.codes:
+            value = float(level_miou(labels, dev.codes, 2)["miou"])
+        else:
+            value = marking_f(labels, dev.lanes)
+        scores[dev.name] = round(0.0 if np.isnan(value) else value, 4)
+    return scores
+
+
+def torch_segmenter(model: Any, spec: Any) -> Segmenter:
+    """Return a segmenter running a torch segmentation network as the ONNX runtime runs it.
+
+    Args:
+        model: The exported module (half-resolution heads), in eval mode.
+        spec: The card's :class:`~superlane_tools.scene.model_card.InputSpec`.
+    """
+    import torch
+
+    from superlane_tools.scene.adapters.heads import HEADS, decode_heads
+    from superlane_tools.scene.onnx_backend import preprocess, resize_labels, upsample_scores
+
+    device = next(model.parameters()).device
+
+    def segment(image: NDArray[np.uint8]) -> NDArray[np.uint8]:
+        with torch.no_grad():
+            outputs = model(torch.from_numpy(preprocess(image, spec)).to(device))
+        scores = upsample_scores([o.cpu().numpy() for o in outputs], spec)
+        return resize_labels(decode_heads(scores, HEADS), image.shape[1], image.shape[0])
+
+    return segment
+
+
+@dataclass
+class Validator:
+    """Validate every so many steps; keep the weights best on the worst real set.
+
+    Attributes:
+        sets: The dev sets.
+        best_path: Where the best weights go (``NAME.best.pt``).
+        history: Every validation so far: ``{step, scores, worst_set, worst, seconds}``.
+        best: The best entry of ``history`` (None before the first validation).
+    """
+
+    sets: Sequence[DevSet]
+    best_path: Path
+    history: list[dict[str, Any]] = field(default_factory=list)
+    best: dict[str, Any] | None = None
+
+    def run(self, model: Any, exported: Any, spec: Any, step: int) -> dict[str, Any]:
+        """Score ``model`` (through its exported module) at ``step``; save it when best."""
+        t0 = time.perf_counter()
+        was_training = model.training
+        model.eval()
+        try:
+            scores = score_sets(torch_segmenter(exported, spec), self.sets)
+        finally:
+            model.train(was_training)
+        worst_set = min(scores, key=lambda name: scores[name])
+        entry = {
+            "step": step,
+            "scores": scores,
+            "worst_set": worst_set,
+            "worst": scores[worst_set],
+            "seconds": round(time.perf_counter() - t0, 2),
+        }
+        self.history.append(entry)
+        if self.best is None or entry["worst"] > self.best["worst"]:
+            self.best = entry
+            state = {"model": model.state_dict(), "validation": json.dumps(entry)}
+            save_checkpoint(self.best_path, state)
+        return entry
+
+    def summary(self) -> dict[str, Any]:
+        """Return the card's ``validation`` section."""
+        return {
+            "sets": [s.name for s in self.sets],
+            "rule": "keep the weights whose worst real dev set scores best "
+            "(lane-marking F; CamVid level-2 mIoU)",
+            "best": self.best,
+            "history": self.history,
+        }
