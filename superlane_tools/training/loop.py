@@ -307,7 +307,7 @@ def fit(
     model.train()
     saved_at = time.perf_counter()
     step = run.first
-    while not schedule.spent(step):
+    while not schedule.spent(step) or (step == 0 and schedule.total > 0):  # >= 1 step
         t0 = time.perf_counter()
         schedule.apply(optimizer, base_lrs, step)
         x, y, heads = _batch(sets, probs, params, gen, out_size)

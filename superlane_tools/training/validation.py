@@ -26,6 +26,7 @@ import json
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from functools import cache
 from pathlib import Path
 from typing import Any
 
@@ -139,18 +140,24 @@ def _camvid(root: Path) -> DevSet | None:
 
 
 def real_dev_sets(root: Path) -> list[DevSet]:
-    """Load every real dev set found under the real-data folder ``root``.
+    """Load every real dev set found under the real-data folder ``root`` (once per process).
 
     Raises:
         TrainingError: If none is there.
     """
+    return list(_dev_sets(str(Path(root).resolve())))
+
+
+@cache
+def _dev_sets(folder: str) -> tuple[DevSet, ...]:
+    root = Path(folder)
     found = [
         _tusimple(root),
         _culane(root, CULANE_DAY_DEV, "culane_day_dev"),
         _culane(root, CULANE_NIGHT, "culane_night"),
         _camvid(root),
     ]
-    sets = [s for s in found if s is not None and s.images]
+    sets = tuple(s for s in found if s is not None and s.images)
     if not sets:
         raise TrainingError(f"validation: no real dev set under {root}")
     return sets

@@ -1,0 +1,146 @@
+"""Resume with more steps or a longer budget, the timed atomic checkpoint, best-on-worst weights."""
+
+from __future__ import annotations
+
+import math
+import os
+import shutil
+from collections.abc import Callable
+from dataclasses import replace
+from pathlib import Path
+
+import pytest
+import torch
+
+from superlane_tools.training.checkpoint import load_checkpoint
+from superlane_tools.training.schedule import Schedule
+from superlane_tools.training.train import TrainParams, cpu_cores, train
+from superlane_tools.training.validation import real_dev_sets, score_sets, torch_segmenter
+
+REALDATA = Path(os.environ.get("SLT_REALDATA", Path(__file__).parents[3] / "shared" / "data"))
+
+
+def _params(
+    tiny_params: Callable[..., TrainParams], data: Path, out: Path, steps: int
+) -> TrainParams:
+    return replace(tiny_params("segmentation", data, out), steps=steps, threads=1)
+
+
+def test_threads_default_to_the_cores(toy_data: Path, tmp_path: Path) -> None:
+    params = TrainParams("segmentation", toy_data, tmp_path / "m.onnx")
+    assert params.threads == cpu_cores() == len(os.sched_getaffinity(0))
+
+
+def test_resume_with_more_steps_continues_the_run(
+    toy_data: Path, tiny_params: Callable[..., TrainParams], tmp_path: Path
+) -> None:
+    notes: list[str] = []
+    first = train(_params(tiny_params, toy_data, tmp_path / "m.onnx", 6))
+    ckpt = tmp_path / "m.ckpt.pt"
+    assert load_checkpoint(ckpt, "test")["step"] == 6
+    more = train(replace(_params(tiny_params, toy_data, tmp_path / "m.onnx", 12), resume=True),
+                 note=notes.append)  # fmt: skip
+    assert len(more.step_losses) == 12
+    assert more.step_losses[:6] == first.step_losses  # the first six came from the checkpoint
+    assert load_checkpoint(ckpt, "test")["step"] == 12
+    assert any("resumed" in n and "step 6 of 12" in n for n in notes)
+    assert more.card.training["steps"] == 12
+    assert math.isfinite(more.seconds_per_step)
+    assert more.seconds_per_step > 0
+
+
+def test_resume_with_a_longer_budget(
+    toy_data: Path, tiny_params: Callable[..., TrainParams], tmp_path: Path
+) -> None:
+    out = tmp_path / "b.onnx"
+    base = replace(_params(tiny_params, toy_data, out, 10**6), budget_s=1e-6)
+    first = train(base)
+    assert len(first.step_losses) == 1  # the budget is spent after one step
+    state = load_checkpoint(tmp_path / "b.ckpt.pt", "test")
+    assert state["elapsed_s"] > 0
+    longer = train(replace(base, budget_s=state["elapsed_s"] + 3600, steps=4, resume=True))
+    assert len(longer.step_losses) == 4
+    assert longer.step_losses[0] == first.step_losses[0]
+
+
+def test_schedule_is_rebuilt_from_the_new_total() -> None:
+    short, long = Schedule(6, None), Schedule(12, None)
+    assert short.spent(6)
+    assert not long.spent(6)
+    assert long.lr_factor(6) > short.lr_factor(6)  # halfway, not at the end
+    budget = Schedule(10**9, 100.0)
+    budget.start(elapsed_before_s=99.9999)
+    assert budget.elapsed() >= 99.9999
+    budget.start(elapsed_before_s=100.0)
+    assert budget.spent(0)
+
+
+def test_checkpoint_is_written_atomically_on_the_time_interval(
+    toy_data: Path, tiny_params: Callable[..., TrainParams], tmp_path: Path
+) -> None:
+    ckpt = tmp_path / "checkpoints" / "run.ckpt.pt"
+    params = replace(
+        _params(tiny_params, toy_data, tmp_path / "m.onnx", 3),
+        checkpoint=ckpt,
+        checkpoint_every=0,  # by time only (and at the end)
+        checkpoint_s=1e-9,
+    )
+    steps_seen: list[int] = []
+
+    def progress(step: int, total: int, loss: float) -> None:
+        if step >= 2:  # written after step 1 by the interval, before the end
+            steps_seen.append(int(load_checkpoint(ckpt, "test")["step"]))
+
+    train(params, progress)
+    assert steps_seen[0] == 1
+    assert load_checkpoint(ckpt, "test")["step"] == 3
+    assert sorted(p.name for p in ckpt.parent.iterdir()) == ["run.ckpt.pt"]  # no temp left
+
+
+def test_lite0_checkpoint_fits_one_commit(tmp_path: Path) -> None:
+    from superlane_tools.training.checkpoint import save_checkpoint
+    from superlane_tools.training.lite_seg_net import LiteHierarchicalSegNet
+
+    net = LiteHierarchicalSegNet()
+    optimizer = torch.optim.Adam(p for p in net.parameters() if p.requires_grad)
+    net(torch.zeros(2, 3, 64, 96))[0].sum().backward()
+    optimizer.step()  # Adam's two moments now exist
+    state = {"model": net.state_dict(), "optimizer": optimizer.state_dict(), "step": 1}
+    path = save_checkpoint(tmp_path / "lite0.ckpt.pt", state)
+    assert path.stat().st_size < 40e6  # one file a plain git commit takes
+
+
+@pytest.mark.skipif(not (REALDATA / "culane").is_dir(), reason="needs the real data")
+def test_best_on_worst_weights_are_kept_and_exported(
+    toy_data: Path, tiny_params: Callable[..., TrainParams], tmp_path: Path
+) -> None:
+    params = replace(
+        _params(tiny_params, toy_data, tmp_path / "v.onnx", 4),
+        lr=5e-2,
+        validate_every=2,
+        val_data=REALDATA,
+    )
+    notes: list[str] = []
+    result = train(params, note=notes.append)
+    validation = result.validation
+    assert validation is not None
+    history = validation["history"]
+    assert [h["step"] for h in history] == [2, 4]
+    assert set(history[0]["scores"]) >= {"tusimple_dev", "culane_day_dev", "culane_night"}
+    best = validation["best"]
+    assert best["worst"] == max(h["worst"] for h in history)
+    assert best == max(history, key=lambda h: h["worst"])
+    assert result.card.training["validation"]["best"]["step"] == best["step"]
+    # the kept weights score what was recorded for them, on the same sets
+    kept = load_checkpoint(params.best_path, "test")
+    from superlane_tools.training.loop import exported_module
+    from superlane_tools.training.seg_net import HierarchicalSegNet
+    from superlane_tools.training.train import _input_spec, _normalisation
+
+    net = HierarchicalSegNet()
+    net.load_state_dict(kept["model"])
+    net.eval()
+    spec = _input_spec("segmentation", (64, 32), _normalisation(params))
+    again = score_sets(torch_segmenter(exported_module(net), spec), real_dev_sets(REALDATA))
+    assert again == best["scores"]
+    shutil.rmtree(tmp_path)
