@@ -7,6 +7,17 @@ of :class:`~superlane_tools.drive.stages.FrameStages` on them and scores the fit
 labels (:func:`~superlane_tools.lanes.plausibility.plausibility`). The most plausible backend
 runs the drive. When none is plausible the model card's pick runs it, and the report says the
 camera looks unlike the training data.
+
+The score sees reach: each sample frame's SUPER corridor (the fitted ego lines) is judged by the
+availability rule (``corridor.availability``) at :data:`SAMPLE_SPEED_MPS`, and the reach share
+and the available share join the plausibility score. Scores within :data:`TIE` of the best are
+a tie, and a tie keeps the backend that cost less CPU per sample frame (measured here, on the
+same frames). Candidates run in order (``auto_candidates``: fastest model first, the classical
+backend last); one whose lanes are plausible and available on every sample frame ends the check
+early (a slower candidate could at best tie on what the drive needs, and a tie keeps the faster).
+
+Cost: the sample is read by seeking to each run (video from the keyframe before it), and each
+frame is decoded once for every candidate.
 """
 
 from __future__ import annotations
@@ -23,13 +34,17 @@ import numpy as np
 from superlane_tools.camera.model import CameraModel
 from superlane_tools.drive.config import ReprocessConfig
 from superlane_tools.errors import SltError
-from superlane_tools.lanes.plausibility import Plausibility, plausibility
+from superlane_tools.lanes.plausibility import Plausibility, Reach, plausibility
 from superlane_tools.records import Message
 
 SAMPLE_CLIPS = 8
 """Runs of consecutive frames sampled over the drive."""
 CLIP_FRAMES = 2
 """Consecutive frames per run (two give the frame-to-frame consistency)."""
+SAMPLE_SPEED_MPS = 25.0
+"""Speed at which the sample's reach is judged (90 km/h; the check reads no speed signal)."""
+TIE = 0.02
+"""Scores this close to the best are a tie: the faster backend is kept."""
 
 
 @dataclass(frozen=True)
@@ -41,12 +56,14 @@ class Trial:
         model: Model name for ``onnx`` ("" otherwise).
         scores: The plausibility scores (None when the backend could not run).
         error: Why the backend could not run ("" when it ran).
+        cpu_ms: CPU milliseconds per sample frame of this candidate (segmentation and fit).
     """
 
     backend: str
     model: str
     scores: Plausibility | None
     error: str = ""
+    cpu_ms: float = math.nan
 
     @property
     def label(self) -> str:
@@ -58,7 +75,7 @@ class Trial:
         if self.scores is None:
             return f"{self.label}: not run ({self.error})"
         verdict = "plausible" if self.scores.plausible else f"NOT plausible: {self.scores.reason}"
-        return f"{self.label}: {self.scores.summary()}; {verdict}"
+        return f"{self.label}: {self.scores.summary()}; {verdict}; {self.cpu_ms:.0f} ms CPU/frame"
 
 
 @dataclass(frozen=True)
@@ -73,6 +90,7 @@ class SelfCheck:
         reason: Why it was chosen (or that none was plausible).
         n_frames: Frames in the sample.
         seconds: Wall time of the self-check, seconds.
+        cpu_s: CPU time of the self-check (this process, every thread), seconds.
     """
 
     backend: str
@@ -82,6 +100,19 @@ class SelfCheck:
     reason: str
     n_frames: int
     seconds: float
+    cpu_s: float = math.nan
+
+    @property
+    def label(self) -> str:
+        """Return ``onnx:<model>`` or the backend name of the chosen backend."""
+        return f"{self.backend}:{self.model}" if self.model else self.backend
+
+    def reason_line(self) -> str:
+        """Return one sentence: which backend ran the drive and why."""
+        return (
+            f"segmentation self-check on {self.n_frames} frames ({self.seconds:.1f} s, "
+            f"{self.cpu_s:.2f} s CPU): {self.reason}"
+        )
 
     def config(self, config: ReprocessConfig) -> ReprocessConfig:
         """Return ``config`` with the chosen backend and model."""
@@ -89,12 +120,8 @@ class SelfCheck:
         return replace(config, segmentation=seg)
 
     def lines(self) -> list[str]:
-        """Return the report's lines: the choice and reason, then one line per candidate."""
-        head = (
-            f"segmentation self-check on {self.n_frames} frames ({self.seconds:.1f} s): "
-            f"{self.reason}"
-        )
-        return [head, *(f"self-check {trial.line()}" for trial in self.trials)]
+        """Return the report's lines: :meth:`reason_line`, then one line per candidate."""
+        return [self.reason_line(), *(f"self-check {trial.line()}" for trial in self.trials)]
 
     def to_dict(self) -> dict[str, Any]:
         """Return the self-check as a JSON-ready mapping (for the provenance)."""
@@ -105,11 +132,13 @@ class SelfCheck:
             "reason": self.reason,
             "n_frames": self.n_frames,
             "seconds": round(self.seconds, 3),
+            "cpu_s": round(self.cpu_s, 3),
             "trials": [
                 {
                     "backend": t.backend,
                     "model": t.model,
                     "error": t.error,
+                    "cpu_ms": None if math.isnan(t.cpu_ms) else round(t.cpu_ms, 1),
                     "scores": None if t.scores is None else _jsonable(t.scores.to_dict()),
                 }
                 for t in self.trials
@@ -154,11 +183,12 @@ def sample_frames(
 
 
 Sample = Sequence[Sequence[tuple[int, Any]]]
-"""Runs of consecutive frames ``(index, image message or BGR image)``."""
+"""Runs of consecutive frames ``(index, BGR image or (source size, BGR image))``."""
 
 
 def try_backend(config: ReprocessConfig, camera: CameraModel, runs: Sample) -> Plausibility:
-    """Run the lane stages with ``config``'s backend on the runs; score the fits."""
+    """Run the lane stages with ``config``'s backend on the runs; score the fits and reach."""
+    from superlane_tools.corridor.availability import frame_availability
     from superlane_tools.drive.stages import FrameStages, Prepared
 
     stages = FrameStages(config, camera, lanes_only=True)
@@ -166,15 +196,24 @@ def try_backend(config: ReprocessConfig, camera: CameraModel, runs: Sample) -> P
     def prepare(index: int, frame: Any) -> Prepared:
         if isinstance(frame, np.ndarray):
             return stages.prepare_image(Prepared(index, 0, None), frame)
-        return stages.prepare(index, frame)
+        size, image = frame
+        out = Prepared(index, 0, None)
+        out.source_size = size
+        return stages.prepare_image(out, image)
 
     # every image stage first: on a first run they overlap the fit's kernels compiling
     prepared = [[prepare(index, frame) for index, frame in run] for run in runs]
-    clips = []
+    clips, widths, lengths = [], [], []
     for run in prepared:
         stages.restart()
-        clips.append([stages.finish(prep).fit for prep in run])
-    return plausibility(clips)
+        finished = [stages.finish(prep) for prep in run]
+        clips.append([done.fit for done in finished])
+        widths += [done.super_corridor.width_m for done in finished]
+        lengths += [done.super_corridor.length_m for done in finished]
+    rule = config.kpi.availability_params(15.0)
+    available = frame_availability(widths, lengths, SAMPLE_SPEED_MPS, rule).available
+    reach = Reach(lengths, available.tolist(), SAMPLE_SPEED_MPS * rule.time_gap_s)
+    return plausibility(clips, reach=reach)
 
 
 def self_check(
@@ -184,49 +223,85 @@ def self_check(
     candidates: Sequence[tuple[str, str]],
     fallback: tuple[str, str],
 ) -> SelfCheck:
-    """Try each candidate backend on the sampled runs; choose the most plausible.
+    """Try the candidate backends on the sampled runs; choose the most plausible.
 
     Args:
         config: The run's configuration (its segmentation backend is replaced per candidate).
         camera: The drive's camera.
-        runs: The sampled runs of consecutive frames (:func:`sample_frames`).
-        candidates: ``(backend, model)`` pairs, in order of preference (a tie goes to the
-            first).
+        runs: The sampled runs of consecutive frames (:func:`sample_frames`), decoded once.
+        candidates: ``(backend, model)`` pairs, fastest first (a tie keeps the faster; one
+            plausible and available on every sample frame ends the check).
         fallback: ``(backend, model)`` to run when none is plausible.
     """
-    t0 = time.perf_counter()
-    trials = []
+    t0, c0 = time.perf_counter(), time.process_time()
+    n_frames = sum(len(run) for run in runs)
+    trials: list[Trial] = []
     for backend, model in candidates:
         seg = replace(config.segmentation, backend=backend, model=model)
+        c1 = time.process_time()
         try:
             scores = try_backend(replace(config, segmentation=seg), camera, runs)
         except SltError as err:
             trials.append(Trial(backend, model, None, str(err)))
             continue
-        trials.append(Trial(backend, model, scores))
-    n_frames = sum(len(run) for run in runs)
-    ran = [t for t in trials if t.scores is not None and t.scores.plausible]
-    if ran:
-        best = max(ran, key=lambda t: t.scores.score if t.scores else 0.0)
-        assert best.scores is not None
-        others = [t for t in trials if t is not best]
-        why = f"{best.label} chosen: most plausible lanes (score {best.scores.score:.2f})"
-        if others:
-            why += "; " + ", ".join(_other(t) for t in others)
-        return SelfCheck(best.backend, best.model, tuple(trials), True, why, n_frames, _since(t0))
-    label = f"{fallback[0]}:{fallback[1]}" if fallback[1] else fallback[0]
-    failed = "; ".join(
-        f"{t.label}: {t.scores.reason if t.scores is not None else 'not run'}" for t in trials
+        cpu_ms = 1000.0 * (time.process_time() - c1) / max(n_frames, 1)
+        trials.append(Trial(backend, model, scores, cpu_ms=cpu_ms))
+        if scores.plausible and scores.available >= 1.0:
+            break  # every sample frame available: a slower candidate could at best tie
+    best, why = choose(trials, fallback)
+    untried = [f"{b}:{m}" if m else b for b, m in candidates[len(trials) :]]
+    if untried:
+        why += f"; {', '.join(untried)} not tried (every sample frame was available)"
+    backend, model = (best.backend, best.model) if best is not None else fallback
+    cpu_s = time.process_time() - c0
+    return SelfCheck(
+        backend, model, tuple(trials), best is not None, why, n_frames, _since(t0), cpu_s
     )
-    why = f"no backend plausible on this drive ({failed}); {label} runs it (model card's pick)"
-    return SelfCheck(*fallback, tuple(trials), False, why, n_frames, _since(t0))
+
+
+def choose(trials: Sequence[Trial], fallback: tuple[str, str]) -> tuple[Trial | None, str]:
+    """Return the chosen trial (None: none plausible) and the sentence saying why.
+
+    The most plausible trial wins; trials within :data:`TIE` of its score are a tie, and the
+    one with the least CPU per sample frame among them is kept.
+    """
+    ran = [t for t in trials if t.scores is not None and t.scores.plausible]
+    if not ran:
+        label = f"{fallback[0]}:{fallback[1]}" if fallback[1] else fallback[0]
+        failed = "; ".join(
+            f"{t.label}: {t.scores.reason if t.scores is not None else 'not run'}" for t in trials
+        )
+        return None, (
+            f"no backend plausible on this drive ({failed}); {label} runs it (model card's pick)"
+        )
+    top = max(_score(t) for t in ran)
+    tied = [t for t in ran if _score(t) >= top - TIE]
+    best = min(tied, key=lambda t: t.cpu_ms if not math.isnan(t.cpu_ms) else math.inf)
+    assert best.scores is not None
+    reach = best.scores
+    why = (
+        f"{best.label} ran it: most plausible lanes (score {reach.score:.2f}, reach "
+        f"{reach.reach_m:.1f} m, {reach.available:.0%} of the sample available at "
+        f"{SAMPLE_SPEED_MPS * 3.6:.0f} km/h)"
+    )
+    if len(tied) > 1:
+        slower = ", ".join(f"{t.label} {_score(t):.2f}" for t in tied if t is not best)
+        why += f", tied with {slower} and faster ({best.cpu_ms:.0f} ms CPU per frame)"
+    others = [t for t in trials if t not in tied]
+    if others:
+        why += "; " + ", ".join(_other(t) for t in others)
+    return best, why
+
+
+def _score(trial: Trial) -> float:
+    return trial.scores.score if trial.scores is not None else 0.0
 
 
 def _other(trial: Trial) -> str:
     if trial.scores is None:
         return f"{trial.label} not run"
     state = "plausible" if trial.scores.plausible else "not plausible"
-    return f"{trial.label} {trial.scores.score:.2f} ({state})"
+    return f"{trial.label} {trial.scores.score:.2f} ({state}, reach {trial.scores.reach_m:.1f} m)"
 
 
 def _since(t0: float) -> float:
@@ -239,7 +314,8 @@ def drive_self_check(
     """Run the self-check on a drive when its backend is ``auto``; else say why it is skipped.
 
     The sample is read through its own handle on the recording, so that what the drive's one
-    pass skips (corrupt messages) is counted once.
+    pass skips (corrupt messages) is counted once: the frames' log times first (undecoded), then
+    each run by seeking to it (video from the keyframe before it); each frame is decoded once.
 
     Args:
         path: The recording.
@@ -251,28 +327,55 @@ def drive_self_check(
         The self-check, or the line saying it was skipped (an explicit backend or model).
     """
     from superlane_tools.recording.open import open_recording
-    from superlane_tools.recording.video import decode_video
     from superlane_tools.scene.backends import auto_candidates
 
     seg = config.segmentation
     if seg.backend != "auto" or seg.model:
         chosen = f"--model {seg.model}" if seg.model else f"--backend {seg.backend}"
         return f"segmentation self-check skipped: backend chosen explicitly ({chosen})"
+    c0 = time.process_time()
     with open_recording(path) as recording:
-        total = next((t.message_count for t in recording.topics() if t.topic == topic), None)
-        if total is None:
-            total = sum(1 for _ in recording.raw_messages(topics=[topic]))
-        runs = sample_frames(decode_video(recording.messages(topics=[topic])), total)
+        times = [raw.log_time_ns for raw in recording.raw_messages(topics=[topic])]
+        runs = _read_sample(recording, topic, times, seg.process_width)
     if not runs:
         return "segmentation self-check skipped: no camera frames to sample"
-    return self_check(config, camera, runs, auto_candidates(), _card_pick())
+    check = self_check(config, camera, runs, auto_candidates(), _card_pick())
+    return replace(check, cpu_s=time.process_time() - c0)  # reading and decoding included
+
+
+def _read_sample(
+    recording: Any, topic: str, times: Sequence[int], process_width: int
+) -> list[list[tuple[int, Any]]]:
+    """Seek to each sampled run and decode its frames once: ``(index, (size, image))``."""
+    from superlane_tools.recording.images import decode_frame, decode_reduced
+    from superlane_tools.recording.video import read_with_video
+
+    runs = []
+    for start in sample_starts(len(times)):
+        stop = min(start + CLIP_FRAMES, len(times))
+        messages = read_with_video(
+            recording, [topic], start_ns=times[start], stop_ns=times[stop - 1] + 1
+        )
+        run = []
+        for index, msg in zip(range(start, stop), messages, strict=False):
+            reduced = decode_reduced(msg, process_width)
+            try:
+                image = reduced[0] if reduced is not None else decode_frame(msg)
+            except ValueError:
+                continue  # a corrupt frame: the pass counts it
+            size = reduced[1] if reduced is not None else (image.shape[1], image.shape[0])
+            run.append((index, (size, image)))
+        if run:
+            runs.append(run)
+    return runs
 
 
 def _card_pick() -> tuple[str, str]:
-    from superlane_tools.scene.backends import auto_backend, auto_candidates
+    from superlane_tools.scene.backends import auto_backend
+    from superlane_tools.scene.onnx_backend import DEFAULT_SEGMENTATION_MODEL
 
     name, _ = auto_backend(None)
-    return name, next((m for b, m in auto_candidates() if b == name), "")
+    return name, DEFAULT_SEGMENTATION_MODEL if name == "onnx" else ""
 
 
 def images_self_check(
@@ -298,4 +401,6 @@ def images_self_check(
         if run:
             runs.append(run)
     cfg = config or ReprocessConfig()
-    return self_check(cfg, camera, runs, auto_candidates(), _card_pick())
+    c0 = time.process_time()
+    check = self_check(cfg, camera, runs, auto_candidates(), _card_pick())
+    return replace(check, cpu_s=time.process_time() - c0)

@@ -4,9 +4,12 @@ A segmentation backend that does not suit a camera (another mounting, another op
 profile far off) still yields lane pixels, and the fit still returns lines; only their geometry
 gives it away: an ego lane far narrower or wider than a road lane, a width that jumps from frame
 to frame, ego lines that converge or diverge ahead, lines that jump between consecutive frames,
-pixels the lines do not explain, few frames with an ego pair at all. :func:`plausibility` scores
-fits on those criteria without any label; the per-drive self-check (``drive.selfcheck``) uses it
-to choose the segmentation backend.
+pixels the lines do not explain, few frames with an ego pair at all. A backend can also be
+plausible and still not serve the drive: its lines reach too short a way ahead. So the score also
+takes the corridor the availability rule judges (``corridor.availability``): how far it reaches
+against the length the rule needs, and the share of frames that would be available.
+:func:`plausibility` scores fits on those criteria without any label; the per-drive self-check
+(``drive.selfcheck``) uses it to choose the segmentation backend.
 """
 
 from __future__ import annotations
@@ -15,10 +18,25 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from itertools import pairwise
+from typing import NamedTuple
 
 import numpy as np
 
 from superlane_tools.lanes.result import LaneFit
+
+
+class Reach(NamedTuple):
+    """The availability rule's view of each scored frame (same order as the fits).
+
+    Attributes:
+        length_m: Corridor length per frame, metres (NaN: no corridor).
+        available: Whether the frame would be available (width and length within the rule).
+        need_m: The corridor length the rule needs, metres (speed x time gap).
+    """
+
+    length_m: Sequence[float]
+    available: Sequence[bool]
+    need_m: float
 
 
 @dataclass(frozen=True)
@@ -64,9 +82,14 @@ class Plausibility:
             moved at most ``max_step_m`` (NaN when no such pair).
         fit_quality: Mean share of lane points on a fitted line (1 minus the fit residual
             share) over the fitted frames.
-        score: Geometric mean of the shares (the stable width counts as one share), in
-            ``[0, 1]``; higher is more plausible.
+        score: Geometric mean of the shares (the stable width counts as one share; with a
+            :class:`Reach`, so do the reach share and the available share), in ``[0, 1]``;
+            higher is more plausible.
         reason: Why the fits are not plausible ("" when they are).
+        reach_m: Median corridor length over the frames with one, metres (NaN without a
+            :class:`Reach` or a corridor).
+        reach_share: ``min(1, reach_m / need_m)`` (NaN without a :class:`Reach`).
+        available: Share of the frames that would be available (NaN without a :class:`Reach`).
     """
 
     n_frames: int
@@ -79,6 +102,9 @@ class Plausibility:
     fit_quality: float
     score: float
     reason: str
+    reach_m: float = math.nan
+    reach_share: float = math.nan
+    available: float = math.nan
 
     @property
     def plausible(self) -> bool:
@@ -99,8 +125,14 @@ class Plausibility:
             f"score {self.score:.2f} (ego pair {self.ego_share:.0%}, width {self.width_m:.2f} m "
             f"[{self.width_in_range:.0%} in range, sd {self.width_std_m:.2f} m], parallel "
             f"{self.parallel:.0%}, consistent {_pct(self.consistency)}, fit quality "
-            f"{self.fit_quality:.2f})"
+            f"{self.fit_quality:.2f}{self._reach_text()})"
         )
+
+    def _reach_text(self) -> str:
+        if math.isnan(self.available):
+            return ""
+        reach = "none" if math.isnan(self.reach_m) else f"{self.reach_m:.1f} m"
+        return f", reach {reach}, available {self.available:.0%}"
 
 
 def _pct(share: float) -> str:
@@ -131,8 +163,24 @@ def _steps(clips: Sequence[Sequence[LaneFit]], params: PlausibilityParams) -> li
     return moves
 
 
+def _reach_shares(reach: Reach | None, n: int) -> tuple[float, float, float]:
+    """Return (median reach, reach share, available share); NaNs without ``reach``."""
+    if reach is None:
+        return math.nan, math.nan, math.nan
+    lengths = np.asarray(reach.length_m, dtype=float)
+    if lengths.size != n or len(reach.available) != n:
+        raise ValueError(f"reach needs one length and one flag per frame ({n})")
+    seen = lengths[np.isfinite(lengths)]
+    median = float(np.median(seen)) if seen.size else math.nan
+    share = 0.0 if not seen.size else min(1.0, max(0.0, median) / max(reach.need_m, 1e-9))
+    available = float(np.mean(np.asarray(reach.available, dtype=bool))) if n else 0.0
+    return median, share, available
+
+
 def plausibility(
-    clips: Sequence[Sequence[LaneFit]], params: PlausibilityParams | None = None
+    clips: Sequence[Sequence[LaneFit]],
+    params: PlausibilityParams | None = None,
+    reach: Reach | None = None,
 ) -> Plausibility:
     """Score fits without labels: ego width, its spread, parallel lines, consistency, residual.
 
@@ -140,6 +188,8 @@ def plausibility(
         clips: Runs of consecutive frames' fits (frame-to-frame consistency is judged within a
             run only); the frames of all runs together give the other scores.
         params: Thresholds (defaults when None).
+        reach: The availability rule's corridor per frame (all runs' frames in order): the
+            reach share and the available share join the score.
 
     Returns:
         The scores, with the reason the fits are not plausible ("" when they are): under
@@ -169,6 +219,9 @@ def plausibility(
     shares = [ego_share, in_range, stable, parallel, quality]
     if not math.isnan(consistency):
         shares.append(consistency)
+    reach_m, reach_share, available = _reach_shares(reach, n)
+    if reach is not None:
+        shares += [reach_share, available]
     score = float(np.prod(shares) ** (1.0 / len(shares)))
     why = []
     if ego_share < p.min_ego_share:
@@ -182,5 +235,17 @@ def plausibility(
     if pairs and parallel < p.min_share:
         why.append(f"ego lines parallel on {parallel:.0%} of the pairs (< {p.min_share:.0%})")
     return Plausibility(
-        n, ego_share, width, in_range, spread, parallel, consistency, quality, score, "; ".join(why)
+        n,
+        ego_share,
+        width,
+        in_range,
+        spread,
+        parallel,
+        consistency,
+        quality,
+        score,
+        "; ".join(why),
+        reach_m,
+        reach_share,
+        available,
     )

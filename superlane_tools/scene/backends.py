@@ -7,6 +7,7 @@ the protocol module never imports a backend.
 from __future__ import annotations
 
 from collections.abc import Callable
+from functools import cache
 
 from superlane_tools.camera.model import CameraModel
 from superlane_tools.scene.backend import SegmentationBackend
@@ -144,13 +145,37 @@ def auto_backend(model: str | None) -> tuple[str, str]:
 
 
 def auto_candidates() -> tuple[tuple[str, str], ...]:
-    """Return the ``(backend, model)`` pairs ``auto`` chooses among, in order of preference.
+    """Return the ``(backend, model)`` pairs ``auto`` chooses among, fastest first.
 
-    The shipped default segmentation model (when shipped) and the classical backend; the
-    per-drive self-check (``drive.selfcheck``) tries each on a sample of the drive's frames.
+    Every candidate that could win on a drive: the shipped default segmentation model, the
+    newest shipped segmentation model when it is not the default (a model that did not pass the
+    default rule, ``scene.default_rule``, may still serve some drives better), ordered by their
+    cards' milliseconds per frame, then the classical backend. The per-drive self-check
+    (``drive.selfcheck``) tries them in this order on a sample of the drive's frames.
     """
     from superlane_tools.models import list_models
+    from superlane_tools.scene.default_rule import model_version
     from superlane_tools.scene.onnx_backend import DEFAULT_SEGMENTATION_MODEL
 
-    shipped = DEFAULT_SEGMENTATION_MODEL in list_models()
-    return ((("onnx", DEFAULT_SEGMENTATION_MODEL),) if shipped else ()) + (("classical", ""),)
+    shipped = list_models()
+    seg = [m for m in shipped if m.startswith("super_seg_v")]
+    models = [DEFAULT_SEGMENTATION_MODEL] if DEFAULT_SEGMENTATION_MODEL in shipped else []
+    newest = max(seg, key=model_version, default="")
+    if newest and newest not in models:
+        models.append(newest)
+    models.sort(key=_card_ms)
+    return (*(("onnx", m) for m in models), ("classical", ""))
+
+
+@cache
+def _card_ms(model: str) -> float:
+    """Return a shipped model's card milliseconds per frame (inf when unreadable)."""
+    from superlane_tools.errors import SltError
+    from superlane_tools.scene.model_card import load_card
+    from superlane_tools.scene.onnx_backend import resolve_model
+
+    try:
+        ms = load_card(resolve_model(model)[1]).ms_per_frame
+        return float(ms.get("median_ms", "inf"))
+    except (SltError, TypeError, ValueError):
+        return float("inf")

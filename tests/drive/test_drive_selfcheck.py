@@ -68,7 +68,8 @@ def test_a_correct_camera_gets_a_plausible_backend_with_its_scores(
     assert check["n_frames"] == 16
     trials = check["trials"]
     assert isinstance(trials, list)
-    assert {t["backend"] for t in trials} >= {"classical"}
+    assert trials  # the fastest candidate at least; later ones only when it leaves room
+    assert "not tried" in check["reason"] or {t["backend"] for t in trials} >= {"classical"}
     chosen = [t for t in trials if (t["backend"], t["model"]) == (check["backend"], check["model"])]
     assert chosen[0]["scores"]["plausible"] is True
     assert 2.5 <= chosen[0]["scores"]["width_m"] <= 4.5
