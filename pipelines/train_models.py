@@ -30,7 +30,12 @@ instead (``super_seg_v5``): one stage, TuSimple with the marking expansion (weig
 (0.2) and 160 simulator frames (0.35), camera-geometry augmentation (``--augment camera``),
 random 320x192 windows, 8 per step, lr 0.002 (encoder 0.0005), a wall-clock budget of
 ``--budget-s`` seconds (4500 by default; the learning-rate schedule follows it) capped at 6000
-steps. ``--no-camvid`` leaves CamVid (CC BY-NC) out: a model for commercial use.
+steps, torch threads = the cores (run nothing CPU-heavy beside it). It checkpoints to
+``checkpoints/NAME.ckpt.pt`` every 5 minutes and resumes from it when present (so a run cut
+short continues with the same command, also on a fresh clone with the checkpoint committed),
+and validates every 300 steps on the real dev sets (TuSimple dev, the held-out CULane day clip,
+CULane night, CamVid val), exporting the weights best on the worst set. ``--no-camvid`` leaves
+CamVid (CC BY-NC) out: a model for commercial use.
 
 ``--quick`` runs the same steps on a few frames and steps (CI). ``--device cuda`` trains on a GPU.
 
@@ -164,16 +169,32 @@ def lite0_list(realdata: Path | None, sim: Path, work: Path, camvid: bool) -> Pa
 
 
 def lite0_command(
-    listing: Path, out: Path, plan: Plan, device: str, budget_s: float, steps: int
+    listing: Path,
+    out: Path,
+    plan: Plan,
+    device: str,
+    budget_s: float,
+    steps: int,
+    resume: tuple[Path, Path | None] | None = None,
 ) -> list[str]:
-    """Return the lite0 recipe's ``slt train`` arguments."""
+    """Return the lite0 recipe's ``slt train`` arguments (torch threads: every core).
+
+    ``resume``: ``(checkpoint, real-data folder)``: resume from / checkpoint to that file (every
+    5 minutes; ``checkpoints/NAME.ckpt.pt`` commits and resumes on a fresh clone) and validate
+    every 300 steps on the real dev sets (exporting the weights best on the worst set).
+    """
     args = ["train", "segmentation", "--arch", "lite0", "--augment", "camera"]
     args += ["--datasets", str(listing), "--out", str(out), "--steps", str(steps)]
     args += ["--budget-s", f"{budget_s:g}", "--lr", "0.002", "--size", "512x288"]
     args += ["--crop", "320x192", "--dice-bands", "3", "--seed", str(MODEL_SEED)]
-    args += ["--batch", str(plan.batch), "--threads", "1", "--device", device]
+    args += ["--batch", str(plan.batch), "--device", device]
     if plan.max_frames is not None:
         args += ["--max-frames", str(plan.max_frames)]
+    if resume is not None:
+        checkpoint, realdata = resume
+        args += ["--checkpoint", str(checkpoint), "--resume", "--checkpoint-every-s", "300"]
+        if realdata is not None:
+            args += ["--val-data", str(realdata), "--validate-every", "300"]
     return args
 
 
@@ -323,7 +344,11 @@ def main(argv: list[str] | None = None) -> int:
         listing = lite0_list(realdata, sim, args.work, camvid=not args.no_camvid)
         steps = plan.seg_steps if args.quick else LITE_STEPS
         budget = 60.0 if args.quick else args.budget_s
-        commands["segmentation"] = [lite0_command(listing, seg, plan, args.device, budget, steps)]
+        ckpt_dir = args.work if args.quick else REPO / "checkpoints"
+        resume = (ckpt_dir / f"{seg.stem}.ckpt.pt", realdata)
+        commands["segmentation"] = [
+            lite0_command(listing, seg, plan, args.device, budget, steps, resume)
+        ]
     commands = {t: c for t, c in commands.items() if args.task in (t, "both")}
     results["commands"].update(
         {t: " && ".join(shlex.join(["slt", *c]) for c in stages) for t, stages in commands.items()}
