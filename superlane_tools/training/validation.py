@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from superlane_tools.reporting.run_layout import TUSIMPLE_LABELS_FILE
 from superlane_tools.training.checkpoint import save_checkpoint
 from superlane_tools.training.errors import TrainingError
 
@@ -87,7 +88,7 @@ def _tusimple(root: Path) -> DevSet | None:
         (root / "tusimple/train_frames", "val"),
         (root / "tusimple/frames", "all"),
     ):
-        if not (folder / "labels.json").is_file():
+        if not (folder / TUSIMPLE_LABELS_FILE).is_file():
             return None
         labels = tusimple_labels(folder)
         for label in labels[_split_rows(len(labels), split, TUSIMPLE_VAL_FRAMES)]:
