@@ -59,7 +59,8 @@ def parse_document(text: str, source: str, suffix: str = ".yaml") -> Any:
             return json.loads(text)
         import yaml
 
-        return yaml.safe_load(text)
+        # libyaml's safe loader when built in (about 10x faster: model cards, profiles)
+        return yaml.load(text, Loader=getattr(yaml, "CSafeLoader", yaml.SafeLoader))
     except Exception as err:  # TOMLDecodeError, JSONDecodeError, YAMLError
         raise ConfigError(f"{source}: not valid {kind}: {err}") from err
 

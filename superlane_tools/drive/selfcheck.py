@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -37,7 +37,7 @@ from superlane_tools.errors import SltError
 from superlane_tools.lanes.plausibility import Plausibility, Reach, plausibility
 from superlane_tools.records import Message
 
-SAMPLE_CLIPS = 8
+SAMPLE_CLIPS = 6
 """Runs of consecutive frames sampled over the drive."""
 CLIP_FRAMES = 2
 """Consecutive frames per run (two give the frame-to-frame consistency)."""
@@ -221,7 +221,7 @@ def self_check(
     camera: CameraModel,
     runs: Sample,
     candidates: Sequence[tuple[str, str]],
-    fallback: tuple[str, str],
+    fallback: tuple[str, str] | Callable[[], tuple[str, str]],
 ) -> SelfCheck:
     """Try the candidate backends on the sampled runs; choose the most plausible.
 
@@ -231,7 +231,8 @@ def self_check(
         runs: The sampled runs of consecutive frames (:func:`sample_frames`), decoded once.
         candidates: ``(backend, model)`` pairs, fastest first (a tie keeps the faster; one
             plausible and available on every sample frame ends the check).
-        fallback: ``(backend, model)`` to run when none is plausible.
+        fallback: ``(backend, model)`` to run when none is plausible, or a function returning
+            it (called only then: reading the card pick costs time).
     """
     t0, c0 = time.perf_counter(), time.process_time()
     n_frames = sum(len(run) for run in runs)
@@ -248,15 +249,24 @@ def self_check(
         trials.append(Trial(backend, model, scores, cpu_ms=cpu_ms))
         if scores.plausible and scores.available >= 1.0:
             break  # every sample frame available: a slower candidate could at best tie
-    best, why = choose(trials, fallback)
+    if best_trial_plausible(trials) or not callable(fallback):
+        pick = fallback if not callable(fallback) else ("", "")
+    else:
+        pick = fallback()
+    best, why = choose(trials, pick)
     untried = [f"{b}:{m}" if m else b for b, m in candidates[len(trials) :]]
     if untried:
         why += f"; {', '.join(untried)} not tried (every sample frame was available)"
-    backend, model = (best.backend, best.model) if best is not None else fallback
+    backend, model = (best.backend, best.model) if best is not None else pick
     cpu_s = time.process_time() - c0
     return SelfCheck(
         backend, model, tuple(trials), best is not None, why, n_frames, _since(t0), cpu_s
     )
+
+
+def best_trial_plausible(trials: Sequence[Trial]) -> bool:
+    """Return True when some trial's lanes are plausible."""
+    return any(t.scores is not None and t.scores.plausible for t in trials)
 
 
 def choose(trials: Sequence[Trial], fallback: tuple[str, str]) -> tuple[Trial | None, str]:
@@ -339,7 +349,7 @@ def drive_self_check(
         runs = _read_sample(recording, topic, times, seg.process_width)
     if not runs:
         return "segmentation self-check skipped: no camera frames to sample"
-    check = self_check(config, camera, runs, auto_candidates(), _card_pick())
+    check = self_check(config, camera, runs, auto_candidates(), _card_pick)
     return replace(check, cpu_s=time.process_time() - c0)  # reading and decoding included
 
 
@@ -402,5 +412,5 @@ def images_self_check(
             runs.append(run)
     cfg = config or ReprocessConfig()
     c0 = time.process_time()
-    check = self_check(cfg, camera, runs, auto_candidates(), _card_pick())
+    check = self_check(cfg, camera, runs, auto_candidates(), _card_pick)
     return replace(check, cpu_s=time.process_time() - c0)
