@@ -75,7 +75,7 @@ class Trial:
         if self.scores is None:
             return f"{self.label}: not run ({self.error})"
         verdict = "plausible" if self.scores.plausible else f"NOT plausible: {self.scores.reason}"
-        return f"{self.label}: {self.scores.summary()}; {verdict}; {self.cpu_ms:.0f} ms CPU/frame"
+        return f"{self.label}: {self.scores.summary()}; {verdict}"
 
 
 @dataclass(frozen=True)
@@ -108,11 +108,9 @@ class SelfCheck:
         return f"{self.backend}:{self.model}" if self.model else self.backend
 
     def reason_line(self) -> str:
-        """Return one sentence: which backend ran the drive and why."""
-        return (
-            f"segmentation self-check on {self.n_frames} frames ({self.seconds:.1f} s, "
-            f"{self.cpu_s:.2f} s CPU): {self.reason}"
-        )
+        """Return one sentence: which backend ran the drive and why (CPU in :meth:`to_dict`)."""
+        head = f"segmentation self-check on {self.n_frames} frames ({self.seconds:.1f} s)"
+        return f"{head}: {self.reason}"
 
     def config(self, config: ReprocessConfig) -> ReprocessConfig:
         """Return ``config`` with the chosen backend and model."""
@@ -296,7 +294,7 @@ def choose(trials: Sequence[Trial], fallback: tuple[str, str]) -> tuple[Trial | 
     )
     if len(tied) > 1:
         slower = ", ".join(f"{t.label} {_score(t):.2f}" for t in tied if t is not best)
-        why += f", tied with {slower} and faster ({best.cpu_ms:.0f} ms CPU per frame)"
+        why += f", tied with {slower} and faster (less CPU per sample frame)"
     others = [t for t in trials if t not in tied]
     if others:
         why += "; " + ", ".join(_other(t) for t in others)

@@ -24,15 +24,15 @@ UNLIKE = UNLIKE_TRAINING_DATA.split(";")[0]
 
 
 def test_the_sample_is_spread_evenly_over_the_drive() -> None:
-    assert sample_starts(100) == [0, 14, 28, 42, 56, 70, 84, 98]
+    assert sample_starts(100) == [0, 20, 39, 59, 78, 98]
     assert sample_starts(5) == [0, 3]
     assert sample_starts(12) == [0, 2, 4, 6, 8, 10]
     assert sample_starts(2) == [0]
     assert sample_starts(1) == [0]
     assert sample_starts(0) == []
     runs = sample_frames(iter(range(100)), 100)  # type: ignore[arg-type]
-    assert [[i for i, _ in run] for run in runs][:2] == [[0, 1], [14, 15]]
-    assert sum(len(run) for run in runs) == 16
+    assert [[i for i, _ in run] for run in runs][:2] == [[0, 1], [20, 21]]
+    assert sum(len(run) for run in runs) == 12
 
 
 @pytest.fixture(scope="module")
@@ -65,7 +65,7 @@ def test_a_correct_camera_gets_a_plausible_backend_with_its_scores(
     assert code == 0, stderr
     check = _self_check(run)
     assert check["plausible"] is True
-    assert check["n_frames"] == 16
+    assert check["n_frames"] == 12
     trials = check["trials"]
     assert isinstance(trials, list)
     assert trials  # the fastest candidate at least; later ones only when it leaves room
@@ -74,7 +74,7 @@ def test_a_correct_camera_gets_a_plausible_backend_with_its_scores(
     assert chosen[0]["scores"]["plausible"] is True
     assert 2.5 <= chosen[0]["scores"]["width_m"] <= 4.5
     report = (run / "report.md").read_text(encoding="utf-8")
-    assert "segmentation self-check on 16 frames" in report
+    assert "segmentation self-check on 12 frames" in report
     assert "most plausible lanes" in report
     assert UNLIKE not in report
     assert UNLIKE not in stderr
