@@ -84,9 +84,8 @@ def judge(model: str, releases: Mapping[str, Mapping[str, Any]]) -> Verdict:
         pick = min if name.endswith("_rmse") else max
         best_model = pick(others, key=lambda m: others[m])
         if _worse(name, float(sets[name]), others[best_model]):
-            failures.append(
-                f"{name} {float(sets[name]):.4g} < {best_model} {others[best_model]:.4g}"
-            )
+            value, best = float(sets[name]), others[best_model]
+            failures.append(f"{name} {value:.4g} worse than {best_model}'s {best:.4g}")
     ms = own.get("ms_per_frame_same_run") or {}
     if "model" not in ms or "reference" not in ms:
         failures.append("speed: not measured beside the reference")

@@ -118,7 +118,7 @@ def test_card_rejects_heads_off_the_hierarchy(models: dict[str, Path], tmp_path:
 
 def test_shipped_models_match_their_cards() -> None:
     backend = OnnxSegmentationBackend()  # the default model, verified against its card
-    assert backend.card.name == DEFAULT_SEGMENTATION_MODEL == "super_seg_v5"
+    assert backend.card.name == DEFAULT_SEGMENTATION_MODEL == "super_seg_v4"
     assert backend.card.input.shape == (1, 3, 288, 512)
     image, _, _ = toy_frame(np.random.default_rng(5), 320, 180)
     assert backend.segment(image).shape == (180, 320)
