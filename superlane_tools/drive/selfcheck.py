@@ -356,14 +356,20 @@ def _read_sample(
 ) -> list[list[tuple[int, Any]]]:
     """Seek to each sampled run and decode its frames once: ``(index, (size, image))``."""
     from superlane_tools.recording.images import decode_frame, decode_reduced
-    from superlane_tools.recording.video import read_with_video
+    from superlane_tools.recording.video import message_codec, read_with_video
 
+    first = (
+        next(iter(recording.messages(topics=[topic], start_ns=times[0])), None) if times else None
+    )
+    video = first is not None and message_codec(first) is not None
     runs = []
     for start in sample_starts(len(times)):
         stop = min(start + CLIP_FRAMES, len(times))
-        messages = read_with_video(
-            recording, [topic], start_ns=times[start], stop_ns=times[stop - 1] + 1
-        )
+        window = {"start_ns": times[start], "stop_ns": times[stop - 1] + 1}
+        if video:  # from the keyframe before the run
+            messages = read_with_video(recording, [topic], **window)
+        else:  # images: each frame stands alone
+            messages = recording.messages(topics=[topic], **window)
         run = []
         for index, msg in zip(range(start, stop), messages, strict=False):
             reduced = decode_reduced(msg, process_width)
