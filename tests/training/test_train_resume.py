@@ -14,7 +14,7 @@ import torch
 from superlane_tools.training.checkpoint import load_checkpoint
 from superlane_tools.training.schedule import Schedule
 from superlane_tools.training.train import TrainParams, cpu_cores, train
-from superlane_tools.training.validation import real_dev_sets, score_sets, torch_segmenter
+from superlane_tools.training.validation import onnx_segmenter, real_dev_sets, score_sets
 
 REALDATA = Path(os.environ.get("SLT_REALDATA", Path(__file__).parents[3] / "shared" / "data"))
 
@@ -146,7 +146,7 @@ def test_best_on_worst_weights_are_kept_and_exported(
     net.load_state_dict(kept["model"])
     net.eval()
     spec = _input_spec("segmentation", (64, 32), _normalisation(params))
-    again = score_sets(torch_segmenter(exported_module(net), spec), real_dev_sets(dev))
+    again = score_sets(onnx_segmenter(exported_module(net), spec, tmp_path), real_dev_sets(dev))
     assert again == best["scores"]
 
 
