@@ -283,3 +283,37 @@ def canonical_maps(drive: CameraModel, canonical: CanonicalCamera) -> CanonicalM
         )
     return maps
 
+
+
+class CanonicalView:
+    """The forward half of :class:`CanonicalMaps`: resample one camera's images (training frames).
+
+    Cheaper than :func:`canonical_maps` (no inverse table): for frames whose camera changes from
+    frame to frame (simulator datasets) or that are never mapped back.
+
+    Args:
+        drive: The camera of the images, at their size.
+        canonical: The canonical camera.
+    """
+
+    def __init__(self, drive: CameraModel, canonical: CanonicalCamera) -> None:
+        self.drive = drive
+        self.model = canonical.model(drive)
+        self.forward_x, self.forward_y = _forward_maps(drive, self.model)
+
+    def image(self, image: NDArray[Any], nearest: bool = False) -> NDArray[Any]:
+        """Return ``image`` (or a label image, ``nearest``) in the canonical camera."""
+        import cv2  # late: heavy import
+
+        CanonicalMaps._check(image, (self.drive.width, self.drive.height))
+        mode = cv2.INTER_NEAREST if nearest else cv2.INTER_LINEAR
+        out = cv2.remap(
+            image, self.forward_x, self.forward_y, mode, borderMode=cv2.BORDER_CONSTANT
+        )
+        return np.asarray(out, dtype=image.dtype)
+
+    def points(self, uv: FloatArray) -> FloatArray:
+        """Return the canonical pixels of ``(N, 2)`` image pixels (exact; unseen ones dropped)."""
+        out = source_to_canonical(self.drive, self.model, uv)
+        keep: FloatArray = out[(out[:, 0] != OUTSIDE) | (out[:, 1] != OUTSIDE)]
+        return keep
