@@ -15,8 +15,9 @@ against a reference graph (``--reference``, default the shipped ``super_seg_v4``
 baseline at each input size, all in one process, interleaved in rounds (the median of the
 rounds' medians), and writes a table (``--out``, e.g. benchmarks/results/models_variants.json):
 
-    nice -n 10 python benchmarks/bench_models.py --threads 1 --variants lite0@512x288 \
-        lite0@512x160 lite0-slim@512x160 lite0-s16@512x160 --out benchmarks/results/models_variants.json
+    nice -n 10 python benchmarks/bench_models.py --threads 1 --variants lite0@512x288 \\
+        lite0@512x160 lite0-slim@512x160 lite0-s16@512x160 \\
+        --out benchmarks/results/models_variants.json
 
 ``--compare-segmentation`` times another segmentation graph of the same input size in the same
 run, e.g. the shipped one before ``pipelines/strip_output_resize.py``

@@ -100,7 +100,7 @@ class CanonicalCamera:
         return CameraModel(intr, extr, name=f"canonical({drive.name})")
 
     def near_range_m(self, height_m: float) -> float:
-        """Return the flat-road distance (m) seen on the bottom row by a camera ``height_m`` high."""
+        """Return the flat-road distance (m) on the bottom row for a camera ``height_m`` high."""
         return height_m * self.focal_px / (self.height - 1 - self.horizon_row)
 
     def to_dict(self) -> dict[str, Any]:
@@ -186,9 +186,7 @@ class CanonicalMaps:
 
         self._check(image, self.source_size)
         mode = cv2.INTER_NEAREST if nearest else cv2.INTER_LINEAR
-        out = cv2.remap(
-            image, self.forward_x, self.forward_y, mode, borderMode=cv2.BORDER_CONSTANT
-        )
+        out = cv2.remap(image, self.forward_x, self.forward_y, mode, borderMode=cv2.BORDER_CONSTANT)
         return np.asarray(out, dtype=image.dtype)
 
     def labels_to_source(self, labels: NDArray[np.uint8]) -> NDArray[np.uint8]:
@@ -256,7 +254,7 @@ def _border_pixels(width: int, height: int) -> FloatArray:
 
 
 def canonical_maps(drive: CameraModel, canonical: CanonicalCamera) -> CanonicalMaps:
-    """Compute the forward and inverse remap tables of ``drive`` (at its image size); once per drive.
+    """Compute the forward and inverse tables of ``drive`` (at its image size): once per drive.
 
     Raises:
         CameraError: If the canonical camera sees nothing of the drive's image.
@@ -284,7 +282,6 @@ def canonical_maps(drive: CameraModel, canonical: CanonicalCamera) -> CanonicalM
     return maps
 
 
-
 class CanonicalView:
     """The forward half of :class:`CanonicalMaps`: resample one camera's images (training frames).
 
@@ -307,9 +304,7 @@ class CanonicalView:
 
         CanonicalMaps._check(image, (self.drive.width, self.drive.height))
         mode = cv2.INTER_NEAREST if nearest else cv2.INTER_LINEAR
-        out = cv2.remap(
-            image, self.forward_x, self.forward_y, mode, borderMode=cv2.BORDER_CONSTANT
-        )
+        out = cv2.remap(image, self.forward_x, self.forward_y, mode, borderMode=cv2.BORDER_CONSTANT)
         return np.asarray(out, dtype=image.dtype)
 
     def points(self, uv: FloatArray) -> FloatArray:

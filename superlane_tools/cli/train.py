@@ -118,9 +118,7 @@ def train(
         if task not in TASKS:
             raise UsageError(f"TASK must be one of {', '.join(TASKS)}, got {task!r}")
         if augment not in ("real", "camera", "canonical", "none"):
-            raise UsageError(
-                f"--augment must be real, camera, canonical or none, got {augment!r}"
-            )
+            raise UsageError(f"--augment must be real, camera, canonical or none, got {augment!r}")
         from superlane_tools.training import require_torch
 
         require_torch()

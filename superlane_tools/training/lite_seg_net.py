@@ -271,7 +271,7 @@ class LiteHierarchicalSegNet(nn.Module):
         return taps
 
     def export_logits(self, image: torch.Tensor) -> tuple[torch.Tensor, ...]:
-        """Return every head's logits at 1/``output_stride`` of the input, in :data:`HEADS` order."""
+        """Return every head's logits at 1/``output_stride`` of the input, in HEADS order."""
         maps = self.features(image)
         deepest = maps[-1]
         x = deepest + self.context(deepest.mean(dim=(2, 3), keepdim=True))
@@ -302,8 +302,10 @@ class LiteHierarchicalSegNet(nn.Module):
 
 
 class LiteHalfResolutionHeads(nn.Module):
-    """What is exported to ONNX: the per-head logits at the variant's output resolution
-    (half the input for ``lite0``, a quarter for the slim variants; the runtime upsamples)."""
+    """What is exported to ONNX: the per-head logits at the variant's output resolution.
+
+    Half the input for ``lite0``, a quarter for the slim variants; the runtime upsamples.
+    """
 
     def __init__(self, net: LiteHierarchicalSegNet) -> None:
         super().__init__()

@@ -91,7 +91,8 @@ def test_the_canonical_camera_is_level_and_keeps_the_drive_centre_and_yaw(
     drive: CameraModel,
 ) -> None:
     model = CANONICAL.model(drive)
-    assert model.extrinsics.pitch_rad == 0.0 and model.extrinsics.roll_rad == 0.0
+    assert model.extrinsics.pitch_rad == 0.0
+    assert model.extrinsics.roll_rad == 0.0
     assert model.extrinsics.yaw_rad == drive.extrinsics.yaw_rad
     np.testing.assert_array_equal(model.extrinsics.position, drive.extrinsics.position)
     assert model.horizon_row() == CANONICAL.horizon_row
@@ -126,9 +127,7 @@ def _kitti_labels(realdata: Path, name: str) -> np.ndarray:
 
 
 @pytest.mark.parametrize("name", ["gt_um_road_000000.png", "gt_um_lane_000000.png"])
-def test_forward_then_back_is_the_identity_on_the_covered_region(
-    realdata: Path, name: str
-) -> None:
+def test_forward_then_back_is_the_identity_on_the_covered_region(realdata: Path, name: str) -> None:
     labels = _kitti_labels(realdata, name)
     assert len(np.unique(labels)) >= 2
     maps = canonical_maps(_kitti(realdata), CANONICAL)
@@ -166,7 +165,8 @@ def test_sizes_and_errors() -> None:
     band = CanonicalCamera.for_input(512, 160)
     assert band == CANONICAL
     tall = CanonicalCamera.for_input(512, 288)
-    assert tall.focal_px == 400.0 and tall.horizon_row == 152.0
+    assert tall.focal_px == 400.0
+    assert tall.horizon_row == 152.0
     assert CANONICAL.near_range_m(1.7) == pytest.approx(5.04, abs=0.01)
     assert CanonicalCamera.from_dict(tall.to_dict()) == tall
     with pytest.raises(CameraError, match="horizon"):

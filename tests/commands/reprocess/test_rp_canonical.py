@@ -50,9 +50,7 @@ def _config(layout: RunLayout) -> dict[str, Any]:
 
 def _ego_offsets(lanes: pd.DataFrame) -> np.ndarray:
     rows = lanes[(lanes["ego_left"] >= 0) & (lanes["ego_right"] >= 0)]
-    return np.array(
-        [[r.offsets[r.ego_left], r.offsets[r.ego_right]] for r in rows.itertuples()]
-    )
+    return np.array([[r.offsets[r.ego_left], r.offsets[r.ego_right]] for r in rows.itertuples()])
 
 
 def _annotation_rows(path: Path) -> list[float]:
@@ -74,15 +72,19 @@ def test_reprocess_with_the_canonical_camera_writes_outputs_in_recording_pixels(
     assert "segmentation backend: onnx:" in canon.report.read_text(encoding="utf-8")
     lanes, lanes_plain = pd.read_parquet(canon.lanes), pd.read_parquet(plain.lanes)
     assert len(lanes) == len(lanes_plain) == 30
-    assert set(lanes["width"]) == {WIDTH} and set(lanes["height"]) == {HEIGHT}
+    assert set(lanes["width"]) == {WIDTH}
+    assert set(lanes["height"]) == {HEIGHT}
     # the network finds the ego lane through the canonical camera, at the same place in metres
     # as without it: its labels came back to the recording's pixels
     ego, ego_plain = _ego_offsets(lanes), _ego_offsets(lanes_plain)
-    assert len(ego) >= 15 and len(ego_plain) >= 15
-    assert np.median(ego[:, 0]) > 1.0 and np.median(ego[:, 1]) < -1.0
+    assert len(ego) >= 15
+    assert len(ego_plain) >= 15
+    assert np.median(ego[:, 0]) > 1.0
+    assert np.median(ego[:, 1]) < -1.0
     np.testing.assert_allclose(np.median(ego, axis=0), np.median(ego_plain, axis=0), atol=0.3)
     ys, ys_plain = _annotation_rows(canon.annotations), _annotation_rows(plain.annotations)
-    assert ys and ys_plain
+    assert ys
+    assert ys_plain
     assert 0 < np.median(ys) < HEIGHT
     assert abs(np.median(ys) - np.median(ys_plain)) < 10.0
 
