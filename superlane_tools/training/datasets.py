@@ -128,12 +128,19 @@ def load_dataset_list(path: str | os.PathLike[str]) -> tuple[DatasetSpec, ...]:
                 str(entry.get("split", "train")),
                 None if levels is None else tuple(int(v) for v in levels),
                 float(entry.get("expand_m", 0.0)),
-                str(entry.get("camera", "")),
+                _relative_camera(str(entry.get("camera", "")), source.parent),
             )
         except (TypeError, ValueError) as err:
             raise TrainingError(f"{source}: entry {i}: {err}") from err
         specs.append(validate_spec(spec))
     return tuple(specs)
+
+
+def _relative_camera(camera: str, folder: Path) -> str:
+    """Return a camera YAML path relative to ``folder`` as a full path (profile names as is)."""
+    if camera.endswith((".yaml", ".yml")) and not Path(camera).is_absolute():
+        return str(folder / camera)
+    return camera
 
 
 def validate_spec(spec: DatasetSpec) -> DatasetSpec:

@@ -103,6 +103,31 @@ def test_canonical_training_frames_know_their_camera(realdata: Path) -> None:
         load_set(tusimple, "segmentation", (512, 160), 1, canonical)
 
 
+def test_a_dataset_entry_names_its_camera(realdata: Path, tmp_path: Path) -> None:
+    """E.g. CULane frames with the camera ``slt camera estimate`` wrote, beside the list."""
+    from superlane_tools.camera import camera_to_yaml
+    from superlane_tools.training.datasets import load_dataset_list
+
+    (tmp_path / "cam.yaml").write_text(camera_to_yaml(load_camera("tusimple")), encoding="utf-8")
+    folder = realdata / "tusimple" / "train_frames"
+    listing = tmp_path / "datasets.yaml"
+    listing.write_text(
+        f"datasets:\n  - {{reader: tusimple, folder: {folder}, split: all, camera: cam.yaml}}\n",
+        encoding="utf-8",
+    )
+    (spec,) = load_dataset_list(listing)
+    assert spec.camera == str(tmp_path / "cam.yaml")
+    canonical = CanonicalCamera.for_input(256, 80)
+    named = load_set(spec, "segmentation", (256, 80), 1, canonical)
+    default = load_set(
+        DatasetSpec("tusimple", folder, split="all"), "segmentation", (256, 80), 1, canonical
+    )
+    np.testing.assert_array_equal(named.images, default.images)  # the same camera, by file
+    bad = DatasetSpec("tusimple", folder, split="all", camera=str(tmp_path / "none.yaml"))
+    with pytest.raises(TrainingError, match=r"none\.yaml"):
+        load_set(bad, "segmentation", (256, 80), 1, canonical)
+
+
 def test_train_a_variant_in_the_canonical_camera_cards_it(realdata: Path, tmp_path: Path) -> None:
     out = tmp_path / "tiny.onnx"
     data = realdata / "tusimple" / "train_frames"
