@@ -143,12 +143,14 @@ def source_to_canonical(drive: CameraModel, canonical: CameraModel, uv: FloatArr
     whose ray points behind the canonical camera get :data:`OUTSIDE`.
     """
     xn, yn = drive.normalized(uv)
-    rays = np.stack([xn, yn, np.ones_like(xn)], axis=1) @ rotation_to_canonical(drive, canonical).T
+    r = rotation_to_canonical(drive, canonical)
+    # R @ (x, y, 1) per pixel, written out: a (N, 3) @ (3, 3) product is ten times slower
+    rx, ry, rz = (r[i, 0] * xn + r[i, 1] * yn + r[i, 2] for i in range(3))
     k = canonical.intrinsics
-    front = rays[:, 2] > 1e-9
+    front = rz > 1e-9
     with np.errstate(divide="ignore", invalid="ignore"):
-        u = np.where(front, k.fx * rays[:, 0] / rays[:, 2] + k.cx, OUTSIDE)
-        v = np.where(front, k.fy * rays[:, 1] / rays[:, 2] + k.cy, OUTSIDE)
+        u = np.where(front, k.fx * rx / rz + k.cx, OUTSIDE)
+        v = np.where(front, k.fy * ry / rz + k.cy, OUTSIDE)
     return np.stack([u, v], axis=1)
 
 
@@ -228,14 +230,16 @@ def _forward_maps(
     )  # fmt: skip
     # Rays behind the drive camera, or (with distortion) outside the undistorted field of view
     # where the polynomial folds back into the image, have no source pixel.
-    grid_u, grid_v = np.meshgrid(np.arange(size[0], dtype=np.float64), np.arange(size[1]))
     kc = canonical.intrinsics
-    rays_c = np.stack([(grid_u - kc.cx) / kc.fx, (grid_v - kc.cy) / kc.fy, np.ones_like(grid_u)])
-    rays_d = np.tensordot(rot.T, rays_c, axes=1)
-    invalid = rays_d[2] <= 1e-9
+    xc = ((np.arange(size[0], dtype=np.float64) - kc.cx) / kc.fx)[None, :]
+    yc = ((np.arange(size[1], dtype=np.float64) - kc.cy) / kc.fy)[:, None]
+    rt = rot.T  # canonical directions back into the drive's optical frame
+    zd = rt[2, 0] * xc + rt[2, 1] * yc + rt[2, 2]
+    invalid = zd <= 1e-9
     if k.has_distortion:
         with np.errstate(divide="ignore", invalid="ignore"):
-            xn, yn = rays_d[0] / rays_d[2], rays_d[1] / rays_d[2]
+            xn = (rt[0, 0] * xc + rt[0, 1] * yc + rt[0, 2]) / zd
+            yn = (rt[1, 0] * xc + rt[1, 1] * yc + rt[1, 2]) / zd
         border = _border_pixels(drive.width, drive.height)
         bx, by = drive.normalized(border)
         invalid |= (xn < bx.min()) | (xn > bx.max()) | (yn < by.min()) | (yn > by.max())
