@@ -10,6 +10,15 @@ Usage:
     python benchmarks/bench_models.py [--threads 1 2] [--repeats 30] [--out FILE.json]
         [--compare-segmentation OTHER.onnx]
 
+``--variants NAME@WxH ...`` times UNTRAINED exported segmentation variants (``slt train --arch``)
+against a reference graph (``--reference``, default the shipped ``super_seg_v4``) and a 3x3 conv
+baseline at each input size, all in one process, interleaved in rounds (the median of the
+rounds' medians), and writes a table (``--out``, e.g. benchmarks/results/models_variants.json):
+
+    nice -n 10 python benchmarks/bench_models.py --threads 1 --variants lite0@512x288 \\
+        lite0@512x160 lite0-slim@512x160 lite0-s16@512x160 \\
+        --out benchmarks/results/models_variants.json
+
 ``--compare-segmentation`` times another segmentation graph of the same input size in the same
 run, e.g. the shipped one before ``pipelines/strip_output_resize.py``
 (``git show 6d1a287:superlane_tools/models/super_seg_v2.onnx > before.onnx``).
@@ -25,6 +34,7 @@ import json
 import os
 import platform
 import statistics
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -108,12 +118,88 @@ def _model_file(task: str, scratch: Path) -> tuple[Path, str, tuple[int, ...]]:
     return path, f"untrained {task} architecture (no shipped model)", shape
 
 
+def _variant(text: str, scratch: Path) -> tuple[Path, tuple[int, ...], int]:
+    """Export the untrained variant ``NAME@WxH``; return its file, input shape and parameters."""
+    from superlane_tools.scene.adapters.heads import HEADS
+    from superlane_tools.training.lite_seg_net import (
+        LiteHalfResolutionHeads,
+        LiteHierarchicalSegNet,
+        check_input_size,
+    )
+
+    name, _, size = text.partition("@")
+    width, height = (int(v) for v in (size or "512x288").split("x"))
+    check_input_size(width, height, name)
+    net = LiteHierarchicalSegNet(pretrained=False, variant=name)
+    params = sum(p.numel() for p in net.parameters())
+    shape = (1, 3, height, width)
+    path = scratch / f"{name}_{width}x{height}.onnx"
+    _export(LiteHalfResolutionHeads(net), shape, path, [h.name for h in HEADS])
+    return path, shape, params
+
+
+def _variants_table(args: argparse.Namespace) -> dict[str, Any]:
+    """Time the variants, the reference and the baselines in rounds, one session each."""
+    threads = args.threads[0]
+    rows: list[dict[str, Any]] = []
+    with tempfile.TemporaryDirectory() as tmp:
+        scratch = Path(tmp)
+        ref = args.reference
+        import onnx
+
+        dims = onnx.load(str(ref)).graph.input[0].type.tensor_type.shape.dim
+        ref_shape = tuple(int(d.dim_value) for d in dims)
+        jobs = [(ref.stem, ref, ref_shape, _card_parameters(ref))]
+        for text in args.variants:
+            path, shape, params = _variant(text, scratch)
+            jobs.append((text, path, shape, params))
+        for shape in sorted({job[2] for job in jobs}):
+            name = f"conv3x3@{shape[3]}x{shape[2]}"
+            _baseline(shape, scratch / f"{name}.onnx")
+            jobs.append((name, scratch / f"{name}.onnx", shape, None))
+        sessions = [_session(job[1], threads) for job in jobs]
+        tensors = [np.random.default_rng(0).normal(size=job[2]).astype(np.float32) for job in jobs]
+        times: list[list[float]] = [[] for _ in jobs]
+        for _ in range(args.rounds):
+            for i, job in enumerate(jobs):
+                upsample = not job[0].startswith("conv3x3")
+                times[i].append(_median_ms(sessions[i], tensors[i], args.repeats, upsample))
+        ms = [statistics.median(t) for t in times]
+    base = {job[2]: ms[i] for i, job in enumerate(jobs) if job[0].startswith("conv3x3")}
+    for i, (name, _, shape, params) in enumerate(jobs):
+        rows.append(
+            {
+                "variant": name,
+                "input": f"{shape[3]}x{shape[2]}",
+                "params": params,
+                "median_ms": round(ms[i], 2),
+                "ratio_to_reference": round(ms[i] / ms[0], 3),
+                "ratio_to_conv3x3": round(ms[i] / base[shape], 2),
+            }
+        )
+        print(f"{name:24s} {shape[3]}x{shape[2]} {ms[i]:7.2f} ms  x{ms[i] / ms[0]:.2f} ref")
+    return {"reference": ref.name, "threads": threads, "rounds": args.rounds, "rows": rows}
+
+
+def _card_parameters(path: Path) -> int | None:
+    from superlane_tools.errors import SltError
+    from superlane_tools.scene.model_card import card_path_for, load_card
+
+    try:
+        return int(load_card(card_path_for(path)).parameters)
+    except (SltError, TypeError, ValueError):
+        return None
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--threads", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--repeats", type=int, default=30)
     ap.add_argument("--out", type=Path, default=Path("benchmarks/results/models.json"))
     ap.add_argument("--compare-segmentation", type=Path, default=None, metavar="ONNX")
+    ap.add_argument("--variants", nargs="+", default=None, metavar="NAME@WxH")
+    ap.add_argument("--reference", type=Path, default=None, metavar="ONNX")
+    ap.add_argument("--rounds", type=int, default=3)
     args = ap.parse_args()
     results: dict[str, Any] = {
         "machine": f"{platform.machine()} {os.cpu_count()} cpus",
@@ -123,6 +209,19 @@ def main() -> None:
         "runtime)",
         "models": {},
     }
+    if args.variants:
+        from superlane_tools.models import MODELS_DIR
+
+        args.reference = args.reference or MODELS_DIR / "super_seg_v4.onnx"
+        results.pop("models")
+        results["runtime"] = results["runtime"].replace("network only", "untrained variants")
+        results["command"] = "python benchmarks/bench_models.py " + " ".join(sys.argv[1:])
+        results["variants"] = _variants_table(args)
+        results["load_average_1min_end"] = round(os.getloadavg()[0], 2)
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+        args.out.write_text(json.dumps(results, indent=2) + "\n", encoding="utf-8")
+        print(f"wrote {args.out}")
+        return
     with tempfile.TemporaryDirectory() as tmp:
         scratch = Path(tmp)
         jobs = [(task, task, *_model_file(task, scratch)) for task in ("segmentation", "corridor")]

@@ -85,6 +85,14 @@ def reprocess_cmd(
             help="Add decoded CAN signals and the truth curves to annotations.mcap.",
         ),
     ] = False,
+    canonical_camera: Annotated[
+        bool | None,
+        typer.Option(
+            "--canonical-camera/--no-canonical-camera",
+            help="Segment in the canonical virtual camera also with models trained without "
+            "it (network backends; default off; models trained in it always use it).",
+        ),
+    ] = None,
 ) -> None:
     """Reprocess a drive: SUPER lane fit, corridor network, Hough baseline, CAN, RTK.
 
@@ -133,6 +141,8 @@ def reprocess_cmd(
                 overrides["output.plots"] = False
             if workers is not None:
                 overrides["workers"] = workers
+            if canonical_camera is not None:
+                overrides["segmentation.canonical_camera"] = canonical_camera
             cfg = cfg.with_overrides(overrides)
             target = out if out is not None else Path("runs") / _recording_name(recording)
             with progress("reprocess", unit="frames") as bar:

@@ -79,14 +79,17 @@ def train(
     arch: Annotated[
         str,
         typer.Option(
-            "--arch", help="Network: super or lite0 (segmentation); fast or paper (corridor)."
+            "--arch",
+            help="Network: super, lite0, lite0-slim, lite0-s16 or lite0-s16-tiny "
+            "(segmentation); fast or paper (corridor).",
         ),
     ] = "",
     augment: Annotated[
         str,
         typer.Option(
             "--augment",
-            help="Augmentation: real (default), camera (wider camera geometry, night), none.",
+            help="Augmentation: real (default), camera (wider camera geometry, night), "
+            "canonical (camera's photometry, little geometry: for --canonical-camera), none.",
         ),
     ] = "real",
     budget_s: Annotated[
@@ -120,17 +123,28 @@ def train(
         Path | None,
         typer.Option("--val-data", help="Real-data folder of the dev sets (validation)."),
     ] = None,
+    canonical_camera: Annotated[
+        bool,
+        typer.Option(
+            "--canonical-camera",
+            help="Resample frames with a known or estimated camera into the canonical camera.",
+        ),
+    ] = False,
 ) -> None:
     """Train a network on CPU, export it to ONNX (opset 17) and write MODEL.card.yaml."""
     with cli_errors():
         if task not in TASKS:
             raise UsageError(f"TASK must be one of {', '.join(TASKS)}, got {task!r}")
-        if augment not in ("real", "camera", "none"):
-            raise UsageError(f"--augment must be real, camera or none, got {augment!r}")
+        if augment not in ("real", "camera", "canonical", "none"):
+            raise UsageError(f"--augment must be real, camera, canonical or none, got {augment!r}")
         from superlane_tools.training import require_torch
 
         require_torch()
-        from superlane_tools.training.augment import CAMERA_AUGMENT, RealAugment
+        from superlane_tools.training.augment import (
+            CAMERA_AUGMENT,
+            CANONICAL_AUGMENT,
+            RealAugment,
+        )
         from superlane_tools.training.datasets import load_dataset_list, parse_data_arg
         from superlane_tools.training.train import TrainParams
         from superlane_tools.training.train import train as run_training
@@ -155,7 +169,13 @@ def train(
             resume=resume,
             init=init,
             budget_s=budget_s,
-            augment={"real": RealAugment(), "camera": CAMERA_AUGMENT, "none": None}[augment],
+            augment={
+                "real": RealAugment(),
+                "camera": CAMERA_AUGMENT,
+                "canonical": CANONICAL_AUGMENT,
+                "none": None,
+            }[augment],
+            canonical_camera=canonical_camera,
             batch=batch,
             lr=lr,
             size=_size(size),

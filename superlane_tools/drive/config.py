@@ -56,12 +56,18 @@ class SegmentationConfig:
         oracle_labels: Folder of leaf-id label PNGs for the ``oracle`` backend.
         process_width: Frames are resized to this width (pixels) before every image stage;
             0 keeps the recording's size.
+        canonical_camera: Segment each frame in the canonical virtual camera
+            (``scene.canonical_backend``: resampled from the drive's camera, labels mapped back
+            to the frame's pixels) also with a model trained without it; network backends only.
+            A model whose card records a canonical camera always runs in it. Off by default:
+            no shipped model is trained in the canonical view (docs/camera.md).
     """
 
     backend: str = "auto"
     model: str = ""
     oracle_labels: str = ""
     process_width: int = 640
+    canonical_camera: bool = False
 
 
 @dataclass(frozen=True)

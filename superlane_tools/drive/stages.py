@@ -198,7 +198,22 @@ class FrameStages:
 
             backend: Any = OnnxSegmentationBackend(seg.model or None, threads=1)
             self.models[backend.name] = backend.sha256
+            from superlane_tools.scene.canonical_backend import (
+                CanonicalBackend,
+                canonical_for_card,
+                trained_canonical,
+            )
+
+            # a model trained in the canonical camera always runs in it; the option applies
+            # it to the others too
+            if seg.canonical_camera or trained_canonical(backend.card) is not None:
+                backend = CanonicalBackend(backend, self.camera, canonical_for_card(backend.card))
             return backend.name, backend
+        if seg.canonical_camera:
+            self.notes.append(
+                f"canonical camera off for the {name} backend: it works in the drive's own "
+                "camera (the canonical camera is for networks)"
+            )
         backend = backend_from_name(name, camera=self.camera)
         return name, backend
 

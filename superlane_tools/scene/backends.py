@@ -27,10 +27,19 @@ def _classical(model: str | None, camera: CameraModel | None) -> SegmentationBac
 
 
 def _onnx(model: str | None, camera: CameraModel | None) -> SegmentationBackend:
-    del camera  # the network works in the image; its card fixes the input size
+    from superlane_tools.scene.canonical_backend import CanonicalBackend, trained_canonical
     from superlane_tools.scene.onnx_backend import OnnxSegmentationBackend
 
-    return OnnxSegmentationBackend(model)
+    backend = OnnxSegmentationBackend(model)
+    canonical = trained_canonical(backend.card)
+    if canonical is None:
+        return backend  # the network works in the image; its card fixes the input size
+    if camera is None:
+        raise BackendUnavailableError(
+            f"{backend.card.name} was trained in the canonical camera: give the images' camera "
+            "(--camera PROFILE|YAML)"
+        )
+    return CanonicalBackend(backend, camera, canonical)
 
 
 def _auto(model: str | None, camera: CameraModel | None) -> SegmentationBackend:

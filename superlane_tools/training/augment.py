@@ -96,6 +96,18 @@ CAMERA_AUGMENT = RealAugment(
     night_prob=0.12,
 )
 """Camera-geometry augmentation (one network for many cameras): the ``lite0`` recipe."""
+CANONICAL_AUGMENT = RealAugment(
+    scale=(0.92, 1.1),
+    aspect=(0.95, 1.05),
+    roll_deg=1.0,
+    pitch_frac=0.04,
+    temperature=0.12,
+    night_prob=0.12,
+)
+"""Augmentation for frames in the canonical camera (``--canonical-camera``): the camera's
+photometry, and only the geometry that remains once every frame is in one camera: calibration
+and estimation error (about 1 degree of pitch or roll, a few per cent of focal length) and the
+vehicle's own pitching."""
 
 
 def _u(gen: torch.Generator, low: float, high: float) -> float:

@@ -25,6 +25,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from superlane_tools.camera.canonical import CanonicalCamera, CanonicalView
+from superlane_tools.camera.model import CameraModel
 from superlane_tools.config_files import load_document
 from superlane_tools.errors import ConfigError
 from superlane_tools.hierarchy import BY_NAME
@@ -57,6 +59,10 @@ class DatasetSpec:
         levels: Hierarchy levels (1-4) this dataset trains; None = every level it labels.
         expand_m: ``tusimple`` only: label a band this wide (metres) on each side of every
             marking as road (SUPER II-B, "expand the lane marking to its vicinity").
+        camera: The frames' camera (profile name or YAML, e.g. one ``slt camera estimate``
+            wrote) for the canonical camera; "" = the reader's own (``tusimple``: the
+            ``tusimple`` profile; simulator folders: every frame's camera from the index;
+            others: unknown, frames left as they are).
     """
 
     reader: str
@@ -65,6 +71,7 @@ class DatasetSpec:
     split: str = "train"
     levels: tuple[int, ...] | None = None
     expand_m: float = 0.0
+    camera: str = ""
 
     def text(self) -> str:
         """Return the entry as ``--data`` text."""
@@ -94,7 +101,7 @@ def parse_data_arg(text: str) -> DatasetSpec:
 def load_dataset_list(path: str | os.PathLike[str]) -> tuple[DatasetSpec, ...]:
     """Read a YAML list: ``datasets: [{reader, folder, weight?, split?, levels?, expand_m?}]``.
 
-    Relative folders are relative to the YAML file.
+    Relative folders (and camera YAML files) are relative to the YAML file.
 
     Raises:
         TrainingError: If the file cannot be read or an entry is malformed.
@@ -121,11 +128,19 @@ def load_dataset_list(path: str | os.PathLike[str]) -> tuple[DatasetSpec, ...]:
                 str(entry.get("split", "train")),
                 None if levels is None else tuple(int(v) for v in levels),
                 float(entry.get("expand_m", 0.0)),
+                _relative_camera(str(entry.get("camera", "")), source.parent),
             )
         except (TypeError, ValueError) as err:
             raise TrainingError(f"{source}: entry {i}: {err}") from err
         specs.append(validate_spec(spec))
     return tuple(specs)
+
+
+def _relative_camera(camera: str, folder: Path) -> str:
+    """Return a camera YAML path relative to ``folder`` as a full path (profile names as is)."""
+    if camera.endswith((".yaml", ".yml")) and not Path(camera).is_absolute():
+        return str(folder / camera)
+    return camera
 
 
 def validate_spec(spec: DatasetSpec) -> DatasetSpec:
@@ -164,6 +179,7 @@ class LoadedSet:
         corridor: ``(N, H, W)`` uint8 ego-lane targets (0, 1, 255 = unknown), or None.
         names: Frame names.
         heads: Per head of :data:`HEADS`: whether this dataset trains it.
+        canonical: The frames were resampled into the canonical camera.
     """
 
     spec: DatasetSpec
@@ -172,6 +188,7 @@ class LoadedSet:
     corridor: NDArray[np.uint8] | None
     names: tuple[str, ...]
     heads: tuple[bool, ...]
+    canonical: bool = False
 
 
 def _split_rows(n: int, split: str, val: int) -> slice:
@@ -217,17 +234,32 @@ def tusimple_labels(folder: Path) -> list[dict[str, Any]]:
 
 
 def read_tusimple(
-    spec: DatasetSpec, size: tuple[int, int], max_frames: int | None = None
+    spec: DatasetSpec,
+    size: tuple[int, int],
+    max_frames: int | None = None,
+    canonical: CanonicalCamera | None = None,
 ) -> tuple[NDArray[np.uint8], NDArray[np.uint8], NDArray[np.uint8], tuple[str, ...]]:
-    """Return images, node codes, corridor targets and names of a TuSimple folder's split."""
+    """Return images, node codes, corridor targets and names of a TuSimple folder's split.
+
+    With ``canonical``, every frame is resampled into that camera from ``spec.camera`` (default
+    the ``tusimple`` profile) and the label polylines are mapped exactly (then rasterised).
+    """
     labels = tusimple_labels(spec.folder)
     labels = labels[_split_rows(len(labels), spec.split, TUSIMPLE_VAL_FRAMES)][:max_frames]
     images, codes, corridors, names = [], [], [], []
     width, height = size
+    base = _spec_camera(spec, "tusimple") if canonical is not None else None
     for label in labels:
         image = _imread(spec.folder / str(label["raw_file"]))
-        lines = label_polylines(label, width / image.shape[1], height / image.shape[0])
-        images.append(_resize(image, size, nearest=False))
+        if base is not None and canonical is not None:
+            cam = base.resized(image.shape[1], image.shape[0])
+            view = CanonicalView(cam, canonical)
+            images.append(view.image(image))
+            lines = [view.points(line) for line in label_polylines(label, 1.0, 1.0)]
+            lines = [line for line in lines if len(line) >= 2]
+        else:
+            lines = label_polylines(label, width / image.shape[1], height / image.shape[0])
+            images.append(_resize(image, size, nearest=False))
         codes.append(road_and_marking_codes(lines, width, height, spec.expand_m))
         corridors.append(corridor_target(lines, width, height))
         names.append(str(label["raw_file"]))
@@ -271,7 +303,11 @@ def read_camvid(
 
 
 def _index_folder(
-    spec: DatasetSpec, task: str, size: tuple[int, int], max_frames: int | None
+    spec: DatasetSpec,
+    task: str,
+    size: tuple[int, int],
+    max_frames: int | None,
+    canonical: CanonicalCamera | None = None,
 ) -> tuple[NDArray[np.uint8], NDArray[np.uint8] | None, NDArray[np.uint8] | None, tuple[str, ...]]:
     from superlane_tools.training.data import read_index
 
@@ -280,13 +316,18 @@ def _index_folder(
     table = table.iloc[:max_frames]
     adapter = load_adapter("superlane" if spec.reader in ("sim", "superlane") else spec.reader)
     images, targets = [], []
-    for image_rel, target_rel in zip(table["image"], table[column], strict=True):
-        images.append(_resize(_imread(root / str(image_rel)), size, nearest=False))
+    for row, (image_rel, target_rel) in enumerate(zip(table["image"], table[column], strict=True)):
+        image = _imread(root / str(image_rel))
         ids = read_label_ids(root / str(target_rel))
-        if task == "segmentation":
-            targets.append(_resize(adapter.to_codes(ids), size, nearest=True))
+        target = adapter.to_codes(ids) if task == "segmentation" else (ids > 0).astype(np.uint8)
+        cam = index_camera(spec, table.iloc[row], image.shape) if canonical else None
+        if cam is not None and canonical is not None:
+            view = CanonicalView(cam, canonical)
+            images.append(view.image(image))
+            targets.append(view.image(np.asarray(target, np.uint8), nearest=True))
         else:
-            targets.append(_resize((ids > 0).astype(np.uint8), size, nearest=True))
+            images.append(_resize(image, size, nearest=False))
+            targets.append(_resize(target, size, nearest=True))
     names = tuple(Path(str(p)).name for p in table["image"])
     stacked = np.stack(targets)
     if task == "segmentation":
@@ -295,9 +336,17 @@ def _index_folder(
 
 
 def load_set(
-    spec: DatasetSpec, task: str, size: tuple[int, int], max_frames: int | None = None
+    spec: DatasetSpec,
+    task: str,
+    size: tuple[int, int],
+    max_frames: int | None = None,
+    canonical: CanonicalCamera | None = None,
 ) -> LoadedSet:
     """Load one dataset entry for ``task`` at ``size = (width, height)``.
+
+    With ``canonical`` (its size must be ``size``), frames whose camera is known or estimated
+    (:func:`has_camera`) are resampled into the canonical camera; the others (CamVid, an
+    adapter folder without ``camera``) are loaded as they are.
 
     Raises:
         TrainingError: If the folder cannot be read or has no labels for ``task``.
@@ -307,16 +356,58 @@ def load_set(
         raise TrainingError(f"{spec.text()}: no such folder")
     codes: NDArray[np.uint8] | None
     corridor: NDArray[np.uint8] | None
+    if canonical is not None and (canonical.width, canonical.height) != size:
+        raise TrainingError(f"the canonical camera is not {size[0]}x{size[1]}")
+    if canonical is not None and (task != "segmentation" or not has_camera(spec)):
+        canonical = None  # unknown camera (or the corridor task): frames stay as they are
     if spec.reader == "tusimple":
-        images, codes, corridor, names = read_tusimple(spec, size, max_frames)
+        images, codes, corridor, names = read_tusimple(spec, size, max_frames, canonical)
     elif spec.reader == "camvid":
         if task != "segmentation":
             raise TrainingError(f"{spec.text()}: CamVid has no ego-lane labels (task {task})")
         images, codes, names = read_camvid(spec, size, max_frames)
         corridor = None
     else:
-        images, codes, corridor, names = _index_folder(spec, task, size, max_frames)
+        images, codes, corridor, names = _index_folder(spec, task, size, max_frames, canonical)
     if task == "corridor":
         codes = None
     heads = tuple(spec.levels is None or head_level(i) in spec.levels for i in range(len(HEADS)))
-    return LoadedSet(spec, images, codes, corridor, names, heads)
+    return LoadedSet(spec, images, codes, corridor, names, heads, canonical is not None)
+
+
+SIM_CAMERA_COLUMNS = ("fx", "fy", "cx", "cy", "camera_height_m", "pitch_rad", "roll_rad")
+"""Index columns of a simulator folder that give every frame's camera (``slt simulate dataset``)."""
+
+
+def has_camera(spec: DatasetSpec) -> bool:
+    """Return True if the entry's frames have a known or estimated camera.
+
+    TuSimple (its profile), simulator folders (every frame's camera in the index) and any entry
+    with ``camera`` do; CamVid and other adapter folders do not.
+    """
+    return bool(spec.camera) or spec.reader in ("tusimple", "sim", "superlane")
+
+
+def _spec_camera(spec: DatasetSpec, default: str) -> CameraModel:
+    from superlane_tools.camera.errors import CameraError
+    from superlane_tools.camera.profiles import load_camera
+
+    try:
+        return load_camera(spec.camera or default)
+    except CameraError as err:
+        raise TrainingError(f"{spec.text()}: {err}") from err
+
+
+def index_camera(spec: DatasetSpec, row: Any, shape: tuple[int, ...]) -> CameraModel | None:
+    """Return a frame's camera: the entry's ``camera``, else the index row's (simulator)."""
+    if spec.camera:
+        return _spec_camera(spec, "").resized(shape[1], shape[0])
+    if not all(c in row.index for c in SIM_CAMERA_COLUMNS):
+        return None
+    from superlane_tools.camera.model import Extrinsics, Intrinsics
+
+    intr = Intrinsics(shape[1], shape[0], row["fx"], row["fy"], row["cx"], row["cy"])
+    extr = Extrinsics(
+        row["camera_height_m"], row["pitch_rad"], row["roll_rad"], float(row.get("yaw_rad", 0.0))
+    )
+    return CameraModel(intr, extr, name="sim")

@@ -20,6 +20,7 @@ Input normalisation: the TF EfficientNet-Lite convention, ``(pixel - 127) / 128`
 
 from __future__ import annotations
 
+from dataclasses import dataclass, replace
 from typing import Any
 
 import torch
@@ -103,11 +104,92 @@ def fold_symmetric_padding(module: nn.Module) -> nn.Module:
     return module
 
 
+@dataclass(frozen=True)
+class LiteVariant:
+    """One segmentation network on the EfficientNet-Lite0 encoder (``slt train --arch NAME``).
+
+    Attributes:
+        name: The ``--arch`` name.
+        last_block: Last encoder block kept (15: all of them, features down to 1/32; 10: the
+            encoder stops at 1/16, after the 112-channel stage).
+        decoder: Decoder channels, one per fused scale from the coarsest skip (1/16 for a full
+            encoder, 1/8 for one that ends at 1/16) down to the finest scale computed.
+        fine_at_half: The drivable and lane-marking heads read a 1/2 map (else every head reads
+            the 1/4 map and the graph ends at 1/4 resolution).
+        summary: One line for the model card and docs.
+    """
+
+    name: str
+    last_block: int
+    decoder: tuple[int, ...]
+    fine_at_half: bool
+    summary: str
+
+    @property
+    def stride(self) -> int:
+        """The encoder's total stride: input sides must be multiples of it."""
+        return 32 if self.last_block >= TAPS[-1] else 16
+
+    @property
+    def description(self) -> str:
+        """The model card's description of a network of this variant."""
+        return (
+            "Hierarchical scene segmentation (SUPER Fig. 3) on an ImageNet-pretrained "
+            f"EfficientNet-Lite0 encoder: {self.summary}; one softmax head per parent node; "
+            "decode by argmax down the tree."
+        )
+
+    @property
+    def output_stride(self) -> int:
+        """Resolution of the exported heads: 2 (half the input) or 4 (a quarter)."""
+        return 2 if self.fine_at_half else 4
+
+
+LITE_VARIANTS: dict[str, LiteVariant] = {
+    v.name: v
+    for v in (
+        LiteVariant(
+            "lite0",
+            15,
+            (96, 64, 48, 32),
+            True,
+            "full encoder (1/32), decoder 96-64-48-32, fine heads at 1/2",
+        ),
+        LiteVariant(
+            "lite0-slim",
+            15,
+            (64, 48, 32),
+            False,
+            "full encoder (1/32), decoder 64-48-32, every head at 1/4",
+        ),
+        LiteVariant(
+            "lite0-s16",
+            10,
+            (64, 48),
+            False,
+            "encoder to 1/16 (blocks 0-10), decoder 64-48, every head at 1/4",
+        ),
+        LiteVariant(
+            "lite0-s16-tiny",
+            10,
+            (40, 32),
+            False,
+            "encoder to 1/16 (blocks 0-10), decoder 40-32, every head at 1/4",
+        ),
+    )
+}
+"""The pretrained-encoder segmentation networks, by ``--arch`` name (every encoder block kept is
+ImageNet-pretrained; docs/models.md, "Faster variants")."""
+_UP_NAMES = {16: "up4", 8: "up3", 4: "up2", 2: "up1"}
+"""Module name of the join at each output scale (the lite0 names: its checkpoints load)."""
+
+
 class LiteHierarchicalSegNet(nn.Module):
     """EfficientNet-Lite0 encoder, multi-scale decoder, one logit head per hierarchy parent.
 
-    ``forward`` takes a normalised ``(N, 3, H, W)`` RGB batch (H and W multiples of 32) and
-    returns one ``(N, C_k, H, W)`` logit tensor per head, in :data:`HEADS` order.
+    ``forward`` takes a normalised ``(N, 3, H, W)`` RGB batch (H and W multiples of the
+    variant's stride) and returns one ``(N, C_k, H, W)`` logit tensor per head, in
+    :data:`HEADS` order.
 
     Training keeps the encoder's batch-norm statistics fixed (the ImageNet ones: batches of a
     few frames estimate them badly) and freezes the stem and the first ``frozen_blocks`` blocks
@@ -116,8 +198,10 @@ class LiteHierarchicalSegNet(nn.Module):
 
     Args:
         pretrained: Load the packaged ImageNet weights into the encoder (False: random, tests).
-        decoder: Decoder channels at 1/16, 1/8, 1/4 and 1/2.
+        decoder: Decoder channels at 1/16, 1/8, 1/4 and 1/2 (the ``lite0`` variant; ignored
+            when ``variant`` is given).
         frozen_blocks: Encoder blocks after the stem whose weights stay fixed.
+        variant: A :data:`LITE_VARIANTS` name (default ``lite0`` with ``decoder``).
     """
 
     def __init__(
@@ -125,24 +209,38 @@ class LiteHierarchicalSegNet(nn.Module):
         pretrained: bool = True,
         decoder: tuple[int, int, int, int] = (96, 64, 48, 32),
         frozen_blocks: int = 3,
+        variant: str = "lite0",
     ) -> None:
         super().__init__()
+        spec = lite_variant(variant)
+        if variant == "lite0":
+            spec = replace(spec, decoder=decoder)
+        self.variant = spec
         encoder: Any = fold_symmetric_padding(pretrained_encoder(pretrained))
         self.stem = nn.Sequential(encoder._conv_stem, encoder._bn0, encoder._swish)
-        self.blocks = nn.ModuleList(list(encoder._blocks)[: TAPS[-1] + 1])
+        self.blocks = nn.ModuleList(list(encoder._blocks)[: spec.last_block + 1])
         frozen = [self.stem, *self.blocks[:frozen_blocks]]
         for parameter in (p for module in frozen for p in module.parameters()):
             parameter.requires_grad_(False)
-        c1, c2, c3, c4, c5 = TAP_CHANNELS
-        d4, d3, d2, d1 = decoder
-        self.context = ConvBNReLU(c5, c5, kernel=1)
-        self.up4 = UpJoin(c5, c4, d4)
-        self.up3 = UpJoin(d4, c3, d3)
-        self.up2 = UpJoin(d3, c2, d2)
-        self.up1 = UpJoin(d2, c1, d1)
+        self.taps = tuple(t for t in TAPS if t <= spec.last_block)
+        channels = TAP_CHANNELS[: len(self.taps)]
+        self.context = ConvBNReLU(channels[-1], channels[-1], kernel=1)
+        # joins from the deepest map down: to 1/8 (or 1/16), ..., 1/4 (and 1/2 for fine heads)
+        scales = [2 ** (i + 1) for i in range(len(self.taps))][:-1][::-1]
+        coarse_in = channels[-1]
+        self.scales: tuple[int, ...] = tuple(scales[: len(spec.decoder)])
+        for scale, c_out in zip(self.scales, spec.decoder, strict=True):
+            skip = channels[scale.bit_length() - 2]  # maps[i] is at 1/2**(i + 1)
+            setattr(self, _UP_NAMES[scale], UpJoin(coarse_in, skip, c_out))
+            coarse_in = c_out
+        if self.scales[-1] != spec.output_stride:
+            raise TrainingError(
+                f"variant {spec.name}: its decoder does not reach 1/{spec.output_stride}"
+            )
+        d_quarter = spec.decoder[self.scales.index(4)]
         self.head_sizes = tuple(len(h.classes) for h in HEADS)
-        self.coarse = nn.Conv2d(d2, sum(self.head_sizes[:COARSE_HEADS]), 1)
-        self.fine = nn.Conv2d(d1, sum(self.head_sizes[COARSE_HEADS:]), 1)
+        self.coarse = nn.Conv2d(d_quarter, sum(self.head_sizes[:COARSE_HEADS]), 1)
+        self.fine = nn.Conv2d(spec.decoder[-1], sum(self.head_sizes[COARSE_HEADS:]), 1)
 
     def train(self, mode: bool = True) -> LiteHierarchicalSegNet:
         """Switch to training mode, the encoder's batch norms excepted (fixed statistics)."""
@@ -163,54 +261,82 @@ class LiteHierarchicalSegNet(nn.Module):
         return [p for p in self.parameters() if id(p) not in encoder]
 
     def features(self, image: torch.Tensor) -> list[torch.Tensor]:
-        """Return the encoder's maps at 1/2, 1/4, 1/8, 1/16 and 1/32."""
+        """Return the encoder's maps at 1/2, 1/4, 1/8, 1/16 (and 1/32 for a full encoder)."""
         x = self.stem(image)
         taps = []
         for i, block in enumerate(self.blocks):
             x = block(x)
-            if i in TAPS:
+            if i in self.taps:
                 taps.append(x)
         return taps
 
-    def half_resolution_logits(self, image: torch.Tensor) -> tuple[torch.Tensor, ...]:
-        """Return every head's logits at half the input resolution, in :data:`HEADS` order."""
-        s1, s2, s3, s4, s5 = self.features(image)
-        s5 = s5 + self.context(s5.mean(dim=(2, 3), keepdim=True))
-        d2 = self.up2(self.up3(self.up4(s5, s4), s3), s2)
-        d1 = self.up1(d2, s1)
-        coarse = F.interpolate(self.coarse(d2), size=d1.shape[-2:], mode="bilinear")
+    def export_logits(self, image: torch.Tensor) -> tuple[torch.Tensor, ...]:
+        """Return every head's logits at 1/``output_stride`` of the input, in HEADS order."""
+        maps = self.features(image)
+        deepest = maps[-1]
+        x = deepest + self.context(deepest.mean(dim=(2, 3), keepdim=True))
+        by_scale = {2 ** (i + 1): m for i, m in enumerate(maps)}
+        quarter = x
+        for scale in self.scales:
+            x = getattr(self, _UP_NAMES[scale])(x, by_scale[scale])
+            if scale == 4:
+                quarter = x
+        coarse = self.coarse(quarter)
+        if coarse.shape[-2:] != x.shape[-2:]:
+            coarse = F.interpolate(coarse, size=x.shape[-2:], mode="bilinear")
         coarse_heads = torch.split(coarse, list(self.head_sizes[:COARSE_HEADS]), dim=1)
-        fine_heads = torch.split(self.fine(d1), list(self.head_sizes[COARSE_HEADS:]), dim=1)
+        fine_heads = torch.split(self.fine(x), list(self.head_sizes[COARSE_HEADS:]), dim=1)
         return (*coarse_heads, *fine_heads)
+
+    def half_resolution_logits(self, image: torch.Tensor) -> tuple[torch.Tensor, ...]:
+        """Return the exported logits (half resolution for ``lite0``; see :meth:`export_logits`)."""
+        return self.export_logits(image)
 
     def forward(self, image: torch.Tensor) -> tuple[torch.Tensor, ...]:
         """Return the per-head logits at the input resolution."""
         size = image.shape[-2:]
         return tuple(
             F.interpolate(h, size=size, mode="bilinear", align_corners=False)
-            for h in self.half_resolution_logits(image)
+            for h in self.export_logits(image)
         )
 
 
 class LiteHalfResolutionHeads(nn.Module):
-    """What is exported to ONNX: the per-head logits at half resolution (runtime upsamples)."""
+    """What is exported to ONNX: the per-head logits at the variant's output resolution.
+
+    Half the input for ``lite0``, a quarter for the slim variants; the runtime upsamples.
+    """
 
     def __init__(self, net: LiteHierarchicalSegNet) -> None:
         super().__init__()
         self.net = net
 
     def forward(self, image: torch.Tensor) -> tuple[torch.Tensor, ...]:
-        """Return the per-head logits at half the input resolution."""
-        return self.net.half_resolution_logits(image)
+        """Return the per-head logits at the variant's output resolution."""
+        return self.net.export_logits(image)
 
 
-def check_input_size(width: int, height: int) -> None:
-    """Fail unless the lite0 network's stride-32 encoder can take ``width x height``.
+def lite_variant(name: str) -> LiteVariant:
+    """Return the :data:`LITE_VARIANTS` entry ``name``.
 
     Raises:
-        TrainingError: If a side is not a multiple of 32.
+        TrainingError: For an unknown name (the message lists the known ones).
     """
-    if width % 32 or height % 32:
+    spec = LITE_VARIANTS.get(name)
+    if spec is None:
+        raise TrainingError(f"unknown lite variant {name!r} (known: {', '.join(LITE_VARIANTS)})")
+    return spec
+
+
+def check_input_size(width: int, height: int, variant: str = "lite0") -> None:
+    """Fail unless the variant's encoder (stride 32, or 16 when truncated) can take the size.
+
+    Raises:
+        TrainingError: If a side is not a multiple of the stride.
+    """
+    stride = lite_variant(variant).stride
+    if width % stride or height % stride:
         raise TrainingError(
-            f"the lite0 network needs sides that are multiples of 32, not {width}x{height}"
+            f"the {variant} network needs sides that are multiples of {stride}, "
+            f"not {width}x{height}"
         )

