@@ -6,8 +6,9 @@ given minimum. A frame changes when its fitted lines differ (count or ego pair).
 image folder are fitted on their own (no warm start); frames of a recording in order, as
 ``slt reprocess`` does (warm start from the previous frame's fit).
 
-    python benchmarks/lane_support.py --images $SLT_REALDATA/udacity/advanced_lane_lines/test_images \
-        --camera tusimple --min-points 20 40 60
+    python benchmarks/lane_support.py \
+        --images $SLT_REALDATA/udacity/advanced_lane_lines/test_images \
+        --camera tusimple --min-points 10 20 30 50
     python benchmarks/lane_support.py --recording sim.mcap --camera sim_default --min-points 40
 
 Prints one line per minimum and, with ``--lines``, every line's pixel count with the rule off.
@@ -27,7 +28,6 @@ from numpy.typing import NDArray
 from superlane_tools.camera import load_camera
 from superlane_tools.camera.model import CameraModel
 from superlane_tools.drive.config import ReprocessConfig
-from superlane_tools.lanes import FitParams
 from superlane_tools.lanes.points import lane_points, road_points
 from superlane_tools.lanes.result import LaneFit
 from superlane_tools.lanes.sequence import SequentialFit, max_plausible_slope

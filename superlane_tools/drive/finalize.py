@@ -7,6 +7,7 @@ report's prose lives in :mod:`superlane_tools.reporting` (``drive_notes``, ``dri
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
@@ -43,6 +44,7 @@ from superlane_tools.lanes.lookahead import align_super_curvature, smooth_like_t
 from superlane_tools.lanes.tracker import COV_INDEX, COV_KEYS, track_lanes, travelled_m
 from superlane_tools.records import Skipped
 from superlane_tools.reporting import drive_tables as tables
+from superlane_tools.reporting.availability_reasons import NOT_DECODED, method_reasons
 from superlane_tools.reporting.drive_facts import (
     SPEED_CAN,
     SPEED_GNSS,
@@ -52,6 +54,7 @@ from superlane_tools.reporting.drive_facts import (
     TRUTH_RTK,
     YAW_CAN,
     YAW_IMU,
+    CameraFacts,
     DriveFacts,
     LatencyFacts,
 )
@@ -119,11 +122,16 @@ def drive_tables(
     corridor_unavailable: str,
     imu: ImuSamples | None = None,
     camera: bool = True,
+    length_cap_m: float = math.inf,
+    camera_facts: CameraFacts | None = None,
 ) -> DriveTables:
     """Turn a drive's per-frame record plus its CAN frames and GNSS fixes into its tables.
 
     The steps: the vehicle's signals and the truth at the frames, Mobileye's lanes, the
-    yaw-rate / speed reference, the curvature table and its summary, then availability.
+    yaw-rate / speed reference, the curvature table and its summary, then availability (the
+    image methods' corridor lengths capped at ``length_cap_m``, the camera's measurable range,
+    :func:`~superlane_tools.corridor.measurable_range_m`; each method's unavailable frames
+    counted by reason). ``camera_facts``: where the camera came from and what of it is assumed.
 
     Raises:
         CanError: If a used CAN signal has no or an unknown unit, or the Mobileye mapping is
@@ -131,6 +139,8 @@ def drive_tables(
     """
     t_ns = frames.t_ns
     facts: dict[str, Any] = {"n_instants": len(t_ns), "camera": camera, "can": bool(len(can))}
+    facts["duration_s"] = float(t_ns[-1] - t_ns[0]) / 1e9 if len(t_ns) else 0.0
+    facts["camera_facts"] = camera_facts
     if not camera:
         facts["grid_hz"] = frames.frame_rate_hz()
     lost: list[Skipped] = []
@@ -143,10 +153,24 @@ def drive_tables(
     latency = mobileye_latency(frames.fit, me, t_ns, mapping.min_quality) if camera else None
     facts["latency"] = latency
     summary = _curvature_summary(curv, segments, vehicle.rtk, latency)
-    av_frames, av_seqs = _availability(
-        frames, me, vehicle.speed, params, segments, corridor_unavailable, camera
+    av_frames, av_seqs, capped = _availability(
+        frames,
+        me,
+        vehicle.speed,
+        params,
+        segments,
+        (corridor_unavailable, camera),
+        length_cap_m,
     )
     drive = DriveFacts(**facts, corridor_unavailable=corridor_unavailable if camera else "")
+    drive = replace(
+        drive,
+        availability=tuple(
+            method_reasons(av_frames, drive.methods_run(), params.min_width_m, params.max_width_m)
+        ),
+        length_cap_m=length_cap_m,
+        n_capped=capped,
+    )
     return DriveTables(
         vehicle.signals,
         me,
@@ -303,27 +327,40 @@ def _availability(
     speed: NDArray[np.float64],
     params: AvailabilityParams,
     segments: Sequence[Segment],
-    corridor_unavailable: str,
-    camera: bool,
-) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """Availability of every method per frame and per sequence."""
+    ran: tuple[str, bool],
+    length_cap_m: float,
+) -> tuple[pd.DataFrame, pd.DataFrame, tuple[tuple[str, int], ...]]:
+    """Availability of every method per frame and per sequence, and the frames capped.
+
+    ``ran``: why the corridor network did not run ("" when it did), and whether the drive
+    had a camera. The image methods' lengths are capped at ``length_cap_m``; frames whose
+    image could not be decoded say so as their reason.
+    """
     t_ns = frames.t_ns
+    corridor_unavailable, camera = ran
     unavailable = {"corridor_net": corridor_unavailable} if corridor_unavailable else {}
     if me.empty:
         unavailable["mobileye"] = "no Mobileye lane messages"
     if not camera:
         unavailable.update(dict.fromkeys(IMAGE_METHODS, "no camera stream"))
-    geometry = {
-        **frames.corridors.by_method(),
-        "mobileye": (
-            mobileye_at_frames(me, t_ns, "corridor_width_m"),
-            mobileye_at_frames(me, t_ns, "corridor_length_m"),
-        ),
-    }
+    geometry: dict[str, tuple[NDArray[np.float64], NDArray[np.float64]]] = {}
+    capped: list[tuple[str, int]] = []
+    for method, (width, length) in frames.corridors.by_method().items():
+        over = np.isfinite(length) & (length > length_cap_m)
+        geometry[method] = (width, np.where(over, length_cap_m, length))
+        capped.append((method, int(over.sum())))
+    geometry["mobileye"] = (
+        mobileye_at_frames(me, t_ns, "corridor_width_m"),
+        mobileye_at_frames(me, t_ns, "corridor_length_m"),
+    )
     av_frames, av_seqs, _ = tables.availability_tables(
         t_ns, geometry, unavailable, speed, params, segments
     )
-    return av_frames, av_seqs
+    if camera and not frames.decoded.all():
+        lost = np.isin(av_frames["frame_index"], np.flatnonzero(~frames.decoded))
+        image = av_frames["method"].isin(IMAGE_METHODS) & (av_frames["reason"] == "no corridor")
+        av_frames.loc[lost & image, "reason"] = NOT_DECODED
+    return av_frames, av_seqs, tuple(capped)
 
 
 IMAGE_METHODS = ("super", "corridor_net", "hough")
