@@ -115,7 +115,9 @@ def test_every_output_exists_with_provenance(run_dir: Path) -> None:
     corridor = pd.read_parquet(run_dir / "corridor.parquet")
     assert set(corridor["status"]) == {resolved["corridor_unavailable"]}
     if not resolved["corridor_unavailable"]:  # its headline row: availability only
-        assert any(line.startswith("| Corridor net | - | - | - |") for line in report)
+        row = next(line for line in report if line.startswith("| Corridor net |"))
+        assert row.startswith("| Corridor net | - | - | ")  # no curvature, no floor column
+        assert row.split("|")[4].strip().endswith("%")  # its frames available
 
 
 def test_annotations_are_foxglove_messages(run_dir: Path) -> None:
