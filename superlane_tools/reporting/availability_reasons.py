@@ -58,7 +58,8 @@ class MethodReasons(NamedTuple):
         n_frames: Frames.
         n_available: Frames available.
         n_unknown: Frames of unknown availability (no speed).
-        reasons: Unavailable frames by reason, most frequent first (unknown frames excluded).
+        reasons: Unavailable frames by reason, most frequent first (ties by name; unknown
+            frames excluded).
     """
 
     method: str
@@ -86,10 +87,11 @@ class MethodReasons(NamedTuple):
             head += f" ({self.n_unknown} of {n} frames unknown: no speed)"
         if not self.reasons:
             return head
-        top = self.reasons[0]
-        more = len(self.reasons) - 1
-        tail = f"; {more} other reason{'s' if more > 1 else ''}" if more else ""
-        return f"{head}: {top.n_frames} of {n} frames {top.text}{tail}"
+        top, *rest = self.reasons
+        also = "".join(f"; {r.n_frames} {r.text}" for r in rest[:2])
+        if len(rest) > 2:
+            also += f"; {sum(r.n_frames for r in rest[2:])} for other reasons"
+        return f"{head}: {top.n_frames} of {n} frames {top.text}{also}"
 
 
 def _percent(k: int, n: int) -> str:
@@ -134,7 +136,7 @@ def method_reasons(
                 len(sel),
                 int(sel["available"].astype(bool).sum()),
                 int((reason == SPEED_UNKNOWN).sum()),
-                tuple(sorted(reasons, key=lambda rc: -rc.n_frames)),
+                tuple(sorted(reasons, key=lambda rc: (-rc.n_frames, rc.reason))),
             )
         )
     return out
