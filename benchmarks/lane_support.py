@@ -110,19 +110,22 @@ def main(argv: list[str] | None = None) -> int:
             lines = ", ".join(f"{ln.offset_m:+.1f} m: {ln.n_points}" for ln in fit.lanes)
             print(f"frame {k}: {lines}")
     counts = [ln.n_points for fit in off for ln in fit.lanes]
-    print(f"{len(off)} frames, {len(counts)} lines with the rule off; pixels per line: "
-          f"min {min(counts, default=0)}, median {np.median(counts) if counts else 0:.0f}")
+    print(
+        f"{len(off)} frames, {len(counts)} lines with the rule off; pixels per line: "
+        f"min {min(counts, default=0)}, median {np.median(counts) if counts else 0:.0f}"
+    )
     for minimum in args.min_points:
         on = fits[minimum]
         changed = sum(_signature(a) != _signature(b) for a, b in zip(off, on, strict=True))
         dropped = sum(len(a.lanes) - len(b.lanes) for a, b in zip(off, on, strict=True))
         ego = sum(
-            (a.ego_left, a.ego_right) != (b.ego_left, b.ego_right)
-            and len(a.lanes) == len(b.lanes)
+            (a.ego_left, a.ego_right) != (b.ego_left, b.ego_right) and len(a.lanes) == len(b.lanes)
             for a, b in zip(off, on, strict=True)
         )
-        print(f"min_line_points {minimum}: {changed} of {len(off)} frames change "
-              f"({dropped} lines fewer in all; {ego} with the same count and another ego pair)")
+        print(
+            f"min_line_points {minimum}: {changed} of {len(off)} frames change "
+            f"({dropped} lines fewer in all; {ego} with the same count and another ego pair)"
+        )
     return 0
 
 
