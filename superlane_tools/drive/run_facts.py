@@ -108,7 +108,7 @@ def camera_facts(camera: str, source: str, recording: Path) -> CameraFacts:
     intrinsics = str(est.get("intrinsics", ""))
     roll_method = str(est.get("roll_method", ""))
     estimated_roll = (
-        bool(roll_method) and roll_method != "given" and "not estimated" not in (roll_method)
+        bool(roll_method) and roll_method != "given" and "not estimated" not in roll_method
     )
     return CameraFacts(
         profile=path.name,
