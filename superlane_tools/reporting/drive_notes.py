@@ -104,7 +104,14 @@ def inputs_line(facts: DriveFacts) -> str:
     if facts.yaw == YAW_IMU:
         had.append("IMU")
     exists, missing = [], []
-    if facts.camera:
+    if facts.camera and facts.widths_circular:
+        exists.append(
+            "corridor lengths of "
+            + ", ".join(_camera_methods(facts))
+            + " (scaled by the assumed lane width)"
+        )
+        missing.append("corridor widths: circular, the camera height was scaled to them")
+    elif facts.camera:
         exists.append("corridor widths and lengths of " + ", ".join(_camera_methods(facts)))
     if not facts.methods_run():
         pass  # no method to judge: the missing camera / Mobileye below say why

@@ -257,6 +257,10 @@ def test_estimated_camera_values_are_labelled_and_widths_not_shown(
     assert "ASSUMED, not measured: horizontal field of view 60 deg ASSUMED" in headline
     assert "ESTIMATED under an assumption: roll" in headline
     assert "up to 3 degrees of roll (docs/camera.md)" in headline
+    assert "**Measured:** corridor lengths of SUPER, the corridor network, Hough (scaled by " in (
+        headline
+    )
+    assert "corridor widths: circular, the camera height was scaled to them" in headline
     availability = _section(report, "Availability")
     assert "median_width_m" not in availability.split("| method |")[1]  # column left out
     assert any("ASSUMED, not measured: lane width" in n for n in result.notes)
