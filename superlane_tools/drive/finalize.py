@@ -41,10 +41,15 @@ from superlane_tools.drive.signals import (
 )
 from superlane_tools.geo.dynamics import DynamicsCurvature
 from superlane_tools.lanes.lookahead import align_super_curvature, smooth_like_truth
+from superlane_tools.lanes.sequence import max_plausible_slope
 from superlane_tools.lanes.tracker import COV_INDEX, COV_KEYS, track_lanes, travelled_m
 from superlane_tools.records import Skipped
 from superlane_tools.reporting import drive_tables as tables
-from superlane_tools.reporting.availability_reasons import NOT_DECODED, method_reasons
+from superlane_tools.reporting.availability_reasons import (
+    NOT_DECODED,
+    NOT_PLAUSIBLE,
+    method_reasons,
+)
 from superlane_tools.reporting.drive_facts import (
     SPEED_CAN,
     SPEED_GNSS,
@@ -161,6 +166,7 @@ def drive_tables(
         segments,
         (corridor_unavailable, camera),
         length_cap_m,
+        max_plausible_slope(config.fit_params, config.tracking.max_slope_fraction),
     )
     drive = DriveFacts(**facts, corridor_unavailable=corridor_unavailable if camera else "")
     drive = replace(
@@ -329,12 +335,16 @@ def _availability(
     segments: Sequence[Segment],
     ran: tuple[str, bool],
     length_cap_m: float,
+    max_slope: float,
 ) -> tuple[pd.DataFrame, pd.DataFrame, tuple[tuple[str, int], ...]]:
     """Availability of every method per frame and per sequence, and the frames capped.
 
     ``ran``: why the corridor network did not run ("" when it did), and whether the drive
     had a camera. The image methods' lengths are capped at ``length_cap_m``; frames whose
-    image could not be decoded say so as their reason.
+    image could not be decoded say so as their reason. A SUPER fit that is not plausible
+    (:meth:`~superlane_tools.lanes.result.LaneFit.plausible`: road slope at ``max_slope`` or
+    beyond, the view collapsed, or no finite curvature) gives no corridor: its reason is
+    ``not plausible``, as it seeds no warm start and enters no tracker.
     """
     t_ns = frames.t_ns
     corridor_unavailable, camera = ran
@@ -345,9 +355,14 @@ def _availability(
         unavailable.update(dict.fromkeys(IMAGE_METHODS, "no camera stream"))
     geometry: dict[str, tuple[NDArray[np.float64], NDArray[np.float64]]] = {}
     capped: list[tuple[str, int]] = []
+    fit = frames.fit
+    implausible = np.isfinite(frames.corridors.super_width_m) & ~(
+        (np.abs(fit.slope) < max_slope) & np.isfinite(fit.curvature_per_m)
+    )
     for method, (width, length) in frames.corridors.by_method().items():
+        trusted = np.where(implausible, np.nan, width) if method == "super" else width
         over = np.isfinite(length) & (length > length_cap_m)
-        geometry[method] = (width, np.where(over, length_cap_m, length))
+        geometry[method] = (trusted, np.where(over, length_cap_m, length))
         capped.append((method, int(over.sum())))
     geometry["mobileye"] = (
         mobileye_at_frames(me, t_ns, "corridor_width_m"),
@@ -356,9 +371,14 @@ def _availability(
     av_frames, av_seqs, _ = tables.availability_tables(
         t_ns, geometry, unavailable, speed, params, segments
     )
+    no_corridor = av_frames["reason"] == "no corridor"
+    if implausible.any():
+        bad = np.isin(av_frames["frame_index"], np.flatnonzero(implausible))
+        sup = av_frames["method"] == "super"
+        av_frames.loc[bad & no_corridor & sup, "reason"] = NOT_PLAUSIBLE
     if camera and not frames.decoded.all():
         lost = np.isin(av_frames["frame_index"], np.flatnonzero(~frames.decoded))
-        image = av_frames["method"].isin(IMAGE_METHODS) & (av_frames["reason"] == "no corridor")
+        image = av_frames["method"].isin(IMAGE_METHODS) & no_corridor
         av_frames.loc[lost & image, "reason"] = NOT_DECODED
     return av_frames, av_seqs, tuple(capped)
 

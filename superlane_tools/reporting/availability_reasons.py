@@ -27,6 +27,9 @@ from superlane_tools.reporting.names import AVAILABILITY_NAMES, METHOD_NOT_RUN
 NOT_DECODED = "frame not decoded"
 """``availability_frames.reason`` of an image method's frame whose image could not be decoded."""
 
+NOT_PLAUSIBLE = "not plausible"
+"""``availability_frames.reason`` of a SUPER frame whose fit is not plausible (collapsed view)."""
+
 NO_CORRIDOR_TEXT = {
     "super": "no ego line pair fitted",
     "corridor_net": "no corridor in the network's mask",
@@ -161,6 +164,8 @@ def _words(method: str, reason: str, rows: pd.DataFrame, bounds: tuple[float, fl
         return f"too wide (median width {_median(rows['width_m']):.2f} m, at most {bounds[1]:g} m)"
     if reason == NO_CORRIDOR:
         return NO_CORRIDOR_TEXT.get(method, "no corridor")
+    if reason == NOT_PLAUSIBLE:
+        return "fit not plausible (road slope at its bound: the view collapsed)"
     return reason
 
 

@@ -169,6 +169,7 @@ def test_availability_tables(run_dir: Path) -> None:
         "too wide",
         "no corridor",
         "frame not decoded",
+        "not plausible",
     }
     me = frames[frames["method"] == "mobileye"]
     assert me["available"].mean() > 0.5  # the simulated Mobileye sees both lines, quality 3
