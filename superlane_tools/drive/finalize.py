@@ -145,6 +145,7 @@ def drive_tables(
     t_ns = frames.t_ns
     facts: dict[str, Any] = {"n_instants": len(t_ns), "camera": camera, "can": bool(len(can))}
     facts["duration_s"] = float(t_ns[-1] - t_ns[0]) / 1e9 if len(t_ns) else 0.0
+    facts["frame_gaps_s"] = _frame_gaps_s(t_ns) if camera else 0.0
     facts["camera_facts"] = camera_facts
     if not camera:
         facts["grid_hz"] = frames.frame_rate_hz()
@@ -381,6 +382,16 @@ def _availability(
         image = av_frames["method"].isin(IMAGE_METHODS) & no_corridor
         av_frames.loc[lost & image, "reason"] = NOT_DECODED
     return av_frames, av_seqs, tuple(capped)
+
+
+def _frame_gaps_s(t_ns: NDArray[np.int64]) -> float:
+    """Camera time missing between the frames read (steps over 1.5 periods), seconds."""
+    steps = np.diff(t_ns) / 1e9
+    steps = steps[steps > 0]
+    if steps.size < 2:
+        return 0.0
+    period = float(np.median(steps))
+    return float(np.sum(steps[steps > 1.5 * period] - period))
 
 
 IMAGE_METHODS = ("super", "corridor_net", "hough")

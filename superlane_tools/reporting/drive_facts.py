@@ -110,6 +110,8 @@ class DriveFacts:
         tracker_gated: Frame fits the innovation gate rejected.
         corridor_unavailable: Why the corridor network did not run ("" when it ran).
         duration_s: From the first to the last evaluation instant, seconds.
+        frame_gaps_s: Camera time missing between the frames read: the sum over steps longer
+            than 1.5 frame periods of the step less one period, seconds (0 without a camera).
         availability: Per method that ran: frames available, unknown and why not.
         length_cap_m: The camera's measurable range that corridor lengths were capped at, m
             (inf: no cap).
@@ -150,6 +152,7 @@ class DriveFacts:
     tracker_gated: int = 0
     corridor_unavailable: str = ""
     duration_s: float = 0.0
+    frame_gaps_s: float = 0.0
     availability: tuple[MethodReasons, ...] = ()
     length_cap_m: float = math.inf
     n_capped: tuple[tuple[str, int], ...] = ()

@@ -364,8 +364,18 @@ def capped_note(facts: DriveFacts) -> str:
 
 
 def lost_lines(skipped: Sequence[Skipped], input_bytes: int, facts: DriveFacts) -> list[str]:
-    """What input was lost, in seconds and messages where they can be told (one line each)."""
-    return [_lost(s, input_bytes, facts) for s in skipped]
+    """What input was lost, in seconds and messages where they can be told (one line each).
+
+    With a loss, the camera time missing between the frames read (a lost chunk inside the
+    drive) is measured from the frame times and said on a line of its own.
+    """
+    lines = [_lost(s, input_bytes, facts) for s in skipped]
+    if lines and facts.camera and facts.frame_gaps_s > 0:
+        lines.append(
+            f"{facts.frame_gaps_s:.1f} s of camera frames missing between the frames read "
+            "(steps longer than 1.5 frame periods)"
+        )
+    return lines
 
 
 _BYTE = re.compile(r"\bbyte (\d+)")

@@ -52,11 +52,13 @@ def _without(sim: Path, pattern: str, name: str) -> Path:
 
 @pytest.fixture(scope="module")
 def cut_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, ReprocessResult, str]:
-    """The bundled drive cut at 30 % of its bytes, as a copy interrupted mid-write."""
+    """The bundled drive with 4 KiB zeroed at 20 % (a corrupt chunk) and cut at 45 %."""
     folder = tmp_path_factory.mktemp("cut")
-    data = SAMPLE.read_bytes()
+    data = bytearray(SAMPLE.read_bytes())
+    at = int(len(data) * 0.2)
+    data[at : at + 4096] = bytes(4096)
     cut = folder / "sample_cut.mcap"
-    cut.write_bytes(data[: int(len(data) * 0.3)])
+    cut.write_bytes(bytes(data[: int(len(data) * 0.45)]))
     return (folder / "run", *_run(cut, folder / "run"))
 
 
@@ -108,7 +110,10 @@ def test_headline_names_the_dominant_reason_from_the_frame_table(
     )
     share = round(100 * int(sup["available"].sum()) / len(sup))
     line = next(ln for ln in _section(report, "Headline").splitlines() if "**Availability:**" in ln)
-    expected = f"SUPER {share} % available: {count} of {len(sup)} frames "
+    unknown = int((~sup["known"]).sum())  # e.g. no CAN speed beside the lost chunk
+    expected = f"SUPER {share} % available"
+    expected += f" ({unknown} of {len(sup)} frames unknown: no speed)" if unknown else ""
+    expected += f": {count} of {len(sup)} frames "
     assert expected in line, line
     if reason == "too short":
         rows = missed[missed["reason"] == reason]
@@ -124,15 +129,22 @@ def test_lost_input_is_in_the_headline_with_seconds_and_recover(
     cut_run: tuple[Path, ReprocessResult, str],
 ) -> None:
     out, result, report = cut_run
-    assert [s.what for s in result.skipped] == ["truncated file"]
+    assert [s.what for s in result.skipped] == ["corrupt chunk", "truncated file"]
     size = (out.parent / "sample_cut.mcap").stat().st_size
-    read = int(re.search(r"byte (\d+)", result.skipped[0].detail).group(1))  # type: ignore[union-attr]
+    read = int(re.search(r"byte (\d+)", result.skipped[1].detail).group(1))  # type: ignore[union-attr]
     lost = next(ln for ln in _section(report, "Headline").splitlines() if "Input lost" in ln)
     assert f"read up to byte {read:,} of {size:,}" in lost
     seconds = float(re.search(r"at least about ([0-9.]+) s and (\d+) camera frames", lost)[1])  # type: ignore[index]
     frames = pd.read_parquet(out / "frames.parquet")
     span = (frames["log_time_ns"].max() - frames["log_time_ns"].min()) / 1e9
     assert seconds == pytest.approx(span * (size - read) / read, abs=0.06)
+    assert "corrupt chunk (messages lost: unknown): sample_cut.mcap: chunk at byte" in lost
+    # The lost chunk inside the drive, measured on the frame times.
+    steps = np.diff(np.sort(frames["log_time_ns"].to_numpy())) / 1e9
+    period = float(np.median(steps))
+    gaps = float(np.sum(steps[steps > 1.5 * period] - period))
+    assert gaps > 1.0  # the chunk held about 2 s of the drive
+    assert f"{gaps:.1f} s of camera frames missing between the frames read" in lost
     assert "`slt recover sample_cut.mcap -o sample_cut.recovered.mcap`" in lost
     assert "(0)" not in report  # "LOST: truncated file (0)" read as nothing lost
     assert "- LOST: truncated file: read up to byte" in _section(report, "Run")
