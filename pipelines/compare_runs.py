@@ -6,7 +6,8 @@ is ignored, and so are measured times (``*_ms`` columns: the stage times of ``fr
 and ``fit_time_ms`` of ``lanes.parquet``; wall and CPU time differ from run to run by nature).
 ``annotations.mcap`` is compared message by message (topic, log time, and the payload bytes, or
 the decoded message where the bytes differ: protobuf serialises a ``Struct``'s map fields in no
-fixed order), and ``report.md`` line by line (the self-check's measured wall time masked).
+fixed order), and ``report.md`` line by line (the self-check's measured wall time and the
+report's date masked).
 
 Usage:
     python pipelines/compare_runs.py RUN_A RUN_B [--rtol 0]
@@ -31,7 +32,14 @@ from superlane_tools.reporting.run_layout import ANNOTATIONS_FILE, REPORT_FILE, 
 TIMING_COLUMN = re.compile(r"_ms$")
 """Measured-time columns (stage times, fit time): never reproducible."""
 REPORT_TIME = re.compile(r"self-check on (\d+) frames \(\d+(?:\.\d+)? s\)")
-"""The one measured time in ``report.md``: the segmentation self-check's wall time."""
+"""A measured time in ``report.md``: the segmentation self-check's wall time."""
+REPORT_DATE = re.compile(r"^- date: .* UTC$")
+"""The report's date line (when it was written): never reproducible."""
+
+
+def _masked(line: str) -> str:
+    line = REPORT_TIME.sub(r"self-check on \1 frames (measured s)", line)
+    return REPORT_DATE.sub("- date: (masked)", line)
 
 
 def _columns(table: pa.Table, name: str) -> list[str]:
@@ -148,7 +156,7 @@ def compare_runs(run_a: Path, run_b: Path, rtol: float = 0.0) -> tuple[list[str]
     if a.report.is_file() and b.report.is_file():
         compared.append(REPORT_FILE)
         la, lb = (
-            [REPORT_TIME.sub(r"self-check on \1 frames (measured s)", line) for line in lines]
+            [_masked(line) for line in lines]
             for lines in (
                 a.report.read_text(encoding="utf-8").splitlines(),
                 b.report.read_text(encoding="utf-8").splitlines(),

@@ -18,6 +18,7 @@ from superlane_tools.corridor.geometry import (
     CorridorParams,
     corridor_from_lanes,
     corridor_from_mask,
+    measurable_range_m,
     width_distance,
 )
 from superlane_tools.corridor.hough import (
@@ -48,6 +49,7 @@ __all__ = [
     "edges_and_segments",
     "frame_availability",
     "longest_run",
+    "measurable_range_m",
     "segments_at_times",
     "sequence_availability",
     "width_distance",

@@ -17,7 +17,9 @@ given segments with category labels):
 * longest outage, in frames and seconds.
 
 Frames of unknown availability count as unavailable in the pessimistic outage and as available
-in the optimistic one; when the two disagree the sequence decision is unknown (None).
+in the optimistic one; when the two disagree the sequence decision is unknown (None). They never
+count as outage in the reported longest outage (frames known to be unavailable, and dropped
+frames, only), and a sequence whose every frame is unknown has no ratio (NaN), not 0.
 """
 
 from __future__ import annotations
@@ -115,10 +117,11 @@ class SequenceAvailability(NamedTuple):
         n_frames: Frames in the sequence (N).
         n_available: Available frames (n).
         n_unknown: Frames of unknown availability.
-        ratio: ``n / N``.
+        ratio: ``n / N``; NaN when every frame is unknown.
         available: Sequence-based availability; None when unknown frames decide it.
-        longest_outage_frames: Longest run of unavailable frames (unknown counted unavailable).
-        longest_outage_s: The same in seconds.
+        longest_outage_frames: Longest run of frames known to be unavailable (unknown frames
+            are not outage).
+        longest_outage_s: The longest outage in seconds (known-unavailable and dropped frames).
     """
 
     start: int
@@ -282,17 +285,18 @@ def sequence_availability(
         if t_ns is None:
             ok_pess = pessimistic <= p.max_outage_frames
             ok_opt = optimistic <= p.max_outage_frames
-            outage_s = pessimistic / p.frame_rate_hz
+            outage_s = optimistic / p.frame_rate_hz
         else:
             times = np.asarray(t_ns, dtype=np.int64)[seg.start : seg.stop]
             period = 1.0 / p.frame_rate_hz
-            outage_s = longest_outage_s(~avail, times, period)
+            outage_s = longest_outage_s(~avail & known, times, period)
             limit = p.outage_limit_s + 1e-6
-            ok_pess = bool(outage_s <= limit)
-            ok_opt = bool(longest_outage_s(~avail & known, times, period) <= limit)
+            ok_pess = bool(longest_outage_s(~avail, times, period) <= limit)
+            ok_opt = bool(outage_s <= limit)
         decided: bool | None = ok_pess if ok_pess == ok_opt else None
         size = seg.stop - seg.start
         n_avail = int(avail.sum())
+        n_unknown = int((~known).sum())
         out.append(
             SequenceAvailability(
                 start=seg.start,
@@ -300,10 +304,10 @@ def sequence_availability(
                 category=seg.category,
                 n_frames=size,
                 n_available=n_avail,
-                n_unknown=int((~known).sum()),
-                ratio=n_avail / size,
+                n_unknown=n_unknown,
+                ratio=n_avail / size if n_unknown < size else float("nan"),
                 available=decided,
-                longest_outage_frames=pessimistic,
+                longest_outage_frames=optimistic,
                 longest_outage_s=outage_s,
             )
         )

@@ -17,6 +17,14 @@ geometry feeds the availability KPI (corridor paper, section IV-B):
   against the ground-truth gap to the preceding vehicle. (The farthest supported row, or a
   percentile of row distances, is biased long or short: rows are dense near the camera.)
 
+**Measurable range.** Far up the image one row spans metres of ground: a row ``x`` metres ahead
+spans about ``x^2 / (f h)`` (focal length ``f`` px, camera height ``h`` m), so a length read there
+is a guess, and a network's mask reaching into the horizon rows gave corridors of kilometres on a
+real dashcam clip. Every corridor length is capped at the camera's measurable range
+(:func:`measurable_range_m`): the farthest flat-ground distance, straight ahead at the processing
+size, at which one image row spans at most ``max_row_step`` (10 %) of the distance; about
+``0.1 f h``, 75 m for a 640 px wide image with a 65 degree lens at 1.5 m.
+
 Distances are forward distances from the origin of the camera's vehicle frame (ISO 8855: the
 road point below the vehicle reference point; the camera foot with the default extrinsics), the
 same origin for every method's length and width distance.
@@ -53,6 +61,8 @@ class CorridorParams:
         full_width_fraction: A row counts towards the length while its lateral extent is at least
             this fraction of the corridor width.
         max_gap_rows: Longest run of rows below that width bridged by the length walk.
+        max_row_step: Lengths are capped where one image row spans more than this fraction of
+            the distance (:func:`measurable_range_m`); 0 turns the cap off.
     """
 
     threshold: float = 0.5
@@ -61,6 +71,31 @@ class CorridorParams:
     min_row_px: int = 3
     full_width_fraction: float = 0.8
     max_gap_rows: int = 2
+    max_row_step: float = 0.1
+
+
+MAX_ROW_STEP = 0.1
+"""Default cap of corridor lengths: one image row may span at most 10 % of the distance."""
+
+
+@lru_cache(maxsize=8)
+def measurable_range_m(camera: CameraModel, max_row_step: float = MAX_ROW_STEP) -> float:
+    """Return the farthest forward distance (m) a length can be measured at with ``camera``.
+
+    Straight ahead (the image's centre column), on the flat ground: the farthest row whose
+    step to the next nearer row is at most ``max_row_step`` times its distance. Infinite when
+    ``max_row_step`` is 0 (no cap); NaN when no row sees the ground.
+    """
+    if max_row_step <= 0:
+        return math.inf
+    rows = np.arange(camera.height, dtype=np.float64)
+    uv = np.stack([np.full(rows.size, (camera.width - 1) / 2.0), rows], axis=1)
+    xy, valid = camera.ground_points(uv)
+    x = np.where(np.asarray(valid, dtype=bool), xy[:, 0], np.nan)
+    far, near = x[:-1], x[1:]  # row v and the row below it
+    with np.errstate(invalid="ignore"):
+        ok = np.isfinite(far) & np.isfinite(near) & (far - near <= max_row_step * far) & (far > 0)
+    return float(far[ok].max()) if ok.any() else math.nan
 
 
 class CorridorGeometry(NamedTuple):
@@ -123,6 +158,9 @@ def corridor_from_mask(
     in_band = support & (np.abs(x_row - p.width_at_m) <= p.width_band_m)
     reference = float(np.median(row_width[in_band if in_band.any() else support]))
     length = _full_width_length(x_row, row_width, support, reference, p)
+    cap = measurable_range_m(cam, p.max_row_step)
+    if math.isfinite(cap):
+        length = min(length, cap)
     at = width_distance(p.width_at_m, length)
     rows = support & (np.abs(x_row - at) <= p.width_band_m) & (x_row <= length + 1e-9)
     if not rows.any():  # sparse rows far ahead: the supported row nearest to the distance

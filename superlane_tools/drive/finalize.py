@@ -7,6 +7,7 @@ report's prose lives in :mod:`superlane_tools.reporting` (``drive_notes``, ``dri
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
@@ -40,9 +41,15 @@ from superlane_tools.drive.signals import (
 )
 from superlane_tools.geo.dynamics import DynamicsCurvature
 from superlane_tools.lanes.lookahead import align_super_curvature, smooth_like_truth
+from superlane_tools.lanes.sequence import max_plausible_slope
 from superlane_tools.lanes.tracker import COV_INDEX, COV_KEYS, track_lanes, travelled_m
 from superlane_tools.records import Skipped
 from superlane_tools.reporting import drive_tables as tables
+from superlane_tools.reporting.availability_reasons import (
+    NOT_DECODED,
+    NOT_PLAUSIBLE,
+    method_reasons,
+)
 from superlane_tools.reporting.drive_facts import (
     SPEED_CAN,
     SPEED_GNSS,
@@ -52,6 +59,7 @@ from superlane_tools.reporting.drive_facts import (
     TRUTH_RTK,
     YAW_CAN,
     YAW_IMU,
+    CameraFacts,
     DriveFacts,
     LatencyFacts,
 )
@@ -119,11 +127,16 @@ def drive_tables(
     corridor_unavailable: str,
     imu: ImuSamples | None = None,
     camera: bool = True,
+    length_cap_m: float = math.inf,
+    camera_facts: CameraFacts | None = None,
 ) -> DriveTables:
     """Turn a drive's per-frame record plus its CAN frames and GNSS fixes into its tables.
 
     The steps: the vehicle's signals and the truth at the frames, Mobileye's lanes, the
-    yaw-rate / speed reference, the curvature table and its summary, then availability.
+    yaw-rate / speed reference, the curvature table and its summary, then availability (the
+    image methods' corridor lengths capped at ``length_cap_m``, the camera's measurable range,
+    :func:`~superlane_tools.corridor.measurable_range_m`; each method's unavailable frames
+    counted by reason). ``camera_facts``: where the camera came from and what of it is assumed.
 
     Raises:
         CanError: If a used CAN signal has no or an unknown unit, or the Mobileye mapping is
@@ -131,6 +144,9 @@ def drive_tables(
     """
     t_ns = frames.t_ns
     facts: dict[str, Any] = {"n_instants": len(t_ns), "camera": camera, "can": bool(len(can))}
+    facts["duration_s"] = float(t_ns[-1] - t_ns[0]) / 1e9 if len(t_ns) else 0.0
+    facts["frame_gaps_s"] = _frame_gaps_s(t_ns) if camera else 0.0
+    facts["camera_facts"] = camera_facts
     if not camera:
         facts["grid_hz"] = frames.frame_rate_hz()
     lost: list[Skipped] = []
@@ -143,10 +159,25 @@ def drive_tables(
     latency = mobileye_latency(frames.fit, me, t_ns, mapping.min_quality) if camera else None
     facts["latency"] = latency
     summary = _curvature_summary(curv, segments, vehicle.rtk, latency)
-    av_frames, av_seqs = _availability(
-        frames, me, vehicle.speed, params, segments, corridor_unavailable, camera
+    av_frames, av_seqs, capped = _availability(
+        frames,
+        me,
+        vehicle.speed,
+        params,
+        segments,
+        (corridor_unavailable, camera),
+        length_cap_m,
+        max_plausible_slope(config.fit_params, config.tracking.max_slope_fraction),
     )
     drive = DriveFacts(**facts, corridor_unavailable=corridor_unavailable if camera else "")
+    drive = replace(
+        drive,
+        availability=tuple(
+            method_reasons(av_frames, drive.methods_run(), params.min_width_m, params.max_width_m)
+        ),
+        length_cap_m=length_cap_m,
+        n_capped=capped,
+    )
     return DriveTables(
         vehicle.signals,
         me,
@@ -303,27 +334,64 @@ def _availability(
     speed: NDArray[np.float64],
     params: AvailabilityParams,
     segments: Sequence[Segment],
-    corridor_unavailable: str,
-    camera: bool,
-) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """Availability of every method per frame and per sequence."""
+    ran: tuple[str, bool],
+    length_cap_m: float,
+    max_slope: float,
+) -> tuple[pd.DataFrame, pd.DataFrame, tuple[tuple[str, int], ...]]:
+    """Availability of every method per frame and per sequence, and the frames capped.
+
+    ``ran``: why the corridor network did not run ("" when it did), and whether the drive
+    had a camera. The image methods' lengths are capped at ``length_cap_m``; frames whose
+    image could not be decoded say so as their reason. A SUPER fit that is not plausible
+    (:meth:`~superlane_tools.lanes.result.LaneFit.plausible`: road slope at ``max_slope`` or
+    beyond, the view collapsed, or no finite curvature) gives no corridor: its reason is
+    ``not plausible``, as it seeds no warm start and enters no tracker.
+    """
     t_ns = frames.t_ns
+    corridor_unavailable, camera = ran
     unavailable = {"corridor_net": corridor_unavailable} if corridor_unavailable else {}
     if me.empty:
         unavailable["mobileye"] = "no Mobileye lane messages"
     if not camera:
         unavailable.update(dict.fromkeys(IMAGE_METHODS, "no camera stream"))
-    geometry = {
-        **frames.corridors.by_method(),
-        "mobileye": (
-            mobileye_at_frames(me, t_ns, "corridor_width_m"),
-            mobileye_at_frames(me, t_ns, "corridor_length_m"),
-        ),
-    }
+    geometry: dict[str, tuple[NDArray[np.float64], NDArray[np.float64]]] = {}
+    capped: list[tuple[str, int]] = []
+    fit = frames.fit
+    implausible = np.isfinite(frames.corridors.super_width_m) & ~(
+        (np.abs(fit.slope) < max_slope) & np.isfinite(fit.curvature_per_m)
+    )
+    for method, (width, length) in frames.corridors.by_method().items():
+        trusted = np.where(implausible, np.nan, width) if method == "super" else width
+        over = np.isfinite(length) & (length > length_cap_m)
+        geometry[method] = (trusted, np.where(over, length_cap_m, length))
+        capped.append((method, int(over.sum())))
+    geometry["mobileye"] = (
+        mobileye_at_frames(me, t_ns, "corridor_width_m"),
+        mobileye_at_frames(me, t_ns, "corridor_length_m"),
+    )
     av_frames, av_seqs, _ = tables.availability_tables(
         t_ns, geometry, unavailable, speed, params, segments
     )
-    return av_frames, av_seqs
+    no_corridor = av_frames["reason"] == "no corridor"
+    if implausible.any():
+        bad = np.isin(av_frames["frame_index"], np.flatnonzero(implausible))
+        sup = av_frames["method"] == "super"
+        av_frames.loc[bad & no_corridor & sup, "reason"] = NOT_PLAUSIBLE
+    if camera and not frames.decoded.all():
+        lost = np.isin(av_frames["frame_index"], np.flatnonzero(~frames.decoded))
+        image = av_frames["method"].isin(IMAGE_METHODS) & no_corridor
+        av_frames.loc[lost & image, "reason"] = NOT_DECODED
+    return av_frames, av_seqs, tuple(capped)
+
+
+def _frame_gaps_s(t_ns: NDArray[np.int64]) -> float:
+    """Camera time missing between the frames read (steps over 1.5 periods), seconds."""
+    steps = np.diff(t_ns) / 1e9
+    steps = steps[steps > 0]
+    if steps.size < 2:
+        return 0.0
+    period = float(np.median(steps))
+    return float(np.sum(steps[steps > 1.5 * period] - period))
 
 
 IMAGE_METHODS = ("super", "corridor_net", "hough")

@@ -548,10 +548,12 @@ def _build_lanes(
         labels = np.where(dist[np.arange(best.size), best] <= radius, best, -1)
     marks = lane_attributes(labels, model.offsets.size, lane.rows, codes)
     lanes = []
+    n_assigned = 0
     for n, offset in enumerate(model.offsets):
         mask = labels == n
-        if not mask.any():
-            continue
+        if not mask.any() or int(mask.sum()) < p.min_line_points:
+            continue  # no evidence for a line here (the evidence rule, FitParams)
+        n_assigned += int(mask.sum())
         c = corrections[n]
         xn = x[mask]
         lanes.append(
@@ -567,8 +569,7 @@ def _build_lanes(
             )
         )
     lanes.sort(key=lambda ln: -ln.offset_m)
-    quality = float((labels >= 0).sum()) / max(lane.size, 1)
-    return lanes, quality
+    return lanes, float(n_assigned) / max(lane.size, 1)
 
 
 def _build_lanes_compiled(
@@ -596,8 +597,8 @@ def _build_lanes_compiled(
     n_assigned = 0
     for n, offset in enumerate(offsets):
         count = int(sums_r[n, 3])
-        if count == 0:
-            continue
+        if count == 0 or count < p.min_line_points:
+            continue  # no evidence for a line here (the evidence rule, FitParams)
         n_assigned += count
         mark = marking_from_codes(codes[labels == n]) if codes is not None else UNKNOWN
         if mark.style == "unknown":

@@ -37,6 +37,11 @@ class FitParams:
         peak_window_m: Half-width of the window that counts points around a peak and refines
             the offset from their mean residual, metres.
         assign_radius_m: Largest lateral distance of a point from its line to be assigned to it.
+        min_line_points: Evidence rule: a line is fitted only when at least this many of the
+            frame's usable lane-marking pixels (all of them, not the optimiser's subsample) are
+            assigned to it; a histogram peak with fewer (a few stray pixels on a gravel
+            shoulder) gives no line. Pixels at the processing size (reprocess: 640 px wide);
+            0 turns the rule off. Measured in docs/reprocess.md ("Lane-line evidence").
         slope: Estimate the linear road slope ``b`` (Eq. 10); False fixes ``b = 0`` (flat road).
         slope_bound: Bound on ``|b|`` (rise over run); larger values collapse the view.
         vertical_curvature_bound: Bound on ``|c|`` (1/m) of the vertical curvature term of the
@@ -91,6 +96,7 @@ class FitParams:
     min_prominence_points: int = 5
     peak_window_m: float = 0.5
     assign_radius_m: float = 0.8
+    min_line_points: int = 20
     slope: bool = True
     slope_bound: float = 0.04
     vertical_curvature_bound: float = 0.0
@@ -154,6 +160,8 @@ class FitParams:
             raise FitParamsError("need 3 <= min_points <= max_points and nm_points")
         if self.backend not in ("numba", "numpy"):
             raise FitParamsError(f"backend must be numba or numpy, got {self.backend}")
+        if self.min_line_points < 0:
+            raise FitParamsError(f"min_line_points must be >= 0, got {self.min_line_points}")
         if self.kappa < 0 or self.lambda_road < 0 or self.local_bound_m < 0:
             raise FitParamsError("kappa, lambda_road and local_bound_m must be >= 0")
 

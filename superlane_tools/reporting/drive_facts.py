@@ -12,6 +12,8 @@ import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
+from superlane_tools.reporting.availability_reasons import MethodReasons
+
 SPEED_CAN = "CAN"
 SPEED_GNSS = "GNSS"
 """Speed sources: the CAN speed signal, or the speed of the GNSS track."""
@@ -45,6 +47,29 @@ class LatencyFacts(NamedTuple):
     period_s: float = math.nan
     resolved: bool = False
     reason: str = ""
+
+
+class CameraFacts(NamedTuple):
+    """Where the camera came from, and which of its values are assumptions, not measurements.
+
+    Filled from the ``estimate:`` block that ``slt camera estimate`` writes into a profile.
+
+    Attributes:
+        profile: The profile file the camera was read from ("" when from the recording).
+        lane_width_m: The lane width the camera height was scaled to (NaN: the height was not
+            scaled to an assumed width): lane and corridor widths are then circular.
+        intrinsics: How the intrinsics were obtained (the estimate's words; "" unknown).
+        intrinsics_assumed: Whether the field of view was assumed, not given or measured.
+        roll_deg: The estimated roll, degrees (NaN: given, not estimated, or unknown).
+        roll_frames: Frames the roll was estimated from.
+    """
+
+    profile: str = ""
+    lane_width_m: float = math.nan
+    intrinsics: str = ""
+    intrinsics_assumed: bool = False
+    roll_deg: float = math.nan
+    roll_frames: int = 0
 
 
 @dataclass(frozen=True)
@@ -84,6 +109,14 @@ class DriveFacts:
         tracker_used: Frame fits the tracker used.
         tracker_gated: Frame fits the innovation gate rejected.
         corridor_unavailable: Why the corridor network did not run ("" when it ran).
+        duration_s: From the first to the last evaluation instant, seconds.
+        frame_gaps_s: Camera time missing between the frames read: the sum over steps longer
+            than 1.5 frame periods of the step less one period, seconds (0 without a camera).
+        availability: Per method that ran: frames available, unknown and why not.
+        length_cap_m: The camera's measurable range that corridor lengths were capped at, m
+            (inf: no cap).
+        n_capped: Method -> frames whose corridor length was capped.
+        camera_facts: Where the camera came from and what of it is assumed (None: unknown).
     """
 
     n_instants: int
@@ -118,6 +151,17 @@ class DriveFacts:
     tracker_used: int = 0
     tracker_gated: int = 0
     corridor_unavailable: str = ""
+    duration_s: float = 0.0
+    frame_gaps_s: float = 0.0
+    availability: tuple[MethodReasons, ...] = ()
+    length_cap_m: float = math.inf
+    n_capped: tuple[tuple[str, int], ...] = ()
+    camera_facts: CameraFacts | None = None
+
+    @property
+    def widths_circular(self) -> bool:
+        """Whether widths are circular: the camera height was scaled to an assumed lane width."""
+        return self.camera_facts is not None and math.isfinite(self.camera_facts.lane_width_m)
 
     def methods_run(self) -> tuple[str, ...]:
         """Return the availability methods that produced output on this drive."""

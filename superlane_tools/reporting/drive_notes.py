@@ -8,9 +8,12 @@ same facts through the same reason phrases (:func:`why_no_speed`, :func:`why_no_
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+import re
+from collections.abc import Mapping, Sequence
+from pathlib import Path
 
 from superlane_tools.geo import DEGRADED_NOTE
+from superlane_tools.records import Skipped
 from superlane_tools.reporting.drive_facts import (
     SPEED_GNSS,
     TRAVELLED_TRACK,
@@ -101,7 +104,14 @@ def inputs_line(facts: DriveFacts) -> str:
     if facts.yaw == YAW_IMU:
         had.append("IMU")
     exists, missing = [], []
-    if facts.camera:
+    if facts.camera and facts.widths_circular:
+        exists.append(
+            "corridor lengths of "
+            + ", ".join(_camera_methods(facts))
+            + " (scaled by the assumed lane width)"
+        )
+        missing.append("corridor widths: circular, the camera height was scaled to them")
+    elif facts.camera:
         exists.append("corridor widths and lengths of " + ", ".join(_camera_methods(facts)))
     if not facts.methods_run():
         pass  # no method to judge: the missing camera / Mobileye below say why
@@ -132,7 +142,7 @@ def _camera_methods(facts: DriveFacts) -> list[str]:
 
 def drive_notes(facts: DriveFacts) -> list[str]:
     """Return the run's notes on its inputs, fallbacks and estimates, in a fixed order."""
-    notes = [_camera_note(facts), _can_note(facts), _speed_note(facts)]
+    notes = [_camera_note(facts), *assumption_notes(facts), _can_note(facts), _speed_note(facts)]
     notes += _truth_notes(facts)
     notes.append(_dynamics_note(facts))
     notes += _mobileye_notes(facts)
@@ -303,3 +313,101 @@ def timing_line(timings: Mapping[str, float]) -> str:
             "per stage thread CPU: " + ", ".join(f"{k} {v:.1f} s" for k, v in stage_cpu.items())
         )
     return "; ".join(parts)
+
+
+CAMERA_DOC = "docs/camera.md"
+
+
+def assumption_notes(facts: DriveFacts) -> list[str]:
+    """Every value of the camera that is an assumption, not a measurement, with its caveat."""
+    cam = facts.camera_facts
+    if cam is None:
+        return []
+    where = f" ({cam.profile})" if cam.profile else ""
+    notes = []
+    if facts.widths_circular:
+        notes.append(
+            f"ASSUMED, not measured: lane width {cam.lane_width_m:g} m. The camera height"
+            f"{where} was scaled by `slt camera estimate` until the lane fit measured this "
+            "width, so lane and corridor widths are circular by construction and are not shown "
+            "as results; every distance (corridor lengths, reach) scales with the same "
+            f"assumption ({CAMERA_DOC})."
+        )
+    if cam.intrinsics_assumed:
+        notes.append(
+            f"ASSUMED, not measured: {cam.intrinsics}. With an assumed field of view the pitch "
+            f"missed by about 0.4 degrees on simulated drives ({CAMERA_DOC}); pass "
+            "`--intrinsics`, `--focal-px` or `--hfov` to `slt camera estimate` when known."
+        )
+    if math.isfinite(cam.roll_deg):
+        notes.append(
+            f"ESTIMATED under an assumption: roll {cam.roll_deg:.2f} degrees from "
+            f"{cam.roll_frames} frames, assuming the camera rides at the lane centre on "
+            "average; over a short drive the lateral wander in the lane reads as up to 3 "
+            f"degrees of roll ({CAMERA_DOC}); pass `--roll-deg` when the roll is known."
+        )
+    return notes
+
+
+def capped_note(facts: DriveFacts) -> str:
+    """Which corridor lengths were capped at the camera's measurable range ("" none)."""
+    capped = [(m, n) for m, n in facts.n_capped if n]
+    if not capped or not math.isfinite(facts.length_cap_m):
+        return ""
+    names = {"super": "SUPER", "corridor_net": "corridor network", "hough": "Hough"}
+    counts = ", ".join(f"{names.get(m, m)} {n} of {facts.n_instants}" for m, n in capped)
+    return (
+        f"Corridor lengths capped at the camera's measurable range, {facts.length_cap_m:.0f} m "
+        "(beyond it one image row spans more than 10 % of the distance, so a length there is "
+        f"not measured): {counts} frames."
+    )
+
+
+def lost_lines(skipped: Sequence[Skipped], input_bytes: int, facts: DriveFacts) -> list[str]:
+    """What input was lost, in seconds and messages where they can be told (one line each).
+
+    With a loss, the camera time missing between the frames read (a lost chunk inside the
+    drive) is measured from the frame times and said on a line of its own.
+    """
+    lines = [_lost(s, input_bytes, facts) for s in skipped]
+    if lines and facts.camera and facts.frame_gaps_s > 0:
+        lines.append(
+            f"{facts.frame_gaps_s:.1f} s of camera frames missing between the frames read "
+            "(steps longer than 1.5 frame periods)"
+        )
+    return lines
+
+
+_BYTE = re.compile(r"\bbyte (\d+)")
+
+
+def _lost(s: Skipped, input_bytes: int, facts: DriveFacts) -> str:
+    count = f"{s.n_items} messages" if s.n_items else "messages lost: unknown"
+    if s.what != "truncated file":
+        return f"{s.what} ({count}): {s.detail}"
+    at = _BYTE.search(s.detail)
+    read = int(at.group(1)) if at else 0
+    if not (read and input_bytes > read and facts.duration_s > 0):
+        return (
+            f"truncated file: {s.detail}; how much was lost is unknown (the summary that "
+            "would say is gone)"
+        )
+    unread = input_bytes - read
+    seconds = facts.duration_s * unread / read
+    frames = round(facts.n_instants * unread / read)
+    kind = "camera frames" if facts.camera else "evaluation instants"
+    return (
+        f"truncated file: read up to byte {read:,} of {input_bytes:,} "
+        f"({100 * unread / input_bytes:.0f} % of the file unreadable): at least about "
+        f"{seconds:.1f} s and {frames} {kind} lost (estimated from the unreadable bytes at the "
+        "drive's data rate; anything recorded after the cut is not in the file and not counted)"
+    )
+
+
+def recover_hint(recording: Path, skipped: Sequence[Skipped]) -> str:
+    """The command that writes a valid copy of a damaged recording ("" when nothing was lost)."""
+    damaged = {"truncated file", "corrupt chunk", "corrupt record", "damaged summary"}
+    if not any(s.what in damaged for s in skipped):
+        return ""
+    fixed = f"{recording.stem}.recovered{recording.suffix}"
+    return f"`slt recover {recording.name} -o {fixed}` writes a valid copy of what is readable."

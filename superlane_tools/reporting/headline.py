@@ -32,10 +32,11 @@ def headline_table(
             curvature cells say ``no truth`` without one (None: every row, as the tables say).
 
     Returns:
-        Columns ``method``, ``curvature RMSE (1/m)``, ``truth noise floor (1/m)``,
-        ``frames compared``, ``frames available``, ``sequences available``. Frames whose
-        availability is unknown (no speed) are counted apart: ``unknown (no speed)`` when all
-        are, else the share of available frames among all with the unknown count beside it.
+        Columns ``method``, ``curvature RMSE (1/m)`` (flagged where below the noise floor:
+        not resolvable), ``frames compared``, ``frames available``, ``sequences available``.
+        Frames whose availability is unknown (no speed) are counted apart: ``unknown (no
+        speed)`` when all are, else the share of available frames among all with the unknown
+        count beside it.
         Without a truth the table has one row per method that ran and says ``no truth`` in
         place of the curvature columns.
     """
@@ -69,8 +70,21 @@ def headline_table(
     return pd.DataFrame(rows, columns=["method", *CURVATURE_COLUMNS, *AVAILABILITY_COLUMNS])
 
 
-CURVATURE_COLUMNS = ("curvature RMSE (1/m)", "truth noise floor (1/m)", "frames compared")
+CURVATURE_COLUMNS = ("curvature RMSE (1/m)", "frames compared")
+"""The truth's noise floor is one value per drive: the headline states it once, not per row."""
 AVAILABILITY_COLUMNS = ("frames available", "sequences available")
+
+
+def below_floor(rmse: float, floor: float) -> bool:
+    """Whether an RMSE lies below the truth's own noise floor (cannot be resolved)."""
+    return math.isfinite(rmse) and math.isfinite(floor) and rmse < floor
+
+
+def rmse_cell(rmse: float, floor: float) -> float | str:
+    """The RMSE, or the RMSE flagged as not resolvable when it is below the noise floor."""
+    if below_floor(rmse, floor):
+        return f"{rmse:.3g} (below the truth's noise floor {floor:.3g}: not resolvable)"
+    return rmse
 
 
 def _row(
@@ -94,8 +108,7 @@ def _row(
             frames = seqs = "not run"
     return {
         "method": name,
-        "curvature RMSE (1/m)": rmse if rec is not None else "-",
-        "truth noise floor (1/m)": floor if rec is not None else "-",
+        "curvature RMSE (1/m)": rmse_cell(rmse, floor) if rec is not None else "-",
         "frames compared": n if rec is not None else "-",
         "frames available": frames,
         "sequences available": seqs,

@@ -95,6 +95,9 @@ def _zoom_window(curv: FloatArray, n: int, half: int) -> tuple[int, int]:
 def curvature_plots(curv: pd.DataFrame, out_dir: Path) -> list[Path]:
     """Curvature of RTK, SUPER and Mobileye over time and distance, with a zoom on the peak.
 
+    Without a truth (no RTK curvature anywhere) there is no zoom panel: it would zoom on the
+    largest value of a curve that does not exist.
+
     Args:
         curv: ``curvature.parquet`` columns (``t_s``, ``s_m``, ``rtk_curvature``, ...).
         out_dir: Folder of the PNG files.
@@ -103,7 +106,9 @@ def curvature_plots(curv: pd.DataFrame, out_dir: Path) -> list[Path]:
     paths = []
     n = len(curv)
     half = max(15, n // 10)
-    lo, hi = _zoom_window(curv["rtk_curvature"].to_numpy(dtype=float), n, half)
+    truth = curv["rtk_curvature"].to_numpy(dtype=float)
+    has_truth = bool(np.isfinite(truth).any())  # no truth: no zoom on its largest value
+    lo, hi = _zoom_window(truth, n, half) if has_truth else (0, 0)
     for axis, label, name in (
         ("t_s", "time (s)", CURVATURE_TIME_PLOT),
         ("s_m", "distance along RTK track (m)", CURVATURE_DISTANCE_PLOT),
@@ -111,20 +116,29 @@ def curvature_plots(curv: pd.DataFrame, out_dir: Path) -> list[Path]:
         x = curv[axis].to_numpy(dtype=float)
         if axis == "s_m" and not np.isfinite(x).any():
             continue
-        fig, (ax, zoom) = plt.subplots(2, 1, figsize=(10, 6.5))
+        if has_truth:
+            fig, (ax, zoom) = plt.subplots(2, 1, figsize=(10, 6.5))
+        else:
+            fig, ax = plt.subplots(figsize=(10, 3.8))
+            zoom = None
         for key, text, colour in _SOURCES:
             if f"{key}_curvature" not in curv.columns:
                 continue
             y = curv[f"{key}_curvature"].to_numpy(dtype=float)
             if np.isfinite(y).any():
                 ax.plot(x, y, color=colour, lw=1.2, label=text)
-                zoom.plot(x[lo:hi], y[lo:hi], color=colour, lw=1.4, label=text)
+                if zoom is not None:
+                    zoom.plot(x[lo:hi], y[lo:hi], color=colour, lw=1.4, label=text)
         ax.set_xlabel(label)
         ax.set_ylabel("curvature (1/m, left +)")
         # One legend above the axes: it never hides a curve, and placing it costs nothing
         # (loc="best" searched every curve's points; with tight_layout that was half the plot).
         fig.legend(*ax.get_legend_handles_labels(), loc="upper center", ncol=3, fontsize=8)
         ax.grid(alpha=0.3)
+        if zoom is None:
+            fig.subplots_adjust(left=0.095, right=0.98, bottom=0.14, top=0.82)
+            paths.append(_save(fig, out_dir / name))
+            continue
         if hi > lo:
             ax.axvspan(np.nanmin(x[lo:hi]), np.nanmax(x[lo:hi]), color="grey", alpha=0.15)
         zoom.set_title("zoom: largest RTK curvature", fontsize=9)

@@ -89,13 +89,19 @@ def _inline(text: str) -> str:
 
 
 def write_report(
-    path: Path, title: str, sections: Sequence[Section], html_too: bool = True
+    path: Path,
+    title: str,
+    sections: Sequence[Section],
+    html_too: bool = True,
+    preamble: Sequence[str] = (),
 ) -> list[Path]:
     """Write the Markdown report ``path`` (and the HTML one beside it); return the files.
 
     The one report writer of the package: ``slt reprocess`` and the batch fleet summary use it.
+    ``preamble``: Markdown bullets (``- ...``) under the title, before the first section (e.g.
+    the tool version, command line and date).
     """
-    md = [f"# {title}", ""]
+    md = [f"# {title}", "", *preamble, *([""] if preamble else [])]
     for sec in sections:
         md += [f"## {sec.title}", "", *sec.lines, ""]
         for table in sec.tables:
@@ -113,6 +119,9 @@ def write_report(
             "</style></head><body>",
             f"<h1>{html.escape(title)}</h1>",
         ]
+        if preamble:
+            items = "".join(f"<li>{_inline(ln.removeprefix('- '))}</li>" for ln in preamble)
+            parts.append(f"<ul>{items}</ul>")
         for sec in sections:
             parts.append(f"<h2>{html.escape(sec.title)}</h2>")
             bullets = [ln[2:] for ln in sec.lines if ln.startswith("- ")]

@@ -119,7 +119,7 @@ def test_frame_and_sequence_invariants(rows: list[tuple[float, float, float]], w
     assert sum(s.n_frames for s in seqs) == len(rows)
     assert sum(s.n_available for s in seqs) == int(frames.available.sum())
     for s in seqs:
-        assert 0.0 <= s.ratio <= 1.0
+        assert 0.0 <= s.ratio <= 1.0 or (np.isnan(s.ratio) and s.n_unknown == s.n_frames)
         if s.available is not None:
             assert s.available == (s.longest_outage_frames <= params.max_outage_frames) or (
                 s.n_unknown > 0
@@ -148,3 +148,23 @@ def test_outage_limit_in_seconds_counts_dropped_frames() -> None:
     assert seq.available is False
     assert seq.longest_outage_s > 0.4
     assert longest_outage_s(np.zeros(30, bool), t, period) == 0.0
+
+
+def test_unknown_frames_are_never_outage() -> None:
+    """A window whose every frame is unknown has no ratio and no outage; known misses count."""
+    n = 30
+    t = (np.arange(n) * 1e9 / 15).astype(np.int64)
+    params = AvailabilityParams(window_frames=n, max_outage_s=5 / 15)
+    unknown = frame_availability(np.full(n, 3.5), np.full(n, 40.0), np.full(n, np.nan), params)
+    seq = sequence_availability(unknown, params, None, t)[0]
+    assert np.isnan(seq.ratio)
+    assert seq.available is None
+    assert (seq.longest_outage_frames, seq.longest_outage_s) == (0, 0.0)
+    speed = np.full(n, np.nan)
+    speed[:8] = 30.0  # 8 known frames, too short (30 m/s * 0.7 s = 21 m > 20 m)
+    mixed = frame_availability(np.full(n, 3.5), np.full(n, 20.0), speed, params)
+    seq = sequence_availability(mixed, params, None, t)[0]
+    assert seq.ratio == 0.0
+    assert seq.longest_outage_frames == 8  # the known misses only, not the 22 unknown after
+    assert seq.longest_outage_s == pytest.approx(8 / 15)
+    assert seq.available is False

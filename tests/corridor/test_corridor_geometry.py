@@ -147,3 +147,22 @@ def test_lane_width_at_a_distance_from_curved_lines_and_a_shifted_origin() -> No
     # Lines seen only 6 m ahead: the width is taken where they end.
     assert corridor_from_lanes(left, right, 6.0).width_m == pytest.approx(3.5 + 0.12 + 0.036)
     assert math.isnan(corridor_from_lanes(left, None, 50.0).width_m)
+
+
+def test_lengths_are_capped_at_the_measurable_range() -> None:
+    """A mask reaching towards the horizon is capped where one row spans > 10 % of the distance."""
+    from superlane_tools.corridor import measurable_range_m
+
+    cam = load_camera("sim_default")  # 1280x720, f = 1000 px, 1.5 m high
+    cap = measurable_range_m(cam)
+    f, h = cam.intrinsics.fy, cam.extrinsics.height_m
+    assert cap == pytest.approx(0.1 * f * h, rel=0.06)  # a row spans about x^2 / (f h)
+    assert measurable_range_m(cam.resized(640, 360)) == pytest.approx(cap / 2, rel=0.03)
+    far = corridor_from_mask(_corridor_mask(1.75, 600.0).astype(np.float32), cam)
+    assert far.length_m == pytest.approx(cap)
+    uncapped = corridor_from_mask(
+        _corridor_mask(1.75, 600.0).astype(np.float32), cam, CorridorParams(max_row_step=0.0)
+    )
+    assert uncapped.length_m > 1.5 * cap
+    near = corridor_from_mask(_corridor_mask(1.75, 40.0).astype(np.float32), cam)
+    assert near.length_m < cap  # a measurable length is not touched

@@ -149,3 +149,28 @@ def test_headline_keeps_unknown_apart_and_leaves_out_methods_not_run() -> None:
             "sequences available": "unknown (decided by unknown frames)",
         },
     ]
+
+
+def test_an_estimated_camera_is_labelled_and_its_widths_are_not_measured() -> None:
+    from dataclasses import replace
+
+    from superlane_tools.reporting.drive_facts import CameraFacts
+    from superlane_tools.reporting.drive_notes import assumption_notes
+
+    plain = _facts(camera=True, can=True, gnss=True, imu=False, mobileye=False)
+    assert assumption_notes(plain) == []
+    cam = CameraFacts("dash.camera.yaml", 3.7, "hfov 60 deg ASSUMED", True, 2.06, 9)
+    facts = replace(plain, camera_facts=cam)
+    assert facts.widths_circular
+    notes = assumption_notes(facts)
+    assert [n.split(":")[0] for n in notes] == [
+        "ASSUMED, not measured",
+        "ASSUMED, not measured",
+        "ESTIMATED under an assumption",
+    ]
+    assert "lane width 3.7 m. The camera height (dash.camera.yaml) was scaled" in notes[0]
+    assert "roll 2.06 degrees from 9 frames" in notes[2]
+    assert notes == [n for n in drive_notes(facts) if n.startswith(("ASSUMED", "ESTIMATED"))]
+    line = inputs_line(facts)
+    assert "corridor widths and lengths" not in line
+    assert "**Not measured:** corridor widths: circular" in line

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, NamedTuple
 
@@ -10,6 +11,7 @@ from superlane_tools.drive.config import ReprocessConfig
 from superlane_tools.drive.examples import example_indices
 from superlane_tools.drive.finalize import DriveTables, report_sections
 from superlane_tools.drive.loop import DrivePass, DriveTopics, FrameSink
+from superlane_tools.drive.run_facts import run_header
 from superlane_tools.drive.selfcheck import SelfCheck
 from superlane_tools.drive.sinks import AnnotationSink, ExampleSink, FrameTablesSink, VideoSink
 from superlane_tools.drive.stages import FrameStages
@@ -154,6 +156,11 @@ def write_outputs(
     drawn here, as :func:`~superlane_tools.reporting.plots.plot_all` orders its own examples.
     """
     layout = RunLayout(out)
+    report = replace(
+        report,
+        header=run_header(provenance),
+        input_bytes=provenance.inputs[0].size_bytes if provenance.inputs else 0,
+    )
     written = [write_table(t, path, provenance) for path, t in table_files(out, result).items()]
     images: list[str] = []
     if config.output.plots:
@@ -167,6 +174,7 @@ def write_outputs(
         layout.report,
         f"slt reprocess: {report.recording.name}",
         report_sections(config, report, result, images),
+        preamble=report.header,
     )
     return written
 

@@ -22,10 +22,11 @@ from superlane_tools.commands.reprocess.outputs import (
     write_outputs,
 )
 from superlane_tools.commands.reprocess.result import Progress, ReprocessResult, RunClock
-from superlane_tools.corridor import TimeSegment
+from superlane_tools.corridor import TimeSegment, measurable_range_m
 from superlane_tools.drive.config import ReprocessConfig
 from superlane_tools.drive.finalize import drive_tables, kpi_segments
 from superlane_tools.drive.loop import drive_topics, frame_total, run_frames
+from superlane_tools.drive.run_facts import camera_facts
 from superlane_tools.drive.selfcheck import SelfCheck, drive_self_check
 from superlane_tools.drive.stages import FrameStages
 from superlane_tools.recording import open_recording
@@ -91,8 +92,17 @@ def reprocess(
     kpi = kpi_segments(cfg, frames.t_ns, fps, segments)
     params = cfg.kpi.availability_params(fps)
     signals = (drive.can, dbcs, drive.gnss)
+    at_size = stages.camera_for(*stages.process_size(camera.width, camera.height))
     derived = drive_tables(
-        frames, *signals, cfg, kpi, params, stages.corridor_unavailable, imu=drive.imu
+        frames,
+        *signals,
+        cfg,
+        kpi,
+        params,
+        stages.corridor_unavailable,
+        imu=drive.imu,
+        length_cap_m=measurable_range_m(at_size),
+        camera_facts=camera_facts(cfg.camera, camera_source, src),
     )
     checked = check.lines() if isinstance(check, SelfCheck) else [check]
     implausible = "" if not isinstance(check, SelfCheck) or check.plausible else check.reason

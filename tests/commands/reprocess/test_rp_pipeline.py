@@ -115,7 +115,9 @@ def test_every_output_exists_with_provenance(run_dir: Path) -> None:
     corridor = pd.read_parquet(run_dir / "corridor.parquet")
     assert set(corridor["status"]) == {resolved["corridor_unavailable"]}
     if not resolved["corridor_unavailable"]:  # its headline row: availability only
-        assert any(line.startswith("| Corridor net | - | - | - |") for line in report)
+        row = next(line for line in report if line.startswith("| Corridor net |"))
+        assert row.startswith("| Corridor net | - | - | ")  # no curvature, no floor column
+        assert row.split("|")[4].strip().endswith("%")  # its frames available
 
 
 def test_annotations_are_foxglove_messages(run_dir: Path) -> None:
@@ -160,7 +162,15 @@ def test_availability_tables(run_dir: Path) -> None:
     sup = frames[frames["method"] == "super"]
     assert 2.5 < sup["width_m"].median() < 4.5
     assert (sup.loc[~sup["available"], "reason"] != "").all()
-    assert set(sup["reason"]) <= {"", "too short", "too narrow", "too wide", "no corridor"}
+    assert set(sup["reason"]) <= {
+        "",
+        "too short",
+        "too narrow",
+        "too wide",
+        "no corridor",
+        "frame not decoded",
+        "not plausible",
+    }
     me = frames[frames["method"] == "mobileye"]
     assert me["available"].mean() > 0.5  # the simulated Mobileye sees both lines, quality 3
     assert 2.5 < me["width_m"].median() < 4.5
@@ -169,7 +179,9 @@ def test_availability_tables(run_dir: Path) -> None:
     assert (seqs["n_frames"] == 60).all()
     report = (run_dir / "report.md").read_text()
     assert report.index("## Headline") < report.index("## Run")
-    assert "truth noise floor (1/m)" in report
+    headline = report.split("## Headline")[1].split("\n## ")[0]
+    assert "The truth's own noise floor is" in headline  # once, not a column on every row
+    assert "truth noise floor (1/m)" not in headline
     html = (run_dir / "report.html").read_text()
     assert "<code>" in html
     assert "`" not in html
