@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import errno
 import os
 import re
 import shlex
@@ -133,10 +134,27 @@ class SltGroup(TyperGroup):
 
     def invoke(self, ctx: Context) -> Any:
         """Run the subcommand; a usage error anywhere below becomes one line."""
+        words = [*ctx._protected_args, *ctx.args]
         try:
             return super().invoke(ctx)
         except UsageError as err:
-            raise _one_line(err) from err
+            raise _one_line(err, _command_path(self, ctx.command_path, words)) from err
+
+
+def _command_path(group: Any, root: str, words: list[str]) -> str:
+    """Return the command path the words name (``slt camera estimate``).
+
+    For a usage error raised before the subcommand had a context (an option without its value).
+    """
+    path = [root]
+    command = group
+    for word in words:
+        sub = getattr(command, "commands", {}).get(word)
+        if sub is None:
+            break
+        path.append(word)
+        command = sub
+    return " ".join(path)
 
 
 def say(kind: MessageKind, text: str) -> None:
@@ -149,8 +167,21 @@ def note(text: str) -> None:
     say("note", text)
 
 
+def command_name() -> str:
+    """Return the running command's name without ``slt`` (``camera estimate``; "" at the root)."""
+    ctx = _current_context()
+    return ctx.command_path.partition(" ")[2] if ctx is not None else ""
+
+
 def fail(message: str, code: ExitCode = ExitCode.ERROR) -> NoReturn:
-    """Print one ``slt: error: ...`` line to stderr and exit with ``code``."""
+    """Print one ``slt: error: ...`` line to stderr and exit with ``code``.
+
+    A usage error (exit 2) names its command first, as click's own usage errors do:
+    ``slt: error: reprocess: runs/x exists; pass --overwrite to replace it``.
+    """
+    name = command_name()
+    if code == ExitCode.USAGE and name and not message.startswith(f"{name}: "):
+        message = f"{name}: {message}"
     say("error", message)
     raise typer.Exit(int(code))
 
@@ -158,36 +189,122 @@ def fail(message: str, code: ExitCode = ExitCode.ERROR) -> NoReturn:
 class OneLineUsageError(UsageError):
     """A click usage error shown as one ``slt: error:`` line (exit 2), not click's usage block."""
 
+    path = ""
+    """The command path when the error has no context (set by :func:`_one_line`)."""
+
     def show(self, file: IO[Any] | None = None) -> None:  # noqa: ARG002 (stderr console)
         """Print the error as one line naming the command and its ``-h``."""
-        where = ""
-        hint = ""
-        if self.ctx is not None:
-            path = self.ctx.command_path
-            where = path.partition(" ")[2]
-            hint = f" (see '{path} -h')"
+        path = self.ctx.command_path if self.ctx is not None else self.path
+        where = path.partition(" ")[2]
+        hint = f" (see '{path} -h')" if path else ""
         text = self.format_message()
         say("error", f"{where}: {text}{hint}" if where else f"{text}{hint}")
 
 
-def _one_line(err: UsageError) -> UsageError:
-    """Return ``err`` as a :class:`OneLineUsageError` (help requested by no arguments stays)."""
+def _one_line(err: UsageError, path: str = "") -> UsageError:
+    """Return ``err`` as a :class:`OneLineUsageError` (help requested by no arguments stays).
+
+    Args:
+        err: Click's usage error.
+        path: The command path to name when ``err`` carries no context.
+    """
     if isinstance(err, (NoArgsIsHelpError, OneLineUsageError)):
         return err
     one = OneLineUsageError(err.format_message(), err.ctx)
+    one.path = path
     one.exit_code = int(ExitCode.USAGE)
     return one
 
 
+_DISK_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EROFS}
+"""OS errors of the output side: a full disk or quota, a file too large, a read-only mount."""
+
+
 @contextmanager
 def cli_errors() -> Iterator[None]:
-    """Map ``SltError`` (and stray OS errors on input files) to one line and an exit code."""
+    """Map ``SltError`` (and stray OS errors on files) to one line and an exit code."""
     try:
         yield
     except SltError as err:
         fail(str(err), err.exit_code)
     except (FileNotFoundError, IsADirectoryError, PermissionError) as err:
         fail(f"{err.strerror}: {err.filename}", ExitCode.ERROR)
+    except OSError as err:
+        if err.errno not in _DISK_ERRNOS:
+            raise
+        where = f": {err.filename}" if err.filename else ""
+        fail(f"cannot write{where}: {err.strerror or os.strerror(err.errno or 0)}")
+
+
+OVERWRITE_HELP = "Replace an existing output (without it, an existing output is refused: exit 2)."
+
+
+def overwrite_option() -> Any:
+    """Return the shared ``--overwrite`` option of every command that writes an output."""
+    return typer.Option("--overwrite", help=OVERWRITE_HELP)
+
+
+def _holds(folder: Path, path: Path) -> bool:
+    """Return True when ``path`` is ``folder`` or lies inside it (both resolved)."""
+    try:
+        inner, outer = path.resolve(), folder.resolve()
+    except OSError:
+        return False
+    return inner == outer or outer in inner.parents
+
+
+def check_new_output(out: Path | None, overwrite: bool, inputs: Sequence[Path] = ()) -> None:
+    """Refuse an existing output without ``--overwrite`` (exit 2), before any work starts.
+
+    Also refuses, whatever ``--overwrite`` says, an output that is or holds one of the
+    ``inputs`` or the working folder. See :func:`new_output`.
+    """
+    import os
+
+    if out is None or not os.path.lexists(out):
+        return
+    if not overwrite:
+        fail(f"{out} exists; pass --overwrite to replace it", ExitCode.USAGE)
+    for path in (*inputs, Path.cwd()):
+        if _holds(out, path):
+            what = "the working folder" if path == Path.cwd() else f"the input {path}"
+            fail(f"--out {out} holds {what}; not replacing it", ExitCode.USAGE)
+
+
+@contextmanager
+def new_output(
+    out: Path | None,
+    overwrite: bool,
+    inputs: Sequence[Path] = (),
+    *,
+    replaces: bool = False,
+) -> Iterator[None]:
+    """Apply the one policy for existing outputs around the block that writes ``out``.
+
+    An output that does not exist is written. An existing one is a usage error (exit 2,
+    nothing written) unless ``--overwrite`` (:func:`check_new_output`): then the old output is
+    set aside, the block writes the new one, and the old one is removed (put back when the
+    block fails), so nothing stale survives
+    (:func:`~superlane_tools.reporting.atomic.replacing`).
+
+    Args:
+        out: The output file or folder (None: the command prints instead).
+        overwrite: The command's ``--overwrite``.
+        inputs: The command's input paths (never replaced).
+        replaces: The command's writer replaces the old output itself, atomically (a run folder
+            published by one rename, a file written by the atomic writer): only the refusal
+            applies.
+    """
+    import os
+
+    check_new_output(out, overwrite, inputs)
+    if out is None or replaces or not os.path.lexists(out):
+        yield
+        return
+    from superlane_tools.reporting.atomic import replacing
+
+    with cli_errors(), replacing(out):
+        yield
 
 
 def report_skipped(skipped: Sequence[Skipped]) -> ExitCode:
@@ -224,6 +341,24 @@ def check_camera(value: str | None) -> str | None:
     except SltError as err:
         raise typer.BadParameter(str(err)) from err
     return value
+
+
+def check_model(value: str | None) -> str | None:
+    """Typer callback for ``--model``: a model that is neither a file nor bundled exits 2."""
+    if value is None:
+        return value
+    from superlane_tools.scene.onnx_backend import resolve_model
+
+    try:
+        resolve_model(value)
+    except SltError as err:
+        raise typer.BadParameter(str(err)) from err
+    return value
+
+
+def model_option(help_text: str) -> Any:
+    """Return the shared ``--model`` option: an ONNX file or a bundled model name (checked)."""
+    return typer.Option("--model", help=help_text, callback=check_model)
 
 
 def check_dbc_specs(values: list[Path] | None) -> list[Path] | None:

@@ -15,6 +15,8 @@ from superlane_tools.cli._common import (
     console,
     err_console,
     exit_with,
+    new_output,
+    overwrite_option,
     report_skipped,
 )
 from superlane_tools.errors import ExitCode
@@ -57,6 +59,7 @@ def compare_cmd(
     ] = 2000,
     spans: Annotated[int, typer.Option("--spans", min=0, help="Worst spans to list.")] = 10,
     no_plots: Annotated[bool, typer.Option("--no-plots", help="Skip plots/*.png.")] = False,
+    overwrite: Annotated[bool, overwrite_option()] = False,
 ) -> None:
     """Compare a candidate run with a base run: fleet KPI deltas with 95 % bootstrap intervals.
 
@@ -77,7 +80,8 @@ def compare_cmd(
             plots=not no_plots,
             command=command_line(),
         )
-        result = compare_runs(base, candidate, out, params)
+        with new_output(out, overwrite, [base, candidate]):
+            result = compare_runs(base, candidate, out, params)
     fleet = result.comparison.fleet_rows()
     counts = fleet["verdict"].value_counts()
     for row in result.differences.head(5).itertuples(index=False):

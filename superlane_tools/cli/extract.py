@@ -15,7 +15,9 @@ from superlane_tools.cli._common import (
     command_line,
     console,
     exit_with,
+    new_output,
     note,
+    overwrite_option,
     progress,
     report_skipped,
 )
@@ -108,6 +110,7 @@ def extract_cmd(
     verbose: Annotated[
         bool, typer.Option("--verbose", "-v", help="List every DBC repair, not just how many.")
     ] = False,
+    overwrite: Annotated[bool, overwrite_option()] = False,
 ) -> None:
     """Extract frames, camera info, CAN frames/signals and GNSS fixes to files and Parquet.
 
@@ -140,7 +143,7 @@ def extract_cmd(
             for line in repairs if verbose else []:
                 note(f"dbc {name}: {line}")
 
-        with progress("extract", unit="messages") as bar:
+        with new_output(out, overwrite, [recording]), progress("extract", unit="messages") as bar:
             result = extract(
                 recording,
                 out,

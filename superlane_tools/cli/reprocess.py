@@ -16,7 +16,10 @@ from superlane_tools.cli._common import (
     command_line,
     console,
     exit_with,
+    model_option,
+    new_output,
     note,
+    overwrite_option,
     progress,
     report_skipped,
 )
@@ -58,9 +61,7 @@ def reprocess_cmd(
         str | None,
         typer.Option("--backend", help="Segmentation: auto, classical, onnx or oracle."),
     ] = None,
-    model: Annotated[
-        str | None, typer.Option("--model", help="Segmentation ONNX model (path or name).")
-    ] = None,
+    model: Annotated[str | None, model_option("Segmentation ONNX model (path or name).")] = None,
     oracle_labels: Annotated[
         Path | None,
         typer.Option(
@@ -85,6 +86,7 @@ def reprocess_cmd(
             help="Add decoded CAN signals and the truth curves to annotations.mcap.",
         ),
     ] = False,
+    overwrite: Annotated[bool, overwrite_option()] = False,
 ) -> None:
     """Reprocess a drive: SUPER lane fit, corridor network, Hough baseline, CAN, RTK.
 
@@ -135,7 +137,10 @@ def reprocess_cmd(
                 overrides["workers"] = workers
             cfg = cfg.with_overrides(overrides)
             target = out if out is not None else Path("runs") / _recording_name(recording)
-            with progress("reprocess", unit="frames") as bar:
+            with (
+                new_output(target, overwrite, [recording], replaces=True),
+                progress("reprocess", unit="frames") as bar,
+            ):
                 result = reprocess_run(
                     recording, target, cfg, bar.update, command_line(), with_signals, compiler
                 )

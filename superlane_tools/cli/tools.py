@@ -12,7 +12,9 @@ from superlane_tools.cli._common import (
     EXIT_CODES_HELP,
     cli_errors,
     exit_with,
+    new_output,
     note,
+    overwrite_option,
     report_skipped,
 )
 
@@ -75,7 +77,7 @@ def filter_cmd(
             "--out",
             "-o",
             help=(
-                "Output (must not exist): OUT.mcap, OUT.bag for a ROS 1 bag, or a folder OUT "
+                "Output: OUT.mcap, OUT.bag for a ROS 1 bag, or a folder OUT "
                 "for a ROS 2 bag (same storage)."
             ),
         ),
@@ -91,11 +93,12 @@ def filter_cmd(
     end: Annotated[
         str | None, typer.Option(metavar="TIME", help=f"End (exclusive): {TIME_HELP}.")
     ] = None,
+    overwrite: Annotated[bool, overwrite_option()] = False,
 ) -> None:
     """Write a trimmed copy of a recording: message definitions, metadata, attachments kept."""
     from superlane_tools.recording.tools import filter_recording
 
-    with cli_errors():
+    with cli_errors(), new_output(out, overwrite, [recording]):
         result = filter_recording(recording, out, topics, exclude, start, end)
     for topic, count in sorted(result.counts.items()):
         note(f"{topic}: {count} messages")

@@ -13,7 +13,9 @@ from superlane_tools.cli._common import (
     EXIT_CODES_HELP,
     cli_errors,
     command_line,
+    new_output,
     note,
+    overwrite_option,
     progress,
 )
 from superlane_tools.errors import UsageError
@@ -102,6 +104,7 @@ def train(
     resume: Annotated[
         bool, typer.Option("--resume", help="Continue from MODEL.ckpt.pt if it exists.")
     ] = False,
+    overwrite: Annotated[bool, overwrite_option()] = False,
 ) -> None:
     """Train a network on CPU, export it to ONNX (opset 17) and write MODEL.card.yaml."""
     with cli_errors():
@@ -148,7 +151,10 @@ def train(
             threads=threads,
             command=command_line(),
         )
-        with progress(f"train {task}", unit="steps") as bar:
+        with (  # --resume continues into the same MODEL.onnx
+            new_output(out, overwrite or resume, replaces=True),
+            progress(f"train {task}", unit="steps") as bar,
+        ):
 
             def update(step: int, total: int, loss: float) -> None:
                 bar.update(step, total, note=f"loss {loss:.4f}")
