@@ -415,6 +415,7 @@ class ProgressLine:
         self.unit = unit
         self.note = ""
         self._start = time.perf_counter()
+        self._phase_start = self._start
         self._last_line = self._start
         self._interval = float(os.environ.get(PROGRESS_INTERVAL_ENV, "10"))
         self._bar: Any = None
@@ -422,25 +423,19 @@ class ProgressLine:
 
     def __enter__(self) -> ProgressLine:
         if err_console.is_terminal:
-            from rich.progress import (
-                BarColumn,
-                MofNCompleteColumn,
-                Progress,
-                TextColumn,
-                TimeElapsedColumn,
-            )
+            from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
             self._bar = Progress(
                 TextColumn("{task.description}"),
                 BarColumn(),
-                MofNCompleteColumn(),
+                TextColumn("{task.fields[count]}"),  # "12/240", or nothing while unknown
                 TextColumn("{task.fields[note]}"),
                 TimeElapsedColumn(),
                 console=err_console,
                 transient=True,
             )
             self._bar.__enter__()
-            self._task = self._bar.add_task(self.label, total=self.total, note="")
+            self._task = self._bar.add_task(self.label, total=self.total, note="", count="")
         return self
 
     def __exit__(
@@ -461,17 +456,35 @@ class ProgressLine:
             self.total = total
         if label is not None:
             self.label = label
-        elapsed = time.perf_counter() - self._start
-        rate = f"{done / elapsed:.1f}/s" if elapsed > 0 else ""
+        elapsed = time.perf_counter() - self._phase_start
+        rate = f"{done / elapsed:.1f}/s" if elapsed > 0 and done else ""
         self.note = " ".join(part for part in (note, rate) if part)
         if self._bar is not None:
+            count = f"{done}/{self.total}" if self.total else (str(done) if done else "")
             self._bar.update(
-                self._task, completed=done, total=self.total, note=self.note, description=self.label
+                self._task,
+                completed=done,
+                total=self.total,
+                note=self.note,
+                description=self.label,
+                count=count,
             )
             return
         now = time.perf_counter()
         if now - self._last_line >= self._interval:
             self._last_line = now
+            err_console.print(self.line(), markup=False)
+
+    def phase(self, label: str) -> None:
+        """Start a phase: show its label, with no count until the phase reports one.
+
+        On a terminal the bar's label changes; elsewhere one progress line names the phase.
+        """
+        self.label = label
+        self.total = None
+        self._phase_start = self._last_line = time.perf_counter()
+        self.update(0)
+        if self._bar is None:
             err_console.print(self.line(), markup=False)
 
     def advance(self, n: int = 1) -> None:
@@ -483,11 +496,10 @@ class ProgressLine:
         of = f"/{self.total}" if self.total else ""
         pct = f" ({100.0 * self.done / self.total:.0f}%)" if self.total else ""
         unit = f" {self.unit}" if self.unit else ""
+        count = f" {self.done}{of}{unit}{pct}" if self.done or self.total else ""
         elapsed = time.perf_counter() - self._start
         note = f" {self.note}" if self.note else ""
-        return message_line(
-            "progress", f"{self.label} {self.done}{of}{unit}{pct}{note} {elapsed:.0f} s"
-        )
+        return message_line("progress", f"{self.label}{count}{note} {elapsed:.0f} s")
 
     def echo(self, message: str) -> None:
         """Print one message line to stderr (above the bar on a terminal)."""

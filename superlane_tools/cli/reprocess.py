@@ -24,9 +24,63 @@ from superlane_tools.cli._common import (
     report_skipped,
 )
 
+TIMES_WIDTH = 100
+"""Characters of the ``times:`` line at most (the per-stage detail is in frames.parquet)."""
+
 
 def _recording_name(path: Path) -> str:
     return path.name.split(".")[0] if path.suffix else path.name
+
+
+def _compiling(compiler: Any) -> str:
+    """Return the progress note while the lane-fit kernels compile ("" when they do not)."""
+    return "compiling lane-fit kernels" if compiler is not None and compiler.poll() is None else ""
+
+
+def times_line(timings: dict[str, float], frames_per_s: float) -> str:
+    """Return the run's times in at most :data:`TIMES_WIDTH` characters.
+
+    Wall time, frames per second, then the stages that took the longest (summed over the
+    worker threads, so they may exceed the wall time), as many as fit.
+    """
+    run_keys = {"pass_wall", "post", "total"}
+    stages = sorted(
+        ((k, v) for k, v in timings.items() if k not in run_keys and not k.startswith("cpu_")),
+        key=lambda kv: -kv[1],
+    )
+    line = f"times: {timings.get('total', 0.0):.1f} s wall, {frames_per_s:.1f} frames/s"
+    if "post" in timings:
+        line += f" (report {timings['post']:.1f} s)"
+    prefix = "; top stages (thread sums): "
+    top: list[str] = []
+    for name, seconds in stages[:3]:
+        part = f"{name} {seconds:.1f} s"
+        if len(line + prefix + ", ".join([*top, part])) > TIMES_WIDTH:
+            break
+        top.append(part)
+    return line + prefix + ", ".join(top) if top else line
+
+
+def report_line(target: Path, availability: Any) -> str:
+    """Return the last line: where report.html is and one availability number per method."""
+    from superlane_tools.reporting.names import AVAILABILITY_NAMES
+    from superlane_tools.reporting.run_layout import REPORT_HTML_FILE
+
+    parts, unknown = [], []
+    for method, n_frames, n_available, n_unknown in availability:
+        name = AVAILABILITY_NAMES.get(method, method)
+        known = n_frames - n_unknown
+        if known <= 0:
+            unknown.append(name)
+            continue
+        of = f" of {known} known" if n_unknown else ""
+        parts.append(f"{name} {100.0 * n_available / known:.1f} %{of}")
+    line = f"report: {target / REPORT_HTML_FILE}"
+    if parts:
+        line += f" -- {', '.join(parts)} of frames available"
+    if unknown:
+        line += f"{'; ' if parts else ' -- '}availability unknown (no speed): {', '.join(unknown)}"
+    return line
 
 
 def reprocess_cmd(
@@ -141,8 +195,23 @@ def reprocess_cmd(
                 new_output(target, overwrite, [recording], replaces=True),
                 progress("reprocess", unit="frames") as bar,
             ):
+
+                def on_phase(label: str) -> None:
+                    bar.phase(label)
+                    bar.update(0, note=_compiling(compiler))
+
+                def on_frames(done: int, total: int | None) -> None:
+                    bar.update(done, total, note=_compiling(compiler))
+
                 result = reprocess_run(
-                    recording, target, cfg, bar.update, command_line(), with_signals, compiler
+                    recording,
+                    target,
+                    cfg,
+                    on_frames,
+                    command_line(),
+                    with_signals,
+                    compiler,
+                    phase=on_phase,
                 )
         finally:
             if compiler is not None and compiler.poll() is None:
@@ -159,17 +228,11 @@ def reprocess_cmd(
             )
     for line in result.notes:  # with the "Lanes not plausible" warning when there is one
         note(line)
-    from superlane_tools.reporting.drive_notes import timing_line
-
-    t = result.timings
-    console.print(
-        f"reprocessed {result.frames} frames in {t.get('total', 0):.1f} s "
-        f"({result.frames_per_s:.1f} frames/s) -> {target}",
-        markup=False,
-    )
-    if stages := timing_line(t):
-        console.print(f"times: {stages}", markup=False, soft_wrap=True)
-    exit_with(report_skipped(result.skipped))
+    code = report_skipped(result.skipped)
+    console.print(f"reprocessed {result.frames} frames -> {target}", markup=False)
+    console.print(times_line(result.timings, result.frames_per_s), markup=False)
+    console.print(report_line(target, result.availability), markup=False)
+    exit_with(code)
 
 
 def register(app: typer.Typer) -> None:
