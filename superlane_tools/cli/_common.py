@@ -253,16 +253,32 @@ def _holds(folder: Path, path: Path) -> bool:
     return inner == outer or outer in inner.parents
 
 
+def output_exists(out: Path | None) -> bool:
+    """Return True when ``out`` is an existing output: a file (or link), or a non-empty folder.
+
+    An empty folder holds nothing to lose or to leave stale: it is written into.
+    """
+    import os
+
+    if out is None or not os.path.lexists(out):
+        return False
+    if out.is_dir() and not out.is_symlink():
+        try:
+            return any(out.iterdir())
+        except OSError:
+            return True
+    return True
+
+
 def check_new_output(out: Path | None, overwrite: bool, inputs: Sequence[Path] = ()) -> None:
     """Refuse an existing output without ``--overwrite`` (exit 2), before any work starts.
 
     Also refuses, whatever ``--overwrite`` says, an output that is or holds one of the
     ``inputs`` or the working folder. See :func:`new_output`.
     """
-    import os
-
-    if out is None or not os.path.lexists(out):
+    if not output_exists(out):
         return
+    assert out is not None
     if not overwrite:
         fail(f"{out} exists; pass --overwrite to replace it", ExitCode.USAGE)
     for path in (*inputs, Path.cwd()):
@@ -281,10 +297,10 @@ def new_output(
 ) -> Iterator[None]:
     """Apply the one policy for existing outputs around the block that writes ``out``.
 
-    An output that does not exist is written. An existing one is a usage error (exit 2,
-    nothing written) unless ``--overwrite`` (:func:`check_new_output`): then the old output is
-    set aside, the block writes the new one, and the old one is removed (put back when the
-    block fails), so nothing stale survives
+    An output that does not exist (or an empty folder) is written. An existing one is a usage
+    error (exit 2, nothing written) unless ``--overwrite`` (:func:`check_new_output`): then the
+    old output is set aside, the block writes the new one, and the old one is removed (put back
+    when the block fails), so nothing stale survives
     (:func:`~superlane_tools.reporting.atomic.replacing`).
 
     Args:
@@ -295,10 +311,8 @@ def new_output(
             published by one rename, a file written by the atomic writer): only the refusal
             applies.
     """
-    import os
-
     check_new_output(out, overwrite, inputs)
-    if out is None or replaces or not os.path.lexists(out):
+    if out is None or replaces or not output_exists(out):
         yield
         return
     from superlane_tools.reporting.atomic import replacing
