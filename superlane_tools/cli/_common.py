@@ -232,7 +232,9 @@ def cli_errors() -> Iterator[None]:
     except OSError as err:
         if err.errno not in _DISK_ERRNOS:
             raise
-        where = f": {err.filename}" if err.filename else ""
+        if debug_enabled():
+            raise
+        where = f" {err.filename}" if err.filename else " the output"
         fail(f"cannot write{where}: {err.strerror or os.strerror(err.errno or 0)}")
 
 
@@ -338,6 +340,19 @@ def report_skipped(skipped: Sequence[Skipped]) -> ExitCode:
         detail = " ".join(items[0].detail.split())
         say("skipped", f"{what}{count}: {detail}{more}")
     return ExitCode.PARTIAL if skipped else ExitCode.OK
+
+
+def report_lost(skipped: Sequence[Skipped], nothing_read: bool, where: object) -> ExitCode:
+    """Report what was lost (:func:`report_skipped`); ERROR when nothing at all was readable.
+
+    A recording whose every message is lost (a ROS 2 bag without its ``messages`` table) gives
+    its ``skipped:`` lines, then one error line, and exit 1: nothing usable came out.
+    """
+    code = report_skipped(skipped)
+    if code != ExitCode.OK and nothing_read:
+        say("error", f"{where}: no message is readable (what was lost is above)")
+        return ExitCode.ERROR
+    return code
 
 
 def check_camera(value: str | None) -> str | None:

@@ -15,6 +15,7 @@ from superlane_tools.cli._common import (
     new_output,
     note,
     overwrite_option,
+    report_lost,
     report_skipped,
 )
 
@@ -50,6 +51,7 @@ def cat_cmd(
     from superlane_tools.recording.times import format_utc
     from superlane_tools.recording.tools import cat_messages, message_record
 
+    count = 0
     with cli_errors(), open_recording(recording) as rec:
         for count, msg in enumerate(cat_messages(rec, topics, start, end), start=1):
             record = message_record(msg, full_bytes)
@@ -61,7 +63,8 @@ def cat_cmd(
             if limit is not None and count >= limit:
                 break
         skipped = list(rec.skipped)
-    exit_with(report_skipped(skipped))
+    everything = topics is None and start is None and end is None
+    exit_with(report_lost(skipped, everything and count == 0, recording))
 
 
 def filter_cmd(
