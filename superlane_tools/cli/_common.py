@@ -507,14 +507,13 @@ class ProgressLine:
     def phase(self, label: str) -> None:
         """Start a phase: show its label, with no count until the phase reports one.
 
-        On a terminal the bar's label changes; elsewhere one progress line names the phase.
+        On a terminal the bar's label changes at once; elsewhere the next periodic line
+        carries it.
         """
         self.label = label
         self.total = None
-        self._phase_start = self._last_line = time.perf_counter()
+        self._phase_start = time.perf_counter()
         self.update(0)
-        if self._bar is None:
-            err_console.print(self.line(), markup=False)
 
     def advance(self, n: int = 1) -> None:
         """Count ``n`` more items done."""

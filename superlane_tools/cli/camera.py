@@ -93,6 +93,7 @@ def from_kitti_cmd(
     from superlane_tools.camera import camera_to_yaml, kitti_camera
 
     with cli_errors():
+        check_new_output(out, overwrite, [calib])
         cam = kitti_camera(calib, width, height, camera_height_m, name)
         comment = (
             f"KITTI camera 2 from {calib.name}: intrinsics from P2, angles from "

@@ -12,6 +12,7 @@ import typer
 
 from superlane_tools.cli._common import (
     EXIT_CODES_HELP,
+    check_new_output,
     cli_errors,
     command_line,
     exit_with,
@@ -152,6 +153,7 @@ def tusimple_cmd(
     from superlane_tools.evaluation import MODES, evaluate, evaluate_mode, load_jsonl
 
     with cli_errors():
+        check_new_output(save, overwrite)
         if mode not in MODES:
             raise UsageError(f"--mode must be one of {', '.join(MODES)}, not {mode!r}")
         preds = load_jsonl(pred, require_h_samples=False)
@@ -194,6 +196,7 @@ def attributes_cmd(
     from superlane_tools.evaluation import MODES, attribute_accuracy, load_jsonl
 
     with cli_errors():
+        check_new_output(save, overwrite)
         if mode not in MODES:
             raise UsageError(f"--mode must be one of {', '.join(MODES)}, not {mode!r}")
         acc = attribute_accuracy(
@@ -238,6 +241,7 @@ def kitti_cmd(
     from superlane_tools.evaluation.kitti_files import evaluate_folder
 
     with cli_errors():
+        check_new_output(save, overwrite)
         run = evaluate_folder(pred_dir, kitti_root, category)
         values: dict[str, Any] = run.score.as_dict()
         _save(
@@ -274,6 +278,7 @@ def culane_cmd(
     from superlane_tools.evaluation.culane import evaluate_folder
 
     with cli_errors():
+        check_new_output(save, overwrite)
         run = evaluate_folder(pred_dir, gt_root, lists or [], size=(width, height))
         sets = {
             r.name: {
@@ -328,6 +333,7 @@ def caltech_cmd(
     from superlane_tools.evaluation.errors import EvaluationError
 
     with cli_errors():
+        check_new_output(save, overwrite)
         names = clips or [c for c in CLIPS if (caltech_root / c / "labels.ccvl").is_file()]
         if not names:
             raise EvaluationError(f"no <clip>/labels.ccvl under {caltech_root}")

@@ -10,6 +10,7 @@ import typer
 from superlane_tools.cli._common import (
     EXIT_CODES_HELP,
     camera_option,
+    check_new_output,
     cli_errors,
     command_line,
     exit_with,
@@ -71,6 +72,7 @@ def fit_cmd(
     from superlane_tools.lanes.class_map import load_classes
 
     with cli_errors():
+        check_new_output(out, overwrite, [seg_dir])
         cam = load_camera(camera)
         class_map = load_classes(classes if classes is not None else seg_dir / "classes.yaml")
         params = FitParams(slope=not no_slope)
@@ -133,6 +135,7 @@ def export_cmd(
     from superlane_tools.evaluation import ExportOptions
 
     with cli_errors():
+        check_new_output(out, overwrite, [lanes_parquet])
         if max_lines < 1 or (lanes is not None and lanes < 1):
             raise UsageError("--max-lines and --lanes must be at least 1")
         rows = parse_h_samples(h_samples)
@@ -155,6 +158,7 @@ def export_kitti_cmd(
     from superlane_tools.commands.lanes.export import export_kitti_ego_lane
 
     with cli_errors():
+        check_new_output(out, overwrite, [lanes_parquet])
         with new_output(out, overwrite, [lanes_parquet]):
             result = export_kitti_ego_lane(lanes_parquet, load_camera(camera), out)
         note(f"wrote {result.n_records} frames -> {result.out}")

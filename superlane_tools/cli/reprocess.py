@@ -12,6 +12,7 @@ from superlane_tools.cli._common import (
     EXIT_CODES_HELP,
     camera_option,
     check_dbc_specs,
+    check_new_output,
     cli_errors,
     command_line,
     console,
@@ -160,6 +161,8 @@ def reprocess_cmd(
     with cli_errors():
         if recording is None:
             raise UsageError("missing argument RECORDING (or use --print-config)")
+        target = out if out is not None else Path("runs") / _recording_name(recording)
+        check_new_output(target, overwrite, [recording])
         # First: on a cold kernel cache the compiler is this run's critical path.
         compiler = start_compiling()
         try:
@@ -190,7 +193,6 @@ def reprocess_cmd(
             if workers is not None:
                 overrides["workers"] = workers
             cfg = cfg.with_overrides(overrides)
-            target = out if out is not None else Path("runs") / _recording_name(recording)
             with (
                 new_output(target, overwrite, [recording], replaces=True),
                 progress("reprocess", unit="frames") as bar,

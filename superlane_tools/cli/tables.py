@@ -9,6 +9,7 @@ import typer
 
 from superlane_tools.cli._common import (
     EXIT_CODES_HELP,
+    check_new_output,
     cli_errors,
     command_line,
     console,
@@ -56,6 +57,7 @@ def availability_cmd(
     from superlane_tools.errors import UsageError
 
     with cli_errors():
+        check_new_output(out, overwrite, runs)
         if by not in ("category", "run"):
             raise UsageError(f"--by must be 'category' or 'run', not {by!r}")
         _emit(availability_table(runs, by), out, runs, overwrite)
@@ -67,6 +69,7 @@ def curvature_cmd(runs: RunDirs, out: OutFile = None, overwrite: Overwrite = Fal
     from superlane_tools.commands.tables import curvature_table
 
     with cli_errors():
+        check_new_output(out, overwrite, runs)
         _emit(curvature_table(runs), out, runs, overwrite)
 
 
@@ -87,6 +90,7 @@ def paper_cmd(
     )
 
     with cli_errors():
+        check_new_output(out, overwrite, results)
         sources = [str(p) for p in results]
         cells = paper_cells([load_record(p) for p in results], sources)
         if out is None:

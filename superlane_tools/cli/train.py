@@ -11,6 +11,7 @@ import typer
 
 from superlane_tools.cli._common import (
     EXIT_CODES_HELP,
+    check_new_output,
     cli_errors,
     command_line,
     new_output,
@@ -108,6 +109,7 @@ def train(
 ) -> None:
     """Train a network on CPU, export it to ONNX (opset 17) and write MODEL.card.yaml."""
     with cli_errors():
+        check_new_output(out, overwrite or resume)
         if task not in TASKS:
             raise UsageError(f"TASK must be one of {', '.join(TASKS)}, got {task!r}")
         if augment not in ("real", "camera", "none"):
