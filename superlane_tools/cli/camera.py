@@ -261,16 +261,17 @@ def estimate_cmd(
     overwrite: Annotated[bool, overwrite_option()] = False,
 ) -> None:
     """Estimate pitch, yaw, roll and height from the lane lines and the lane width."""
+    from superlane_tools.recording.calibration import camera_sidecar
+
+    target = None if str(out) == "-" else out if out is not None else camera_sidecar(recording)
+    check_new_output(target, overwrite, [recording])  # before the heavy imports and any work
     import yaml
 
     from superlane_tools.camera import camera_to_yaml, load_camera
     from superlane_tools.commands.camera_estimate import estimate_camera
     from superlane_tools.config_files import load_document
-    from superlane_tools.recording.calibration import camera_sidecar
 
-    target = None if str(out) == "-" else out if out is not None else camera_sidecar(recording)
     with cli_errors():
-        check_new_output(target, overwrite, [recording])
         known = load_camera(intrinsics).intrinsics if intrinsics is not None else None
         result = estimate_camera(
             recording,

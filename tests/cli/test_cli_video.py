@@ -98,14 +98,18 @@ def test_camera_estimate_writes_the_profile_auto_reads(clip: Path) -> None:
     assert profile.is_file()
     assert f"wrote {profile}" in res.stderr
     notes = res.stderr
-    assert "ASSUMED lane width" in notes and "3.7 m" in notes
+    assert "ASSUMED lane width" in notes
+    assert "3.7 m" in notes
     assert "ASSUMED field of view: 60 deg" in notes
-    assert "UNRELIABLE roll" in notes and "3.0 s drive" in notes
+    assert "UNRELIABLE roll" in notes
+    assert "3.0 s drive" in notes
     text = profile.read_text()
-    assert "assumptions:" in text and "UNRELIABLE roll" in text
+    assert "assumptions:" in text
+    assert "UNRELIABLE roll" in text
     again = runner.invoke(app, ["camera", "estimate", str(clip), "--frames", "8"])
     assert again.exit_code == 2
-    assert "camera estimate: " in again.stderr and "--overwrite" in again.stderr
+    assert "camera estimate: " in again.stderr
+    assert "--overwrite" in again.stderr
     assert profile.read_text() == text  # refused before any work: nothing written
 
 
