@@ -41,8 +41,9 @@ def _compiling(compiler: Any) -> str:
 def times_line(timings: dict[str, float], frames_per_s: float) -> str:
     """Return the run's times in at most :data:`TIMES_WIDTH` characters.
 
-    Wall time, frames per second, then the stages that took the longest (summed over the
-    worker threads, so they may exceed the wall time), as many as fit.
+    Wall time, frames per second, then the stages that took the longest, as many as fit (their
+    times are sums over the worker threads, so they may exceed the wall time; every frame's
+    stage times are in frames.parquet).
     """
     run_keys = {"pass_wall", "post", "total"}
     stages = sorted(
@@ -50,9 +51,7 @@ def times_line(timings: dict[str, float], frames_per_s: float) -> str:
         key=lambda kv: -kv[1],
     )
     line = f"times: {timings.get('total', 0.0):.1f} s wall, {frames_per_s:.1f} frames/s"
-    if "post" in timings:
-        line += f" (report {timings['post']:.1f} s)"
-    prefix = "; top stages (thread sums): "
+    prefix = "; stage sums: "
     top: list[str] = []
     for name, seconds in stages[:3]:
         part = f"{name} {seconds:.1f} s"
