@@ -98,7 +98,7 @@ def estimate_camera(
     source = ""
     previous_time: int | None = None
     first_ns: int | None = None
-    last_ns = 0
+    last_ns: int | None = None
     want_pairs = track is not None
     for index, frame in enumerate(frames):
         first_ns = frame.log_time_ns if first_ns is None else first_ns
@@ -154,5 +154,5 @@ def estimate_camera(
     # the height the lane fit of `slt reprocess` (its default parameters) needs for this width
     fit_params = FitParams.from_dict(dict(DEFAULT_FIT))
     est = fit_height(pixels, CameraModel(used_k, est.extrinsics), est, lane_width_m, fit_params)
-    span_s = (last_ns - (first_ns or 0)) / 1e9
+    span_s = (last_ns - first_ns) / 1e9 if first_ns is not None and last_ns is not None else 0.0
     return CameraEstimate(CameraModel(used_k, est.extrinsics, name=name), est, source, span_s)
