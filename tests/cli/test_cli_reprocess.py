@@ -59,7 +59,8 @@ def test_print_config_round_trips() -> None:
 def test_bad_config_is_usage_error(tmp_path: Path) -> None:
     cfg = tmp_path / "bad.toml"
     cfg.write_text("[kpi]\nmin_width = 3\n", encoding="utf-8")
-    code, out = run_cli("reprocess", str(SAMPLE), "--config", str(cfg), "--out", str(tmp_path))
+    run = str(tmp_path / "run")
+    code, out = run_cli("reprocess", str(SAMPLE), "--config", str(cfg), "--out", run)
     assert code == 2
     assert "unknown keys in [kpi]: min_width" in out
     code, out = run_cli("reprocess", str(SAMPLE), "--backend", "magic")
