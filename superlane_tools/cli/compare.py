@@ -15,10 +15,9 @@ from superlane_tools.cli._common import (
     console,
     err_console,
     exit_with,
-    new_output,
-    overwrite_option,
     report_skipped,
 )
+from superlane_tools.cli._outputs import new_output, overwrite_option
 from superlane_tools.errors import ExitCode
 
 COMPARE_EXIT_HELP = (

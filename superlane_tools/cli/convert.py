@@ -13,11 +13,10 @@ from superlane_tools.cli._common import (
     cli_errors,
     command_line,
     exit_with,
-    new_output,
     note,
-    overwrite_option,
     report_skipped,
 )
+from superlane_tools.cli._outputs import new_output, overwrite_option
 from superlane_tools.errors import UsageError
 
 _KINDS = ("video", "nmea", "gpx", "can", "csv")

@@ -14,12 +14,11 @@ from superlane_tools.cli._common import (
     cli_errors,
     command_line,
     model_option,
-    new_output,
     note,
-    overwrite_option,
     progress,
     report_skipped,
 )
+from superlane_tools.cli._outputs import new_output, overwrite_option
 from superlane_tools.errors import ExitCode
 
 

@@ -12,15 +12,13 @@ import typer
 
 from superlane_tools.cli._common import (
     EXIT_CODES_HELP,
-    check_new_output,
     cli_errors,
     command_line,
     exit_with,
-    new_output,
     note,
-    overwrite_option,
     report_skipped,
 )
+from superlane_tools.cli._outputs import check_new_output, new_output, overwrite_option
 from superlane_tools.errors import ExitCode
 from superlane_tools.records import Skipped
 

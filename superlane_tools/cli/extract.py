@@ -15,12 +15,11 @@ from superlane_tools.cli._common import (
     command_line,
     console,
     exit_with,
-    new_output,
     note,
-    overwrite_option,
     progress,
     report_skipped,
 )
+from superlane_tools.cli._outputs import new_output, overwrite_option
 from superlane_tools.errors import ExitCode, UsageError
 
 if TYPE_CHECKING:

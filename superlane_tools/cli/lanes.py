@@ -10,16 +10,14 @@ import typer
 from superlane_tools.cli._common import (
     EXIT_CODES_HELP,
     camera_option,
-    check_new_output,
     cli_errors,
     command_line,
     exit_with,
-    new_output,
     note,
-    overwrite_option,
     progress,
     report_skipped,
 )
+from superlane_tools.cli._outputs import check_new_output, new_output, overwrite_option
 
 lanes_app = typer.Typer(
     name="lanes",

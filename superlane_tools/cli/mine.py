@@ -14,10 +14,9 @@ from superlane_tools.cli._common import (
     command_line,
     console,
     exit_with,
-    new_output,
-    overwrite_option,
     report_skipped,
 )
+from superlane_tools.cli._outputs import new_output, overwrite_option
 
 
 def mine_cmd(

@@ -13,10 +13,9 @@ from superlane_tools.cli._common import (
     cli_errors,
     console,
     exit_with,
-    new_output,
-    overwrite_option,
     report_skipped,
 )
+from superlane_tools.cli._outputs import new_output, overwrite_option
 from superlane_tools.records import Skipped
 
 

@@ -12,18 +12,16 @@ from superlane_tools.cli._common import (
     EXIT_CODES_HELP,
     camera_option,
     check_dbc_specs,
-    check_new_output,
     cli_errors,
     command_line,
     console,
     exit_with,
     model_option,
-    new_output,
     note,
-    overwrite_option,
     progress,
     report_skipped,
 )
+from superlane_tools.cli._outputs import check_new_output, new_output, overwrite_option
 
 TIMES_WIDTH = 100
 """Characters of the ``times:`` line at most (the per-stage detail is in frames.parquet)."""

@@ -12,12 +12,11 @@ from superlane_tools.cli._common import (
     camera_option,
     cli_errors,
     model_option,
-    new_output,
     note,
-    overwrite_option,
     progress,
     report_skipped,
 )
+from superlane_tools.cli._outputs import new_output, overwrite_option
 from superlane_tools.errors import ExitCode
 from superlane_tools.records import Skipped
 

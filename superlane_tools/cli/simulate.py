@@ -12,10 +12,9 @@ from superlane_tools.cli._common import (
     command_line,
     console,
     fail,
-    new_output,
-    overwrite_option,
     progress,
 )
+from superlane_tools.cli._outputs import new_output, overwrite_option
 from superlane_tools.errors import ExitCode
 
 simulate_app = typer.Typer(

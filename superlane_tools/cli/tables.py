@@ -9,13 +9,11 @@ import typer
 
 from superlane_tools.cli._common import (
     EXIT_CODES_HELP,
-    check_new_output,
     cli_errors,
     command_line,
     console,
-    new_output,
-    overwrite_option,
 )
+from superlane_tools.cli._outputs import check_new_output, new_output, overwrite_option
 
 tables_app = typer.Typer(
     name="tables",

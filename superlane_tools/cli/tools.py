@@ -12,12 +12,11 @@ from superlane_tools.cli._common import (
     EXIT_CODES_HELP,
     cli_errors,
     exit_with,
-    new_output,
     note,
-    overwrite_option,
     report_lost,
     report_skipped,
 )
+from superlane_tools.cli._outputs import new_output, overwrite_option
 
 TIME_HELP = "seconds after the first message (12.5), ISO 8601 (2018-08-02T15:34:47Z) or epoch ns"
 

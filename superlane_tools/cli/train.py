@@ -11,14 +11,12 @@ import typer
 
 from superlane_tools.cli._common import (
     EXIT_CODES_HELP,
-    check_new_output,
     cli_errors,
     command_line,
-    new_output,
     note,
-    overwrite_option,
     progress,
 )
+from superlane_tools.cli._outputs import check_new_output, new_output, overwrite_option
 from superlane_tools.errors import UsageError
 
 TASKS = ("segmentation", "corridor")
