@@ -51,9 +51,13 @@ def check_new_output(out: Path | None, overwrite: bool, inputs: Sequence[Path] =
     Also refuses, whatever ``--overwrite`` says, an output that is or holds one of the
     ``inputs`` or the working folder. See :func:`new_output`.
     """
+    if out is None:
+        return
+    from superlane_tools.reporting.atomic import settle_replaced
+
+    settle_replaced(out)  # what a killed --overwrite left: the old output back, or gone
     if not output_exists(out):
         return
-    assert out is not None
     if not overwrite:
         fail(f"{out} exists; pass --overwrite to replace it", ExitCode.USAGE)
     for path in (*inputs, Path.cwd()):

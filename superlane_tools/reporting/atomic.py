@@ -113,6 +113,30 @@ def _remove(path: Path) -> None:
             path.unlink()
 
 
+def settle_replaced(target: str | os.PathLike[str]) -> list[Path]:
+    """Settle what a killed :func:`replacing` left beside ``target``; return the paths touched.
+
+    An old output set aside by a process that no longer runs is put back when ``target`` is
+    missing (the kill came before the new output appeared), else removed (the new output is
+    there: the replacement the user asked for had happened).
+    """
+    final = Path(target)
+    touched: list[Path] = []
+    parent = final.parent if str(final.parent) else Path()
+    aside = re.compile(rf"^\.{re.escape(final.name)}\.(\d+)\.[0-9a-f]{{8}}\.old$")
+    with contextlib.suppress(OSError):
+        for entry in sorted(parent.iterdir()):
+            match = aside.match(entry.name)
+            if match is None or pid_alive(int(match[1])):
+                continue
+            if os.path.lexists(final):
+                _remove(entry)
+            else:
+                entry.rename(final)
+            touched.append(entry)
+    return touched
+
+
 @contextlib.contextmanager
 def replacing(target: str | os.PathLike[str]) -> Iterator[Path]:
     """Set an existing output aside while the block writes a new one at ``target``.

@@ -259,3 +259,28 @@ def test_reprocess_overwrite_replaces_the_run_folder(tmp_path: Path) -> None:
     assert again.exit_code == 0, again.output
     assert not (out / "stale.txt").exists()
     assert (out / "report.html").is_file()
+
+
+def _dead_pid() -> int:
+    import subprocess
+    import sys
+
+    done = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                          capture_output=True, text=True, check=True)  # fmt: skip
+    return int(done.stdout)
+
+
+def test_a_killed_overwrite_leaves_the_old_output_or_the_new_one(tmp_path: Path) -> None:
+    log = _nmea(tmp_path / "g.nmea")
+    out = tmp_path / "out.mcap"
+    pid = _dead_pid()
+    aside = tmp_path / f".out.mcap.{pid}.0badc0de.old"  # killed after setting the old one aside
+    aside.write_text("old output")
+    refused = runner.invoke(app, ["convert", str(log), "-o", str(out)])
+    assert refused.exit_code == 2  # the old output is back in place, and refused
+    assert out.read_text() == "old output"
+    assert not aside.exists()
+    aside.write_text("older output")  # killed after the new output was written
+    done = runner.invoke(app, ["convert", str(log), "-o", str(out), "--overwrite"])
+    assert done.exit_code == 0, done.output
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["g.nmea", "out.mcap"]

@@ -1204,10 +1204,10 @@ def kill_campaign(
         args += ["--workers", "1"]
         if command == "batch-ray":
             args += ["--engine", "ray"]
-    elif command == "reprocess":
-        args = ["reprocess", "d.mcap", "--out", OUT, "--no-plots"]
+    elif command == "reprocess":  # reruns replace the previous output: --overwrite
+        args = ["reprocess", "d.mcap", "--out", OUT, "--no-plots", "--overwrite"]
     else:
-        args = ["extract", "d.mcap", "--out", OUT]
+        args = ["extract", "d.mcap", "--out", OUT, "--overwrite"]
     t0 = time.perf_counter()
     proc = _slt(args, work)
     proc.wait(timeout=timeout_s)
