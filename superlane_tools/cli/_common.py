@@ -138,15 +138,15 @@ class SltGroup(TyperGroup):
         try:
             return super().invoke(ctx)
         except UsageError as err:
-            raise _one_line(err, _command_path(self, ctx.command_path, words)) from err
+            raise _one_line(err, _command_path(self, words)) from err
 
 
-def _command_path(group: Any, root: str, words: list[str]) -> str:
-    """Return the command path the words name (``slt camera estimate``).
+def _command_path(group: Any, words: list[str]) -> str:
+    """Return the subcommand names the words start with (``camera estimate``).
 
     For a usage error raised before the subcommand had a context (an option without its value).
     """
-    path = [root]
+    path: list[str] = []
     command = group
     for word in words:
         sub = getattr(command, "commands", {}).get(word)
@@ -167,10 +167,22 @@ def note(text: str) -> None:
     say("note", text)
 
 
+def _subcommand_path(ctx: Context | None) -> str:
+    """Return the names below the root of ``ctx``'s command path (``camera estimate``).
+
+    The root's own name is left out whatever the program was called (``slt``, ``python -m
+    ...``): only the subcommands' names are joined.
+    """
+    names: list[str] = []
+    while ctx is not None and ctx.parent is not None:
+        names.append(ctx.info_name or "")
+        ctx = ctx.parent
+    return " ".join(reversed(names))
+
+
 def command_name() -> str:
     """Return the running command's name without ``slt`` (``camera estimate``; "" at the root)."""
-    ctx = _current_context()
-    return ctx.command_path.partition(" ")[2] if ctx is not None else ""
+    return _subcommand_path(_current_context())
 
 
 def fail(message: str, code: ExitCode = ExitCode.ERROR) -> NoReturn:
@@ -190,13 +202,12 @@ class OneLineUsageError(UsageError):
     """A click usage error shown as one ``slt: error:`` line (exit 2), not click's usage block."""
 
     path = ""
-    """The command path when the error has no context (set by :func:`_one_line`)."""
+    """The subcommand's names when the error has no context (set by :func:`_one_line`)."""
 
     def show(self, file: IO[Any] | None = None) -> None:  # noqa: ARG002 (stderr console)
         """Print the error as one line naming the command and its ``-h``."""
-        path = self.ctx.command_path if self.ctx is not None else self.path
-        where = path.partition(" ")[2]
-        hint = f" (see '{path} -h')" if path else ""
+        where = _subcommand_path(self.ctx) if self.ctx is not None else self.path
+        hint = f" (see 'slt {where} -h')" if where else " (see 'slt -h')"
         text = self.format_message()
         say("error", f"{where}: {text}{hint}" if where else f"{text}{hint}")
 
@@ -206,7 +217,7 @@ def _one_line(err: UsageError, path: str = "") -> UsageError:
 
     Args:
         err: Click's usage error.
-        path: The command path to name when ``err`` carries no context.
+        path: The subcommand's names when ``err`` carries no context.
     """
     if isinstance(err, (NoArgsIsHelpError, OneLineUsageError)):
         return err
