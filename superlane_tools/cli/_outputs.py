@@ -58,12 +58,12 @@ def check_new_output(out: Path | None, overwrite: bool, inputs: Sequence[Path] =
     settle_replaced(out)  # what a killed --overwrite left: the old output back, or gone
     if not output_exists(out):
         return
-    if not overwrite:
-        fail(f"{out} exists; pass --overwrite to replace it", ExitCode.USAGE)
-    for path in (*inputs, Path.cwd()):
+    for path in (*inputs, Path.cwd()):  # first: --overwrite would not help
         if _holds(out, path):
             what = "the working folder" if path == Path.cwd() else f"the input {path}"
             fail(f"--out {out} holds {what}; not replacing it", ExitCode.USAGE)
+    if not overwrite:
+        fail(f"{out} exists; pass --overwrite to replace it", ExitCode.USAGE)
 
 
 @contextmanager

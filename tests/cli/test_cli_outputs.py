@@ -156,6 +156,9 @@ def test_an_output_holding_an_input_is_never_replaced(tmp_path: Path) -> None:
     assert res.exit_code == 2, res.output
     assert f"extract: --out {folder} holds the input {log}" in res.stderr
     assert log.is_file()
+    same = runner.invoke(app, ["convert", str(log), "-o", str(log)])  # without --overwrite too
+    assert same.exit_code == 2, same.output
+    assert f"convert: --out {log} holds the input {log}; not replacing it" in same.stderr
 
 
 # --overwrite, on real runs of the commands: the old output goes whole, nothing stale is left.
