@@ -430,8 +430,8 @@ class ProgressLine:
             self._last_line = now
             err_console.print(self.line(), markup=False)
 
-    def phase(self, label: str) -> None:
-        """Start a phase: show its label, with no count until the phase reports one.
+    def phase(self, label: str, note: str = "") -> None:
+        """Start a phase: show its label (and a note), no count until the phase reports one.
 
         On a terminal the bar's label changes at once; elsewhere the next periodic line
         carries it.
@@ -439,7 +439,7 @@ class ProgressLine:
         self.label = label
         self.total = None
         self._phase_start = time.perf_counter()
-        self.update(0)
+        self.update(0, note=note)
 
     def advance(self, n: int = 1) -> None:
         """Count ``n`` more items done."""

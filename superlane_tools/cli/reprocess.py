@@ -196,8 +196,7 @@ def reprocess_cmd(
             ):
 
                 def on_phase(label: str) -> None:
-                    bar.phase(label)
-                    bar.update(0, note=_compiling(compiler))
+                    bar.phase(label, note=_compiling(compiler))
 
                 def on_frames(done: int, total: int | None) -> None:
                     bar.update(done, total, note=_compiling(compiler))

@@ -110,7 +110,7 @@ def test_phases_are_labelled_and_never_0_of_unknown(
     monkeypatch.setenv("SLT_PROGRESS_INTERVAL_S", "0")
     with progress("reprocess", unit="frames") as bar:
         bar.phase("self-check on 16 frames")
-        bar.update(0, note="compiling lane-fit kernels")
+        bar.phase("self-check on 16 frames", note="compiling lane-fit kernels")
         bar.phase("pass")
         bar.update(5, 10)
         bar.phase("report: tables, plots, report")
