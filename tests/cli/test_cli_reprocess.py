@@ -128,6 +128,9 @@ def test_sample_drive_with_no_options(tmp_path: Path, monkeypatch: pytest.Monkey
     code, text = run_cli("reprocess", str(SAMPLE))
     assert code == 0, text
     assert "reprocessed 240 frames" in text
+    last = text.rstrip().splitlines()[-1]  # report.html and one number per method
+    assert last.startswith("report: runs/sample_drive/report.html -- SUPER "), last
+    assert last.endswith(" of frames available"), last
     run = tmp_path / "runs" / "sample_drive"
     for name in ("report.md", "report.html", "annotations.mcap", "plots/curvature_time.png"):
         assert (run / name).is_file(), name
