@@ -127,7 +127,7 @@ def info(
     recording: Annotated[
         Path,
         typer.Argument(
-            help="MCAP file, ROS 1 .bag, ROS 2 bag folder, CAN log or NMEA log.",
+            help="MCAP file, ROS 1 .bag, ROS 2 bag folder, CAN log, NMEA log or video (.mp4).",
             show_default=False,
         ),
     ],

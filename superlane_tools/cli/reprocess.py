@@ -83,7 +83,10 @@ def report_line(target: Path, availability: Any) -> str:
 
 def reprocess_cmd(
     recording: Annotated[
-        Path | None, typer.Argument(help="Recording: MCAP, ROS 1 .bag or ROS 2 bag folder.")
+        Path | None,
+        typer.Argument(
+            help="Recording: MCAP, ROS 1 .bag, ROS 2 bag folder, or a dashcam video (.mp4, .mkv)."
+        ),
     ] = None,
     out: Annotated[
         Path | None, typer.Option("--out", "-o", help="Output folder (default runs/<name>/).")
