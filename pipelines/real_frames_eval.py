@@ -85,7 +85,11 @@ def _default_data() -> Path:
 
 
 def slt(*args: str | Path) -> tuple[str, str]:
-    """Run one ``slt`` command; return it (for the report) and its stdout."""
+    """Run one ``slt`` command; return it (for the report) and its stdout.
+
+    Every command here writes an output; ``--overwrite`` replaces the previous run's.
+    """
+    args = (*args, "--overwrite")
     argv = [SLT, *map(str, args)]
     proc = subprocess.run(argv, capture_output=True, text=True, check=False)
     if proc.returncode != 0:

@@ -96,8 +96,8 @@ def _run(cmd: list[str], simulate: bool, args: argparse.Namespace) -> tuple[int,
         env["PYTHONPATH"] = os.pathsep.join(
             filter(None, [args.simulator_path, env.get("PYTHONPATH")])
         )
-    done = subprocess.run(
-        [str(slt), *cmd[1:]], check=False, capture_output=True, text=True, env=env
+    done = subprocess.run(  # every command of the plan writes: replace the previous run's
+        [str(slt), *cmd[1:], "--overwrite"], check=False, capture_output=True, text=True, env=env
     )
     return done.returncode, done.stderr
 

@@ -91,7 +91,7 @@ def run_scenario(
                 "slt", "simulate", "--scenario", scenario, "--duration", str(args.duration),
                 "--seed", str(args.seed), "--width", str(args.width), "--height",
                 str(args.height), "--fps", str(args.fps), "--labels", "--out",
-                f"{stem}.mcap",
+                f"{stem}.mcap", "--overwrite",
             ],
             log,
         )  # fmt: skip
@@ -101,7 +101,7 @@ def run_scenario(
     _run(
         [
             "slt", "lanes", "fit", str(labels), "--camera", CAMERA, "--classes", str(classes),
-            "--out", str(lanes), "--sequential",
+            "--out", str(lanes), "--sequential", "--overwrite",
         ],
         log,
     )  # fmt: skip

@@ -98,7 +98,7 @@ def make_dataset(folder: Path, frames: int, seed: int, size: tuple[int, int]) ->
     """Write a simulator dataset into ``folder`` (reused if indexed); return the command."""
     command = [
         "simulate", "dataset", "--out", str(folder), "--frames", str(frames), "--seed", str(seed),
-        "--width", str(size[0]), "--height", str(size[1]),
+        "--width", str(size[0]), "--height", str(size[1]), "--overwrite",
     ]  # fmt: skip
     if not (folder / "index.parquet").is_file():
         subprocess.run([SLT, *command], check=True, capture_output=True, text=True)

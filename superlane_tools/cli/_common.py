@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import errno
 import os
 import re
 import shlex
@@ -133,10 +134,27 @@ class SltGroup(TyperGroup):
 
     def invoke(self, ctx: Context) -> Any:
         """Run the subcommand; a usage error anywhere below becomes one line."""
+        words = [*ctx._protected_args, *ctx.args]
         try:
             return super().invoke(ctx)
         except UsageError as err:
-            raise _one_line(err) from err
+            raise _one_line(err, _command_path(self, words)) from err
+
+
+def _command_path(group: Any, words: list[str]) -> str:
+    """Return the subcommand names the words start with (``camera estimate``).
+
+    For a usage error raised before the subcommand had a context (an option without its value).
+    """
+    path: list[str] = []
+    command = group
+    for word in words:
+        sub = getattr(command, "commands", {}).get(word)
+        if sub is None:
+            break
+        path.append(word)
+        command = sub
+    return " ".join(path)
 
 
 def say(kind: MessageKind, text: str) -> None:
@@ -149,8 +167,33 @@ def note(text: str) -> None:
     say("note", text)
 
 
+def _subcommand_path(ctx: Context | None) -> str:
+    """Return the names below the root of ``ctx``'s command path (``camera estimate``).
+
+    The root's own name is left out whatever the program was called (``slt``, ``python -m
+    ...``): only the subcommands' names are joined.
+    """
+    names: list[str] = []
+    while ctx is not None and ctx.parent is not None:
+        names.append(ctx.info_name or "")
+        ctx = ctx.parent
+    return " ".join(reversed(names))
+
+
+def command_name() -> str:
+    """Return the running command's name without ``slt`` (``camera estimate``; "" at the root)."""
+    return _subcommand_path(_current_context())
+
+
 def fail(message: str, code: ExitCode = ExitCode.ERROR) -> NoReturn:
-    """Print one ``slt: error: ...`` line to stderr and exit with ``code``."""
+    """Print one ``slt: error: ...`` line to stderr and exit with ``code``.
+
+    A usage error (exit 2) names its command first, as click's own usage errors do:
+    ``slt: error: reprocess: runs/x exists; pass --overwrite to replace it``.
+    """
+    name = command_name()
+    if code == ExitCode.USAGE and name and not message.startswith(f"{name}: "):
+        message = f"{name}: {message}"
     say("error", message)
     raise typer.Exit(int(code))
 
@@ -158,36 +201,52 @@ def fail(message: str, code: ExitCode = ExitCode.ERROR) -> NoReturn:
 class OneLineUsageError(UsageError):
     """A click usage error shown as one ``slt: error:`` line (exit 2), not click's usage block."""
 
+    path = ""
+    """The subcommand's names when the error has no context (set by :func:`_one_line`)."""
+
     def show(self, file: IO[Any] | None = None) -> None:  # noqa: ARG002 (stderr console)
         """Print the error as one line naming the command and its ``-h``."""
-        where = ""
-        hint = ""
-        if self.ctx is not None:
-            path = self.ctx.command_path
-            where = path.partition(" ")[2]
-            hint = f" (see '{path} -h')"
+        where = _subcommand_path(self.ctx) if self.ctx is not None else self.path
+        hint = f" (see 'slt {where} -h')" if where else " (see 'slt -h')"
         text = self.format_message()
         say("error", f"{where}: {text}{hint}" if where else f"{text}{hint}")
 
 
-def _one_line(err: UsageError) -> UsageError:
-    """Return ``err`` as a :class:`OneLineUsageError` (help requested by no arguments stays)."""
+def _one_line(err: UsageError, path: str = "") -> UsageError:
+    """Return ``err`` as a :class:`OneLineUsageError` (help requested by no arguments stays).
+
+    Args:
+        err: Click's usage error.
+        path: The subcommand's names when ``err`` carries no context.
+    """
     if isinstance(err, (NoArgsIsHelpError, OneLineUsageError)):
         return err
     one = OneLineUsageError(err.format_message(), err.ctx)
+    one.path = path
     one.exit_code = int(ExitCode.USAGE)
     return one
 
 
+_DISK_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EROFS}
+"""OS errors of the output side: a full disk or quota, a file too large, a read-only mount."""
+
+
 @contextmanager
 def cli_errors() -> Iterator[None]:
-    """Map ``SltError`` (and stray OS errors on input files) to one line and an exit code."""
+    """Map ``SltError`` (and stray OS errors on files) to one line and an exit code."""
     try:
         yield
     except SltError as err:
         fail(str(err), err.exit_code)
     except (FileNotFoundError, IsADirectoryError, PermissionError) as err:
         fail(f"{err.strerror}: {err.filename}", ExitCode.ERROR)
+    except OSError as err:
+        if err.errno not in _DISK_ERRNOS:
+            raise
+        if debug_enabled():
+            raise
+        where = f" {err.filename}" if err.filename else " the output"
+        fail(f"cannot write{where}: {err.strerror or os.strerror(err.errno or 0)}")
 
 
 def report_skipped(skipped: Sequence[Skipped]) -> ExitCode:
@@ -209,6 +268,19 @@ def report_skipped(skipped: Sequence[Skipped]) -> ExitCode:
     return ExitCode.PARTIAL if skipped else ExitCode.OK
 
 
+def report_lost(skipped: Sequence[Skipped], nothing_read: bool, where: object) -> ExitCode:
+    """Report what was lost (:func:`report_skipped`); ERROR when nothing at all was readable.
+
+    A recording whose every message is lost (a ROS 2 bag without its ``messages`` table) gives
+    its ``skipped:`` lines, then one error line, and exit 1: nothing usable came out.
+    """
+    code = report_skipped(skipped)
+    if code != ExitCode.OK and nothing_read:
+        say("error", f"{where}: no message is readable (what was lost is above)")
+        return ExitCode.ERROR
+    return code
+
+
 def check_camera(value: str | None) -> str | None:
     """Typer callback for ``--camera``: a profile or YAML that does not load is a usage error.
 
@@ -224,6 +296,24 @@ def check_camera(value: str | None) -> str | None:
     except SltError as err:
         raise typer.BadParameter(str(err)) from err
     return value
+
+
+def check_model(value: str | None) -> str | None:
+    """Typer callback for ``--model``: a model that is neither a file nor bundled exits 2."""
+    if value is None:
+        return value
+    from superlane_tools.scene.onnx_backend import resolve_model
+
+    try:
+        resolve_model(value)
+    except SltError as err:
+        raise typer.BadParameter(str(err)) from err
+    return value
+
+
+def model_option(help_text: str) -> Any:
+    """Return the shared ``--model`` option: an ONNX file or a bundled model name (checked)."""
+    return typer.Option("--model", help=help_text, callback=check_model)
 
 
 def check_dbc_specs(values: list[Path] | None) -> list[Path] | None:
@@ -280,6 +370,7 @@ class ProgressLine:
         self.unit = unit
         self.note = ""
         self._start = time.perf_counter()
+        self._phase_start = self._start
         self._last_line = self._start
         self._interval = float(os.environ.get(PROGRESS_INTERVAL_ENV, "10"))
         self._bar: Any = None
@@ -287,25 +378,19 @@ class ProgressLine:
 
     def __enter__(self) -> ProgressLine:
         if err_console.is_terminal:
-            from rich.progress import (
-                BarColumn,
-                MofNCompleteColumn,
-                Progress,
-                TextColumn,
-                TimeElapsedColumn,
-            )
+            from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
             self._bar = Progress(
                 TextColumn("{task.description}"),
                 BarColumn(),
-                MofNCompleteColumn(),
+                TextColumn("{task.fields[count]}"),  # "12/240", or nothing while unknown
                 TextColumn("{task.fields[note]}"),
                 TimeElapsedColumn(),
                 console=err_console,
                 transient=True,
             )
             self._bar.__enter__()
-            self._task = self._bar.add_task(self.label, total=self.total, note="")
+            self._task = self._bar.add_task(self.label, total=self.total, note="", count="")
         return self
 
     def __exit__(
@@ -326,18 +411,35 @@ class ProgressLine:
             self.total = total
         if label is not None:
             self.label = label
-        elapsed = time.perf_counter() - self._start
-        rate = f"{done / elapsed:.1f}/s" if elapsed > 0 else ""
+        elapsed = time.perf_counter() - self._phase_start
+        rate = f"{done / elapsed:.1f}/s" if elapsed > 0 and done else ""
         self.note = " ".join(part for part in (note, rate) if part)
         if self._bar is not None:
+            count = f"{done}/{self.total}" if self.total else (str(done) if done else "")
             self._bar.update(
-                self._task, completed=done, total=self.total, note=self.note, description=self.label
+                self._task,
+                completed=done,
+                total=self.total,
+                note=self.note,
+                description=self.label,
+                count=count,
             )
             return
         now = time.perf_counter()
         if now - self._last_line >= self._interval:
             self._last_line = now
             err_console.print(self.line(), markup=False)
+
+    def phase(self, label: str, note: str = "") -> None:
+        """Start a phase: show its label (and a note), no count until the phase reports one.
+
+        On a terminal the bar's label changes at once; elsewhere the next periodic line
+        carries it.
+        """
+        self.label = label
+        self.total = None
+        self._phase_start = time.perf_counter()
+        self.update(0, note=note)
 
     def advance(self, n: int = 1) -> None:
         """Count ``n`` more items done."""
@@ -348,11 +450,10 @@ class ProgressLine:
         of = f"/{self.total}" if self.total else ""
         pct = f" ({100.0 * self.done / self.total:.0f}%)" if self.total else ""
         unit = f" {self.unit}" if self.unit else ""
+        count = f" {self.done}{of}{unit}{pct}" if self.done or self.total else ""
         elapsed = time.perf_counter() - self._start
         note = f" {self.note}" if self.note else ""
-        return message_line(
-            "progress", f"{self.label} {self.done}{of}{unit}{pct}{note} {elapsed:.0f} s"
-        )
+        return message_line("progress", f"{self.label}{count}{note} {elapsed:.0f} s")
 
     def echo(self, message: str) -> None:
         """Print one message line to stderr (above the bar on a terminal)."""

@@ -63,7 +63,13 @@ def batch_cmd(
         int, typer.Option(help="Extra attempts for a failing recording.", min=0)
     ] = 1,
     force: Annotated[
-        bool, typer.Option("--force", help="Redo recordings that already finished.")
+        bool,
+        typer.Option(
+            "--force",
+            "--overwrite",
+            help="Redo recordings that already finished, replacing their folders (the root "
+            "itself is reused: finished recordings are skipped without this flag).",
+        ),
     ] = False,
     job: Annotated[
         str | None,

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
@@ -16,8 +16,12 @@ from superlane_tools.cli._common import (
     note,
     report_skipped,
 )
+from superlane_tools.cli._outputs import check_new_output, new_output, overwrite_option
 from superlane_tools.errors import SltError
 from superlane_tools.records import Skipped
+
+if TYPE_CHECKING:
+    from superlane_tools.commands.camera_estimate import CameraEstimate
 
 camera_app = typer.Typer(
     name="camera",
@@ -81,12 +85,13 @@ def from_kitti_cmd(
     out: Annotated[
         Path | None, typer.Option(help="Write the YAML here instead of printing it.")
     ] = None,
+    overwrite: Annotated[bool, overwrite_option()] = False,
 ) -> None:
     """Convert a KITTI calibration file into a camera-2 profile (YAML)."""
     from superlane_tools.camera import camera_to_yaml, kitti_camera
-    from superlane_tools.reporting import write_text_atomic
 
     with cli_errors():
+        check_new_output(out, overwrite, [calib])
         cam = kitti_camera(calib, width, height, camera_height_m, name)
         comment = (
             f"KITTI camera 2 from {calib.name}: intrinsics from P2, angles from "
@@ -94,11 +99,7 @@ def from_kitti_cmd(
             f"Written by: {command_line()}"
         )
         text = camera_to_yaml(cam, comment=comment)
-        if out is None:
-            typer.echo(text, nl=False)
-        else:
-            write_text_atomic(out, text)
-            note(f"wrote {out}")
+        _write_profile(out, text, overwrite)
 
 
 def _image_list(images: list[Path]) -> list[Path]:
@@ -113,14 +114,15 @@ def _image_list(images: list[Path]) -> list[Path]:
     return out
 
 
-def _write_profile(out: Path | None, text: str) -> None:
+def _write_profile(out: Path | None, text: str, overwrite: bool) -> None:
     from superlane_tools.reporting import write_text_atomic
 
     if out is None:
         typer.echo(text, nl=False)
-    else:
+        return
+    with new_output(out, overwrite, replaces=True):
         write_text_atomic(out, text)
-        note(f"wrote {out}")
+    note(f"wrote {out}")
 
 
 def _check_board(value: str) -> str:
@@ -158,6 +160,7 @@ def calibrate_cmd(
         Path | None,
         typer.Option("--out", "-o", help="Write the profile YAML here instead of printing it."),
     ] = None,
+    overwrite: Annotated[bool, overwrite_option()] = False,
 ) -> None:
     """Calibrate intrinsics and distortion from chessboard photos (OpenCV) into a profile."""
     import yaml
@@ -168,6 +171,7 @@ def calibrate_cmd(
     from superlane_tools.errors import UsageError
 
     with cli_errors():
+        check_new_output(out, overwrite, images)
         paths = _image_list(images)
         if not paths:
             raise UsageError("no images given (JPEG or PNG files, or folders of them)")
@@ -185,7 +189,7 @@ def calibrate_cmd(
         text = camera_to_yaml(cam, comment=comment) + yaml.safe_dump(
             {"calibration": result.summary()}, sort_keys=False
         )
-        _write_profile(out, text)
+        _write_profile(out, text, overwrite)
     note(f"reprojection error {result.rms_px:.3f} px RMS over {len(result.used)} views")
     names: dict[str, list[str]] = {}
     for path, reason in result.rejected:
@@ -194,10 +198,19 @@ def calibrate_cmd(
     exit_with(report_skipped(lost))
 
 
+ROLL_RELIABLE_S = 60.0
+"""Drive length, seconds, below which an estimated roll is flagged: docs/camera.md measures
+lane wander over short drives as up to 3 degrees of roll, and the roll within 0.75 degrees on a
+60 s drive."""
+
+
 @camera_app.command("estimate")
 def estimate_cmd(
     recording: Annotated[
-        Path, typer.Argument(help="Recording with a camera topic (images or video).")
+        Path,
+        typer.Argument(
+            help="Recording with a camera topic (images or video), or a dashcam video file."
+        ),
     ],
     lane_width: Annotated[
         float, typer.Option(help="Lane width of the road driven, metres.", min=0.5)
@@ -235,10 +248,21 @@ def estimate_cmd(
     name: Annotated[str, typer.Option(help="Profile name written into the YAML.")] = "estimated",
     out: Annotated[
         Path | None,
-        typer.Option("--out", "-o", help="Write the profile YAML here instead of printing it."),
+        typer.Option(
+            "--out",
+            "-o",
+            help="Profile YAML to write; '-' prints it. Default: <recording stem>.camera.yaml "
+            "beside the recording, the profile `--camera auto` reads.",
+            show_default=False,
+        ),
     ] = None,
+    overwrite: Annotated[bool, overwrite_option()] = False,
 ) -> None:
     """Estimate pitch, yaw, roll and height from the lane lines and the lane width."""
+    from superlane_tools.recording.calibration import camera_sidecar
+
+    target = None if str(out) == "-" else out if out is not None else camera_sidecar(recording)
+    check_new_output(target, overwrite, [recording])  # before the heavy imports and any work
     import yaml
 
     from superlane_tools.camera import camera_to_yaml, load_camera
@@ -259,21 +283,49 @@ def estimate_cmd(
             roll_rad=None if roll_deg is None else math.radians(roll_deg),
         )
         est = result.estimate
+        caveats = _estimate_caveats(result, lane_width, roll_deg is None)
         comment = (
             f"Extrinsics estimated from {est.frames_used} of {est.frames_seen} frames of "
             f"{recording.name}.\nIntrinsics: {result.intrinsics_source}.\n"
-            f"Written by: {command_line()}"
+            + "".join(f"{line}\n" for line in caveats)
+            + f"Written by: {command_line()}"
         )
         blocks: dict[str, object] = {}
         if intrinsics is not None and Path(intrinsics).is_file():
             source = load_document(intrinsics, "intrinsics file", ".yaml")
             if isinstance(source, dict) and "calibration" in source:  # keep the chessboard report
                 blocks["calibration"] = source["calibration"]
-        blocks["estimate"] = {**est.summary(), "intrinsics": result.intrinsics_source}
+        blocks["estimate"] = {
+            **est.summary(),
+            "intrinsics": result.intrinsics_source,
+            "span_s": round(result.span_s, 2),
+            "assumptions": caveats,
+        }
         text = camera_to_yaml(result.camera, comment=comment) + yaml.safe_dump(
             blocks, sort_keys=False
         )
-        _write_profile(out, text)
+        _write_estimate(target, out is None, text, overwrite)
+    _print_estimate(result)
+    for line in caveats:
+        note(line)
+
+
+def _write_estimate(target: Path | None, default: bool, text: str, overwrite: bool) -> None:
+    """Write the estimated profile; a default path in a read-only folder names ``-o``."""
+    from superlane_tools.reporting import OutputError
+
+    try:
+        _write_profile(target, text, overwrite)
+    except OutputError as err:
+        if not default:
+            raise
+        raise OutputError(
+            f"{err} (the recording's folder; pass -o PATH, then --camera PATH)"
+        ) from err
+
+
+def _print_estimate(result: CameraEstimate) -> None:
+    est = result.estimate
     e = est.extrinsics
     roll = f"roll {math.degrees(e.roll_rad):.2f} deg ({est.roll_method})"
     if est.roll_sigma_rad is not None:
@@ -285,6 +337,34 @@ def estimate_cmd(
         f"height {e.height_m:.3f} +- {est.height_sigma_m:.3f} m (per-frame spread; "
         f"{est.frames_used} frames); intrinsics: {result.intrinsics_source}"
     )
+
+
+def _estimate_caveats(
+    result: CameraEstimate, lane_width_m: float, roll_estimated: bool
+) -> list[str]:
+    """Return what the estimate assumed rather than measured, one sentence each."""
+    est = result.estimate
+    k = result.camera.intrinsics
+    lines = [
+        f"ASSUMED lane width: the height ({est.extrinsics.height_m:.3f} m) is scaled so that the "
+        f"lane fit measures the assumed {lane_width_m:g} m lanes; lane widths measured with "
+        "this profile are that assumption, not a measurement"
+    ]
+    if "ASSUMED" in result.intrinsics_source:
+        hfov = math.degrees(2.0 * math.atan(k.width / (2.0 * k.fx)))
+        lines.append(
+            f"ASSUMED field of view: {hfov:.0f} deg horizontal (no --intrinsics, --focal-px or "
+            "--hfov, and the focal length could not be measured); pitch, height and every "
+            "distance depend on it: calibrate with `slt camera calibrate`"
+        )
+    if roll_estimated and est.roll_sigma_rad is not None and result.span_s < ROLL_RELIABLE_S:
+        lines.append(
+            f"UNRELIABLE roll: {math.degrees(est.extrinsics.roll_rad):.2f} deg from a "
+            f"{result.span_s:.1f} s drive; over a short drive lane wander reads as up to 3 deg "
+            f"of roll (docs/camera.md; reliable to 0.75 deg over {ROLL_RELIABLE_S:.0f} s): "
+            "pass --roll-deg 0 for a level mount"
+        )
+    return lines
 
 
 def register(app: typer.Typer) -> None:

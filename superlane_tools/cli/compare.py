@@ -17,6 +17,7 @@ from superlane_tools.cli._common import (
     exit_with,
     report_skipped,
 )
+from superlane_tools.cli._outputs import new_output, overwrite_option
 from superlane_tools.errors import ExitCode
 
 COMPARE_EXIT_HELP = (
@@ -57,6 +58,7 @@ def compare_cmd(
     ] = 2000,
     spans: Annotated[int, typer.Option("--spans", min=0, help="Worst spans to list.")] = 10,
     no_plots: Annotated[bool, typer.Option("--no-plots", help="Skip plots/*.png.")] = False,
+    overwrite: Annotated[bool, overwrite_option()] = False,
 ) -> None:
     """Compare a candidate run with a base run: fleet KPI deltas with 95 % bootstrap intervals.
 
@@ -77,7 +79,8 @@ def compare_cmd(
             plots=not no_plots,
             command=command_line(),
         )
-        result = compare_runs(base, candidate, out, params)
+        with new_output(out, overwrite, [base, candidate]):
+            result = compare_runs(base, candidate, out, params)
     fleet = result.comparison.fleet_rows()
     counts = fleet["verdict"].value_counts()
     for row in result.differences.head(5).itertuples(index=False):

@@ -16,6 +16,7 @@ from superlane_tools.cli._common import (
     note,
     report_skipped,
 )
+from superlane_tools.cli._outputs import new_output, overwrite_option
 from superlane_tools.errors import UsageError
 
 _KINDS = ("video", "nmea", "gpx", "can", "csv")
@@ -40,7 +41,7 @@ def convert_cmd(
             show_default=False,
         ),
     ],
-    out: Annotated[Path, typer.Option("--out", "-o", help="Output .mcap file (must not exist).")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Output .mcap file.")],
     offset: Annotated[
         list[str] | None,
         typer.Option(
@@ -75,6 +76,7 @@ def convert_cmd(
             "Camera profile/YAML of the video: adds CameraInfo and the slt_camera record."
         ),
     ] = None,
+    overwrite: Annotated[bool, overwrite_option()] = False,
 ) -> None:
     """Convert a video and side logs, or any log alone, into one MCAP for slt and Foxglove."""
     from superlane_tools.recording.convert import ConvertConfig, ConvertInput, convert
@@ -97,9 +99,10 @@ def convert_cmd(
             except ValueError as err:
                 raise UsageError(f"--offset {path.name}: {text!r} is not seconds") from err
             items.append(ConvertInput(path, k, seconds))  # type: ignore[arg-type]
-        result = convert(
-            items, out, ConvertConfig(video_start, fps, camera=camera), command=command_line()
-        )
+        with new_output(out, overwrite, inputs):
+            result = convert(
+                items, out, ConvertConfig(video_start, fps, camera=camera), command=command_line()
+            )
     for topic, count in sorted(result.counts.items()):
         note(f"{topic}: {count} messages")
     for line in result.notes:

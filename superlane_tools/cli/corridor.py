@@ -13,10 +13,12 @@ from superlane_tools.cli._common import (
     camera_option,
     cli_errors,
     command_line,
+    model_option,
     note,
     progress,
     report_skipped,
 )
+from superlane_tools.cli._outputs import new_output, overwrite_option
 from superlane_tools.errors import ExitCode
 
 
@@ -34,7 +36,7 @@ def corridor(
     ],
     model: Annotated[
         str | None,
-        typer.Option("--model", help="Corridor ONNX model file or shipped model name."),
+        model_option("Corridor ONNX model file or shipped model name."),
     ] = None,
     camera: Annotated[
         str | None,
@@ -48,6 +50,7 @@ def corridor(
         float, typer.Option("--threshold", min=0.0, max=1.0, help="Corridor probability cut.")
     ] = 0.5,
     threads: Annotated[int, typer.Option("--threads", min=1, help="onnxruntime threads.")] = 2,
+    overwrite: Annotated[bool, overwrite_option()] = False,
 ) -> None:
     """Predict the ego corridor (ego lane up to the preceding vehicle) of every image.
 
@@ -55,7 +58,7 @@ def corridor(
     --smooth frames in name order) and OUT/corridor.parquet (name, area fraction, and width_m /
     length_m through the camera model when --camera is given).
     """
-    with cli_errors():
+    with cli_errors(), new_output(out, overwrite, [input_path]):
         code = _run(input_path, out, model, camera, smooth, threshold, threads)
     if code != ExitCode.OK:
         raise typer.Exit(int(code))

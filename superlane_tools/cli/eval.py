@@ -18,6 +18,7 @@ from superlane_tools.cli._common import (
     note,
     report_skipped,
 )
+from superlane_tools.cli._outputs import check_new_output, new_output, overwrite_option
 from superlane_tools.errors import ExitCode
 from superlane_tools.records import Skipped
 
@@ -38,6 +39,7 @@ Save = Annotated[
         "`slt tables paper`.",
     ),
 ]
+Overwrite = Annotated[bool, overwrite_option()]
 Row = Annotated[
     str,
     typer.Option(help="Paper-table row of the record (a method; Table 2: 'no sq' or 'sq')."),
@@ -59,6 +61,8 @@ def _save(
     pred: Path,
     gt: Path,
     extra: dict[str, Any] | None = None,
+    *,
+    overwrite: bool = False,
 ) -> None:
     if save is None:
         return
@@ -74,7 +78,8 @@ def _save(
         ground_truth=file_ref(gt),
         extra=extra or {},
     )
-    note(f"wrote {save_record(record, save)}")
+    with new_output(save, overwrite, [pred, gt], replaces=True):
+        note(f"wrote {save_record(record, save)}")
 
 
 def _check_category(value: str) -> str:
@@ -137,6 +142,7 @@ def tusimple_cmd(
         ),
     ] = False,
     save: Save = None,
+    overwrite: Overwrite = False,
     row: Row = "no sq",
     column: Column = "sc",
 ) -> None:
@@ -145,6 +151,7 @@ def tusimple_cmd(
     from superlane_tools.evaluation import MODES, evaluate, evaluate_mode, load_jsonl
 
     with cli_errors():
+        check_new_output(save, overwrite)
         if mode not in MODES:
             raise UsageError(f"--mode must be one of {', '.join(MODES)}, not {mode!r}")
         preds = load_jsonl(pred, require_h_samples=False)
@@ -153,7 +160,7 @@ def tusimple_cmd(
         gts = load_jsonl(gt, require_h_samples=True)
         score = evaluate(preds, gts) if mode == "all" else evaluate_mode(preds, gts, mode, centre)
         extra = {"mode": mode, "time_gate": not no_time_gate}
-        _save(save, "tusimple", row, column, score.as_dict(), pred, gt, extra)
+        _save(save, "tusimple", row, column, score.as_dict(), pred, gt, extra, overwrite=overwrite)
     values = score.as_dict()
     if not as_json:
         values = {
@@ -178,6 +185,7 @@ def attributes_cmd(
         float, typer.Option(help="Image column that separates left and right lines.")
     ] = 640.0,
     save: Save = None,
+    overwrite: Overwrite = False,
     row: Row = "SUPER",
     column: Column = "",
 ) -> None:
@@ -186,6 +194,7 @@ def attributes_cmd(
     from superlane_tools.evaluation import MODES, attribute_accuracy, load_jsonl
 
     with cli_errors():
+        check_new_output(save, overwrite)
         if mode not in MODES:
             raise UsageError(f"--mode must be one of {', '.join(MODES)}, not {mode!r}")
         acc = attribute_accuracy(
@@ -194,7 +203,17 @@ def attributes_cmd(
             mode,
             centre,
         )
-        _save(save, "attributes", row, column, acc.as_dict(), pred, gt, {"mode": mode})
+        _save(
+            save,
+            "attributes",
+            row,
+            column,
+            acc.as_dict(),
+            pred,
+            gt,
+            {"mode": mode},
+            overwrite=overwrite,
+        )
     _print(acc.as_dict(), as_json)
 
 
@@ -213,15 +232,27 @@ def kitti_cmd(
     ] = "um_lane",
     as_json: AsJson = False,
     save: Save = None,
+    overwrite: Overwrite = False,
     row: Row = "SUPER",
 ) -> None:
     """Print the KITTI road benchmark in the bird's-eye view: MaxF, AP, precision, recall, FPR."""
     from superlane_tools.evaluation.kitti_files import evaluate_folder
 
     with cli_errors():
+        check_new_output(save, overwrite)
         run = evaluate_folder(pred_dir, kitti_root, category)
         values: dict[str, Any] = run.score.as_dict()
-        _save(save, "kitti", row, "", values, pred_dir, kitti_root, {"category": category})
+        _save(
+            save,
+            "kitti",
+            row,
+            "",
+            values,
+            pred_dir,
+            kitti_root,
+            {"category": category},
+            overwrite=overwrite,
+        )
     _print(values, as_json)
     exit_with(_report_missing(run.missing))
 
@@ -238,12 +269,14 @@ def culane_cmd(
     height: Annotated[int, typer.Option(help="Image height, pixels.")] = 590,
     as_json: AsJson = False,
     save: Save = None,
+    overwrite: Overwrite = False,
     row: Row = "SUPER",
 ) -> None:
     """Print CULane F1 at IoU 0.5 per list, F1@75 and mF1 (official 30 px lanes, Hungarian)."""
     from superlane_tools.evaluation.culane import evaluate_folder
 
     with cli_errors():
+        check_new_output(save, overwrite)
         run = evaluate_folder(pred_dir, gt_root, lists or [], size=(width, height))
         sets = {
             r.name: {
@@ -259,7 +292,7 @@ def culane_cmd(
             }
             for r in run.results
         }
-        _save(save, "culane", row, "", {"sets": sets}, pred_dir, gt_root)
+        _save(save, "culane", row, "", {"sets": sets}, pred_dir, gt_root, overwrite=overwrite)
     if as_json:
         typer.echo(json.dumps(sets))
     else:
@@ -290,6 +323,7 @@ def caltech_cmd(
     ] = None,
     as_json: AsJson = False,
     save: Save = None,
+    overwrite: Overwrite = False,
     row: Row = "SUPER",
 ) -> None:
     """Print Caltech lanes TPR per clip (Aly 2008 matching: mean <= 15 px or median <= 20 px)."""
@@ -297,6 +331,7 @@ def caltech_cmd(
     from superlane_tools.evaluation.errors import EvaluationError
 
     with cli_errors():
+        check_new_output(save, overwrite)
         names = clips or [c for c in CLIPS if (caltech_root / c / "labels.ccvl").is_file()]
         if not names:
             raise EvaluationError(f"no <clip>/labels.ccvl under {caltech_root}")
@@ -306,7 +341,16 @@ def caltech_cmd(
             scores.append(score)
             missing += [f"{name}/{m}" for m in miss]
         clip_values = {s.name: asdict(s) for s in scores}
-        _save(save, "caltech", row, "", {"clips": clip_values}, pred_dir, caltech_root)
+        _save(
+            save,
+            "caltech",
+            row,
+            "",
+            {"clips": clip_values},
+            pred_dir,
+            caltech_root,
+            overwrite=overwrite,
+        )
     all_score = total(scores)
     if as_json:
         typer.echo(json.dumps({"clips": clip_values, "all": asdict(all_score)}))

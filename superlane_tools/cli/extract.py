@@ -19,6 +19,7 @@ from superlane_tools.cli._common import (
     progress,
     report_skipped,
 )
+from superlane_tools.cli._outputs import new_output, overwrite_option
 from superlane_tools.errors import ExitCode, UsageError
 
 if TYPE_CHECKING:
@@ -108,6 +109,7 @@ def extract_cmd(
     verbose: Annotated[
         bool, typer.Option("--verbose", "-v", help="List every DBC repair, not just how many.")
     ] = False,
+    overwrite: Annotated[bool, overwrite_option()] = False,
 ) -> None:
     """Extract frames, camera info, CAN frames/signals and GNSS fixes to files and Parquet.
 
@@ -140,7 +142,7 @@ def extract_cmd(
             for line in repairs if verbose else []:
                 note(f"dbc {name}: {line}")
 
-        with progress("extract", unit="messages") as bar:
+        with new_output(out, overwrite, [recording]), progress("extract", unit="messages") as bar:
             result = extract(
                 recording,
                 out,

@@ -14,7 +14,7 @@ from superlane_tools.cli._common import (
     cli_errors,
     console,
     progress,
-    report_skipped,
+    report_lost,
 )
 from superlane_tools.errors import ExitCode
 
@@ -127,7 +127,7 @@ def info(
     recording: Annotated[
         Path,
         typer.Argument(
-            help="MCAP file, ROS 1 .bag, ROS 2 bag folder, CAN log or NMEA log.",
+            help="MCAP file, ROS 1 .bag, ROS 2 bag folder, CAN log, NMEA log or video (.mp4).",
             show_default=False,
         ),
     ],
@@ -165,7 +165,7 @@ def info(
         can_topics = [t.topic for t in summary.topics if t.msgtype in CAN_MSGTYPES]
         can_rows = can_id_stats(rec, can_topics) if can_topics else []
     _emit(summary, file_info, "every message", can_rows, as_json)
-    code = report_skipped(summary.skipped)
+    code = report_lost(summary.skipped, summary.message_count == 0, recording)
     if code != ExitCode.OK:
         raise typer.Exit(int(code))
 

@@ -17,6 +17,7 @@ from superlane_tools.cli._common import (
     progress,
     report_skipped,
 )
+from superlane_tools.cli._outputs import check_new_output, new_output, overwrite_option
 
 lanes_app = typer.Typer(
     name="lanes",
@@ -60,6 +61,7 @@ def fit_cmd(
             file_okay=False,
         ),
     ] = None,
+    overwrite: Annotated[bool, overwrite_option()] = False,
 ) -> None:
     """Fit lanes, heading, curvature and road slope to every mask under SEG_DIR."""
     from superlane_tools.camera import load_camera
@@ -68,10 +70,11 @@ def fit_cmd(
     from superlane_tools.lanes.class_map import load_classes
 
     with cli_errors():
+        check_new_output(out, overwrite, [seg_dir])
         cam = load_camera(camera)
         class_map = load_classes(classes if classes is not None else seg_dir / "classes.yaml")
         params = FitParams(slope=not no_slope)
-        with progress("fitting lanes", unit="masks") as bar:
+        with new_output(out, overwrite, [seg_dir]), progress("fitting lanes", unit="masks") as bar:
             result = fit_masks(
                 seg_dir,
                 cam,
@@ -121,6 +124,7 @@ def export_cmd(
     raw_ext: Annotated[
         str, typer.Option(help="Extension that replaces the mask's in raw_file.")
     ] = ".jpg",
+    overwrite: Annotated[bool, overwrite_option()] = False,
 ) -> None:
     """Project fitted lanes into the image at each frame's rows; write TuSimple JSON lines."""
     from superlane_tools.camera import load_camera
@@ -129,12 +133,14 @@ def export_cmd(
     from superlane_tools.evaluation import ExportOptions
 
     with cli_errors():
+        check_new_output(out, overwrite, [lanes_parquet])
         if max_lines < 1 or (lanes is not None and lanes < 1):
             raise UsageError("--max-lines and --lanes must be at least 1")
         rows = parse_h_samples(h_samples)
         cam = load_camera(camera)
         options = ExportOptions(max_lines=max_lines, n_lanes=lanes, raw_ext=raw_ext)
-        result = export_tusimple(lanes_parquet, cam, out, options, h_samples=rows, tasks=tasks)
+        with new_output(out, overwrite, [lanes_parquet]):
+            result = export_tusimple(lanes_parquet, cam, out, options, h_samples=rows, tasks=tasks)
         note(f"wrote {result.n_records} frames -> {result.out}")
 
 
@@ -143,13 +149,16 @@ def export_kitti_cmd(
     lanes_parquet: Annotated[Path, typer.Argument(help="lanes.parquet from `slt lanes fit`.")],
     camera: Annotated[str, camera_option("Camera profile name or camera YAML file.")],
     out: Annotated[Path, typer.Option(help="Output folder of KITTI ego-lane PNGs.")],
+    overwrite: Annotated[bool, overwrite_option()] = False,
 ) -> None:
     """Rasterise each frame's fitted ego lane as a KITTI submission PNG (um_lane_NNNNNN.png)."""
     from superlane_tools.camera import load_camera
     from superlane_tools.commands.lanes.export import export_kitti_ego_lane
 
     with cli_errors():
-        result = export_kitti_ego_lane(lanes_parquet, load_camera(camera), out)
+        check_new_output(out, overwrite, [lanes_parquet])
+        with new_output(out, overwrite, [lanes_parquet]):
+            result = export_kitti_ego_lane(lanes_parquet, load_camera(camera), out)
         note(f"wrote {result.n_records} frames -> {result.out}")
 
 

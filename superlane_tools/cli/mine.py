@@ -16,6 +16,7 @@ from superlane_tools.cli._common import (
     exit_with,
     report_skipped,
 )
+from superlane_tools.cli._outputs import new_output, overwrite_option
 
 
 def mine_cmd(
@@ -45,6 +46,7 @@ def mine_cmd(
         list[Path] | None,
         typer.Option("--recordings", help="Folder searched for the runs' recordings."),
     ] = None,
+    overwrite: Annotated[bool, overwrite_option()] = False,
 ) -> None:
     """Pick frames worth labelling and export them with pre-annotations from the fitted lanes.
 
@@ -68,7 +70,8 @@ def mine_cmd(
             )
         except FleetError as err:
             raise UsageError(str(err)) from err
-        result = mine_runs(inputs, out, params, recordings or [], compare_dir, command_line())
+        with new_output(out, overwrite, [*inputs, *(recordings or [])]):
+            result = mine_runs(inputs, out, params, recordings or [], compare_dir, command_line())
     console.print(f"mined {len(result.manifest)} frames -> {out}", markup=False)
     exit_with(report_skipped(result.skipped))
 

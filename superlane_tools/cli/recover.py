@@ -15,6 +15,7 @@ from superlane_tools.cli._common import (
     exit_with,
     report_skipped,
 )
+from superlane_tools.cli._outputs import new_output, overwrite_option
 from superlane_tools.records import Skipped
 
 
@@ -32,7 +33,7 @@ def recover_cmd(
             "--out",
             "-o",
             help=(
-                "Output in the input's format (must not exist): OUT.mcap for an MCAP, OUT.bag "
+                "Output in the input's format: OUT.mcap for an MCAP, OUT.bag "
                 "for a ROS 1 bag, a folder OUT for a ROS 2 bag (same storage)."
             ),
         ),
@@ -41,11 +42,12 @@ def recover_cmd(
         bool,
         typer.Option("--json", help="Print what was written and lost as one JSON document."),
     ] = False,
+    overwrite: Annotated[bool, overwrite_option()] = False,
 ) -> None:
     """Write every readable message into a new recording; report what was lost."""
     from superlane_tools.commands.recover import recover
 
-    with cli_errors():
+    with cli_errors(), new_output(out, overwrite, [recording]):
         result = recover(recording, out)
     if as_json:
         console.print_json(json.dumps(result.document()))

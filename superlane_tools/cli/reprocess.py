@@ -16,19 +16,77 @@ from superlane_tools.cli._common import (
     command_line,
     console,
     exit_with,
+    model_option,
     note,
     progress,
     report_skipped,
 )
+from superlane_tools.cli._outputs import check_new_output, new_output, overwrite_option
+
+TIMES_WIDTH = 100
+"""Characters of the ``times:`` line at most (the per-stage detail is in frames.parquet)."""
 
 
 def _recording_name(path: Path) -> str:
     return path.name.split(".")[0] if path.suffix else path.name
 
 
+def _compiling(compiler: Any) -> str:
+    """Return the progress note while the lane-fit kernels compile ("" when they do not)."""
+    return "compiling lane-fit kernels" if compiler is not None and compiler.poll() is None else ""
+
+
+def times_line(timings: dict[str, float], frames_per_s: float) -> str:
+    """Return the run's times in at most :data:`TIMES_WIDTH` characters.
+
+    Wall time, frames per second, then the stages that took the longest, as many as fit (their
+    times are sums over the worker threads, so they may exceed the wall time; every frame's
+    stage times are in frames.parquet).
+    """
+    run_keys = {"pass_wall", "post", "total"}
+    stages = sorted(
+        ((k, v) for k, v in timings.items() if k not in run_keys and not k.startswith("cpu_")),
+        key=lambda kv: -kv[1],
+    )
+    line = f"times: {timings.get('total', 0.0):.1f} s wall, {frames_per_s:.1f} frames/s"
+    prefix = "; stage sums: "
+    top: list[str] = []
+    for name, seconds in stages[:3]:
+        part = f"{name} {seconds:.1f} s"
+        if len(line + prefix + ", ".join([*top, part])) > TIMES_WIDTH:
+            break
+        top.append(part)
+    return line + prefix + ", ".join(top) if top else line
+
+
+def report_line(target: Path, availability: Any) -> str:
+    """Return the last line: where report.html is and one availability number per method."""
+    from superlane_tools.reporting.names import AVAILABILITY_NAMES
+    from superlane_tools.reporting.run_layout import REPORT_HTML_FILE
+
+    parts, unknown = [], []
+    for method, n_frames, n_available, n_unknown in availability:
+        name = AVAILABILITY_NAMES.get(method, method)
+        known = n_frames - n_unknown
+        if known <= 0:
+            unknown.append(name)
+            continue
+        of = f" of {known} known" if n_unknown else ""
+        parts.append(f"{name} {100.0 * n_available / known:.1f} %{of}")
+    line = f"report: {target / REPORT_HTML_FILE}"
+    if parts:
+        line += f" -- {', '.join(parts)} of frames available"
+    if unknown:
+        line += f"{'; ' if parts else ' -- '}availability unknown (no speed): {', '.join(unknown)}"
+    return line
+
+
 def reprocess_cmd(
     recording: Annotated[
-        Path | None, typer.Argument(help="Recording: MCAP, ROS 1 .bag or ROS 2 bag folder.")
+        Path | None,
+        typer.Argument(
+            help="Recording: MCAP, ROS 1 .bag, ROS 2 bag folder, or a dashcam video (.mp4, .mkv)."
+        ),
     ] = None,
     out: Annotated[
         Path | None, typer.Option("--out", "-o", help="Output folder (default runs/<name>/).")
@@ -58,9 +116,7 @@ def reprocess_cmd(
         str | None,
         typer.Option("--backend", help="Segmentation: auto, classical, onnx or oracle."),
     ] = None,
-    model: Annotated[
-        str | None, typer.Option("--model", help="Segmentation ONNX model (path or name).")
-    ] = None,
+    model: Annotated[str | None, model_option("Segmentation ONNX model (path or name).")] = None,
     oracle_labels: Annotated[
         Path | None,
         typer.Option(
@@ -93,6 +149,7 @@ def reprocess_cmd(
             "it (network backends; default off; models trained in it always use it).",
         ),
     ] = None,
+    overwrite: Annotated[bool, overwrite_option()] = False,
 ) -> None:
     """Reprocess a drive: SUPER lane fit, corridor network, Hough baseline, CAN, RTK.
 
@@ -112,6 +169,8 @@ def reprocess_cmd(
     with cli_errors():
         if recording is None:
             raise UsageError("missing argument RECORDING (or use --print-config)")
+        target = out if out is not None else Path("runs") / _recording_name(recording)
+        check_new_output(target, overwrite, [recording])
         # First: on a cold kernel cache the compiler is this run's critical path.
         compiler = start_compiling()
         try:
@@ -144,10 +203,26 @@ def reprocess_cmd(
             if canonical_camera is not None:
                 overrides["segmentation.canonical_camera"] = canonical_camera
             cfg = cfg.with_overrides(overrides)
-            target = out if out is not None else Path("runs") / _recording_name(recording)
-            with progress("reprocess", unit="frames") as bar:
+            with (
+                new_output(target, overwrite, [recording], replaces=True),
+                progress("reprocess", unit="frames") as bar,
+            ):
+
+                def on_phase(label: str) -> None:
+                    bar.phase(label, note=_compiling(compiler))
+
+                def on_frames(done: int, total: int | None) -> None:
+                    bar.update(done, total, note=_compiling(compiler))
+
                 result = reprocess_run(
-                    recording, target, cfg, bar.update, command_line(), with_signals, compiler
+                    recording,
+                    target,
+                    cfg,
+                    on_frames,
+                    command_line(),
+                    with_signals,
+                    compiler,
+                    phase=on_phase,
                 )
         finally:
             if compiler is not None and compiler.poll() is None:
@@ -164,17 +239,11 @@ def reprocess_cmd(
             )
     for line in result.notes:  # with the "Lanes not plausible" warning when there is one
         note(line)
-    from superlane_tools.reporting.drive_notes import timing_line
-
-    t = result.timings
-    console.print(
-        f"reprocessed {result.frames} frames in {t.get('total', 0):.1f} s "
-        f"({result.frames_per_s:.1f} frames/s) -> {target}",
-        markup=False,
-    )
-    if stages := timing_line(t):
-        console.print(f"times: {stages}", markup=False, soft_wrap=True)
-    exit_with(report_skipped(result.skipped))
+    code = report_skipped(result.skipped)
+    console.print(f"reprocessed {result.frames} frames -> {target}", markup=False)
+    console.print(times_line(result.timings, result.frames_per_s), markup=False)
+    console.print(report_line(target, result.availability), markup=False)
+    exit_with(code)
 
 
 def register(app: typer.Typer) -> None:

@@ -11,10 +11,12 @@ from superlane_tools.cli._common import (
     EXIT_CODES_HELP,
     camera_option,
     cli_errors,
+    model_option,
     note,
     progress,
     report_skipped,
 )
+from superlane_tools.cli._outputs import new_output, overwrite_option
 from superlane_tools.errors import ExitCode
 from superlane_tools.records import Skipped
 
@@ -39,9 +41,7 @@ def segment(
             "card), classical or onnx.",
         ),
     ] = "auto",
-    model: Annotated[
-        str | None, typer.Option("--model", help="ONNX model file or shipped model name.")
-    ] = None,
+    model: Annotated[str | None, model_option("ONNX model file or shipped model name.")] = None,
     camera: Annotated[
         str | None,
         camera_option("Camera profile name or YAML file (improves the classical backend)."),
@@ -49,9 +49,10 @@ def segment(
     overlays: Annotated[
         bool, typer.Option("--overlay", help="Also write colour overlays to OUT/overlays/*.jpg.")
     ] = False,
+    overwrite: Annotated[bool, overwrite_option()] = False,
 ) -> None:
     """Segment images into SUPER hierarchy leaf ids (label PNGs readable by `slt lanes fit`)."""
-    with cli_errors():
+    with cli_errors(), new_output(out, overwrite, [input_path]):
         code = _run(input_path, out, backend, model, camera, overlays)
     if code != ExitCode.OK:
         raise typer.Exit(int(code))

@@ -7,7 +7,14 @@ from typing import Annotated
 
 import typer
 
-from superlane_tools.cli._common import cli_errors, command_line, console, fail, progress
+from superlane_tools.cli._common import (
+    cli_errors,
+    command_line,
+    console,
+    fail,
+    progress,
+)
+from superlane_tools.cli._outputs import new_output, overwrite_option
 from superlane_tools.errors import ExitCode
 
 simulate_app = typer.Typer(
@@ -79,6 +86,7 @@ def simulate(
         ),
     ] = 0.1,
     list_: Annotated[bool, typer.Option("--list", help="List the scenarios and exit.")] = False,
+    overwrite: Annotated[bool, overwrite_option()] = False,
 ) -> None:
     """Simulate one drive: `slt simulate --scenario NAME --out drive.mcap`."""
     if ctx.invoked_subcommand is not None:
@@ -108,7 +116,7 @@ def simulate(
             multipath_per_min=rtk_multipath,
         )
         rtk.validate()
-        with progress(f"simulate {scenario}", unit="frames") as bar:
+        with new_output(out, overwrite), progress(f"simulate {scenario}", unit="frames") as bar:
             result = simulate_drive(
                 scenario,
                 duration,
@@ -156,13 +164,14 @@ def dataset(
     randomize: Annotated[
         float, typer.Option(help="Domain randomisation strength 0-1 (colours, textures, camera).")
     ] = 1.0,
+    overwrite: Annotated[bool, overwrite_option()] = False,
 ) -> None:
     """Write a training set: images, leaf-id masks, corridor masks and index.parquet."""
     with cli_errors():
         from superlane_tools.simulation.dataset import simulate_dataset
 
         names = tuple(n.strip() for item in (scenarios or []) for n in item.split(",") if n.strip())
-        with progress("dataset", frames, "samples") as bar:
+        with new_output(out, overwrite), progress("dataset", frames, "samples") as bar:
             result = simulate_dataset(
                 out,
                 frames,

@@ -13,8 +13,10 @@ from superlane_tools.cli._common import (
     cli_errors,
     exit_with,
     note,
+    report_lost,
     report_skipped,
 )
+from superlane_tools.cli._outputs import new_output, overwrite_option
 
 TIME_HELP = "seconds after the first message (12.5), ISO 8601 (2018-08-02T15:34:47Z) or epoch ns"
 
@@ -48,6 +50,7 @@ def cat_cmd(
     from superlane_tools.recording.times import format_utc
     from superlane_tools.recording.tools import cat_messages, message_record
 
+    count = 0
     with cli_errors(), open_recording(recording) as rec:
         for count, msg in enumerate(cat_messages(rec, topics, start, end), start=1):
             record = message_record(msg, full_bytes)
@@ -59,7 +62,8 @@ def cat_cmd(
             if limit is not None and count >= limit:
                 break
         skipped = list(rec.skipped)
-    exit_with(report_skipped(skipped))
+    everything = topics is None and start is None and end is None
+    exit_with(report_lost(skipped, everything and count == 0, recording))
 
 
 def filter_cmd(
@@ -75,7 +79,7 @@ def filter_cmd(
             "--out",
             "-o",
             help=(
-                "Output (must not exist): OUT.mcap, OUT.bag for a ROS 1 bag, or a folder OUT "
+                "Output: OUT.mcap, OUT.bag for a ROS 1 bag, or a folder OUT "
                 "for a ROS 2 bag (same storage)."
             ),
         ),
@@ -91,11 +95,12 @@ def filter_cmd(
     end: Annotated[
         str | None, typer.Option(metavar="TIME", help=f"End (exclusive): {TIME_HELP}.")
     ] = None,
+    overwrite: Annotated[bool, overwrite_option()] = False,
 ) -> None:
     """Write a trimmed copy of a recording: message definitions, metadata, attachments kept."""
     from superlane_tools.recording.tools import filter_recording
 
-    with cli_errors():
+    with cli_errors(), new_output(out, overwrite, [recording]):
         result = filter_recording(recording, out, topics, exclude, start, end)
     for topic, count in sorted(result.counts.items()):
         note(f"{topic}: {count} messages")

@@ -16,6 +16,7 @@ from superlane_tools.cli._common import (
     note,
     progress,
 )
+from superlane_tools.cli._outputs import check_new_output, new_output, overwrite_option
 from superlane_tools.errors import UsageError
 
 TASKS = ("segmentation", "corridor")
@@ -130,9 +131,11 @@ def train(
             help="Resample frames with a known or estimated camera into the canonical camera.",
         ),
     ] = False,
+    overwrite: Annotated[bool, overwrite_option()] = False,
 ) -> None:
     """Train a network on CPU, export it to ONNX (opset 17) and write MODEL.card.yaml."""
     with cli_errors():
+        check_new_output(out, overwrite or resume)
         if task not in TASKS:
             raise UsageError(f"TASK must be one of {', '.join(TASKS)}, got {task!r}")
         if augment not in ("real", "camera", "canonical", "none"):
@@ -191,7 +194,10 @@ def train(
         )
         if threads is not None:
             params = replace(params, threads=threads)
-        with progress(f"train {task}", unit="steps") as bar:
+        with (  # --resume continues into the same MODEL.onnx
+            new_output(out, overwrite or resume, replaces=True),
+            progress(f"train {task}", unit="steps") as bar,
+        ):
 
             def update(step: int, total: int, loss: float) -> None:
                 bar.update(step, total, note=f"loss {loss:.4f}")

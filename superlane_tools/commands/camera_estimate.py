@@ -36,11 +36,13 @@ class CameraEstimate:
         estimate: The extrinsics estimate with its uncertainty.
         intrinsics_source: Where the intrinsics came from (a profile, a focal length, or an
             assumed field of view).
+        span_s: Seconds between the first and the last frame looked at.
     """
 
     camera: CameraModel
     estimate: ExtrinsicsEstimate
     intrinsics_source: str
+    span_s: float = 0.0
 
 
 def estimate_camera(
@@ -95,8 +97,12 @@ def estimate_camera(
     used_k: Intrinsics | None = None
     source = ""
     previous_time: int | None = None
+    first_ns: int | None = None
+    last_ns: int | None = None
     want_pairs = track is not None
     for index, frame in enumerate(frames):
+        first_ns = frame.log_time_ns if first_ns is None else first_ns
+        last_ns = frame.log_time_ns
         offset = index % step
         if frame.image is None or len(sampled) >= max_frames:
             continue
@@ -148,4 +154,5 @@ def estimate_camera(
     # the height the lane fit of `slt reprocess` (its default parameters) needs for this width
     fit_params = FitParams.from_dict(dict(DEFAULT_FIT))
     est = fit_height(pixels, CameraModel(used_k, est.extrinsics), est, lane_width_m, fit_params)
-    return CameraEstimate(CameraModel(used_k, est.extrinsics, name=name), est, source)
+    span_s = (last_ns - first_ns) / 1e9 if first_ns is not None and last_ns is not None else 0.0
+    return CameraEstimate(CameraModel(used_k, est.extrinsics, name=name), est, source, span_s)

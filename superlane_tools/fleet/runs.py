@@ -173,6 +173,11 @@ def find_drives(path: str | Path) -> Fleet:
             incomplete (killed or failed run).
     """
     root = Path(path)
+    if root.is_file():
+        raise FleetError(
+            f"{root}: not a reprocess run folder: run slt reprocess first (`slt reprocess "
+            f"{root}` writes runs/<name>/), or give a batch root"
+        )
     if not root.is_dir():
         raise FleetError(f"{root}: no such folder (expected a reprocess run or a batch root)")
     try:
@@ -193,8 +198,8 @@ def find_drives(path: str | Path) -> Fleet:
         raise FleetError(str(err)) from err
     if not runs:
         raise FleetError(
-            f"{root}: not a reprocess run folder ({MANIFEST_FILE}), a batch root "
-            f"({BATCH_STATUS_FILE}) or a folder of run folders"
+            f"{root}: not a reprocess run folder: run slt reprocess first (no {MANIFEST_FILE}; "
+            f"nor a batch root with {BATCH_STATUS_FILE}, nor a folder of run folders)"
         )
     return Fleet(root, "folder of runs", tuple(_run_drive(r, r.name) for r in runs))
 

@@ -45,13 +45,25 @@ def _tf_extrinsics(rec: Recording, topic: str, frame_id: str) -> Extrinsics | No
     return None
 
 
-def camera_sidecar(path: Path) -> Path:
-    """Return where ``--camera auto`` looks for a profile beside a recording.
+def camera_sidecars(path: Path) -> tuple[Path, ...]:
+    """Return the profiles beside a recording that ``--camera auto`` reads, in that order.
 
-    ``drive.mcap`` -> ``drive.camera.yaml`` (a ROS 2 bag folder ``drive/`` -> ``drive.camera.yaml``
-    next to it), as written by ``slt camera estimate -o``.
+    ``<recording>.camera.yaml`` (``dash.mcap.camera.yaml``), then ``<stem>.camera.yaml``
+    (``dash.camera.yaml``, what ``slt camera estimate dash.mcap`` writes by default); a ROS 2
+    bag folder ``drive/`` has one: ``drive.camera.yaml`` next to it.
     """
-    return path.parent / f"{path.name.removesuffix(path.suffix) or path.name}.camera.yaml"
+    stem = path.name.removesuffix(path.suffix) or path.name
+    names = dict.fromkeys((f"{path.name}.camera.yaml", f"{stem}.camera.yaml"))
+    return tuple(path.parent / name for name in names)
+
+
+def camera_sidecar(path: Path) -> Path:
+    """Return the profile beside a recording that ``--camera auto`` reads.
+
+    The first of :func:`camera_sidecars` that exists, else the default ``<stem>.camera.yaml``.
+    """
+    candidates = camera_sidecars(path)
+    return next((p for p in candidates if p.is_file()), candidates[-1])
 
 
 def resolve_camera(rec: Recording, streams: Streams, camera: str) -> tuple[CameraModel, str]:
@@ -74,8 +86,9 @@ def resolve_camera(rec: Recording, streams: Streams, camera: str) -> tuple[Camer
         return load_camera(camera), f"camera profile {camera}"
     sidecar = camera_sidecar(path)
     hint = (
-        f"pass --camera PROFILE|YAML, or make a profile with `slt camera calibrate` (chessboard "
-        f"photos) and `slt camera estimate` (this recording) saved as {sidecar.name}"
+        f"pass --camera PROFILE|YAML, or run `slt camera estimate {path.name}` (it writes "
+        f"{sidecar.name}, which --camera auto reads; `slt camera calibrate` on chessboard "
+        "photos gives it the intrinsics)"
     )
     if not streams.camera_info:
         if sidecar.is_file():

@@ -479,8 +479,14 @@ def convert(
     sources: list[Iterator[Item]] = []
     kinds = []
     for item in inputs:
+        if item.path.is_dir():
+            raise RecordingError(
+                f"{item.path} is a folder; convert takes files (video, NMEA, GPX, CAN log, CSV)"
+            )
         if not item.path.is_file():
             raise RecordingError(f"input not found: {item.path}")
+        if item.path.stat().st_size == 0:
+            raise RecordingError(f"{item.path}: empty file (0 bytes)")
         kind = item.kind or input_kind(item.path)
         kinds.append(kind)
         offset_ns = round(item.offset_s * _NS)

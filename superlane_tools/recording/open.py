@@ -24,6 +24,8 @@ ROS1_MAGIC = b"#ROSBAG V2.0"
 SQLITE_MAGIC = b"SQLite format 3\x00"
 CAN_SUFFIXES = {".asc", ".blf"}
 TEXT_LOG_SUFFIXES = {".log", ".txt", ".nmea", ".trc", ".csv"}
+MP4_BOXES = (b"moov", b"mdat", b"free", b"wide", b"skip")
+"""First boxes of MP4/MOV files that do not start with ``ftyp``."""
 HEAD_BYTES = 16
 """How many first bytes of a file the plug-ins see (magic numbers)."""
 CERTAIN = 1 << 30
@@ -31,7 +33,8 @@ CERTAIN = 1 << 30
 
 SUPPORTED = (
     "expected an MCAP file, a ROS 1 .bag, a ROS 2 bag folder with metadata.yaml, "
-    "a CAN log (candump .log, .asc, .blf) or an NMEA log"
+    "a CAN log (candump .log, .asc, .blf), an NMEA log or a video (.mp4, .mkv, .mov, .avi); "
+    "`slt convert` turns other logs (GPX, CSV) and a video with its logs into one MCAP"
 )
 
 
@@ -140,6 +143,16 @@ def _is_canlog(probe: Probe) -> int:
     return 0
 
 
+def _is_video(probe: Probe) -> int:
+    if probe.is_dir:
+        return 0
+    looks_like_video, suffixes = _sibling("video_file", "looks_like_video", "VIDEO_FILE_SUFFIXES")
+    if looks_like_video(probe.head):
+        return CERTAIN
+    # an MP4 may start with another box than ftyp
+    return _certain(probe.suffix in suffixes and probe.head[4:8] in MP4_BOXES)
+
+
 def _is_nmea(probe: Probe) -> int:
     if probe.is_dir or (probe.suffix and probe.suffix not in TEXT_LOG_SUFFIXES):
         return 0
@@ -157,6 +170,12 @@ READERS: tuple[ReaderPlugin, ...] = (
     # Before NMEA: a .log file with as many candump lines as NMEA sentences is a CAN log.
     ReaderPlugin("canlog", (), _is_canlog, _open_log("canlog_source", "CanLogRecording")),
     ReaderPlugin("nmea", (), _is_nmea, _open_log("nmea_source", "NmeaRecording")),
+    ReaderPlugin(
+        "video",
+        (".mp4", ".mkv", ".mov", ".avi", ".webm", ".m4v"),
+        _is_video,
+        _open_log("video_file", "VideoFileRecording"),
+    ),
 )
 """The reader plug-ins, most specific first (ties go to the earlier one)."""
 
@@ -174,6 +193,8 @@ def _probe(path: Path) -> Probe:
             head = handle.read(HEAD_BYTES)
     except OSError as err:
         raise RecordingError(f"cannot read {path}: {err.strerror}") from err
+    if not head:
+        raise RecordingError(f"{path} is not a recording: empty file (0 bytes)")
     return Probe(path, False, path.suffix.lower(), head)
 
 
@@ -213,6 +234,8 @@ def open_recording(
     with the SQLite magic one ROS 2 sqlite3 storage file; ``.asc`` and ``.blf`` files open as
     CAN logs, and text logs (``.log``, ``.txt``, ``.nmea``, ``.trc``, ``.csv``, no suffix) by a
     vote over their first lines: NMEA sentences against candump lines (candump for ``.log``).
+    A video file (MP4/MOV, MKV/WebM, AVI, by content) opens as a recording with one
+    ``CompressedVideo`` topic (:mod:`~superlane_tools.recording.video_file`).
 
     Args:
         path: File or folder.

@@ -182,6 +182,7 @@ def loss_detail(
     topics: Mapping[int, str],
     expected: Mapping[str, int] | None,
     expected_total: int | None,
+    cause: str = "damaged database pages",
 ) -> tuple[str, int]:
     """Describe what the gaps of ``index`` lost: rowids, then per topic count and time range.
 
@@ -191,6 +192,7 @@ def loss_detail(
         topics: Topic name by topic id.
         expected: Messages per topic the bag's ``metadata.yaml`` declares for this file.
         expected_total: Messages the metadata declares for this file.
+        cause: Why the rows are unreadable.
 
     Returns:
         ``(detail, lost)``: one line of text, and the number of rows lost (0 when unknown).
@@ -207,7 +209,7 @@ def loss_detail(
         first = "1" if gap.after is None else str(gap.after + 1)
         last = "the end" if gap.before is None else str(gap.before - 1)
         spans.append(f"{first}..{last}")
-    parts = [f"{name}: rows {', '.join(spans)} unreadable (damaged database pages)"]
+    parts = [f"{name}: rows {', '.join(spans)} unreadable ({cause})"]
     for tid, topic in sorted(topics.items(), key=lambda kv: kv[1]):
         mine = tids == tid
         count = "some"
@@ -230,6 +232,15 @@ def _topic_span(gap: Gap, ids: np.ndarray, times: np.ndarray) -> str:
     start = format_utc(int(times[ids == before[-1]][0])) if len(before) else "the start"
     stop = format_utc(int(times[ids == after[0]][0])) if len(after) else "the end"
     return f"between {start} and {stop}"
+
+
+def _has_table(db: Any, name: str) -> bool:
+    """Return True when the database's schema declares table ``name`` (True if unreadable)."""
+    try:
+        query = "SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = ?"
+        return any(True for _ in db.execute(query, (name,)))
+    except apsw.Error:
+        return True
 
 
 def _read_connections(db: Any, owner: object, skips: SkipLog) -> list[Connection]:
@@ -413,7 +424,10 @@ class Ros2SqliteReader:
         self._conns = [conn._replace(msgcount=counts.get(conn.id, 0)) for conn in self._conns]
         topics = {conn.id: conn.topic for conn in self._conns}
         expected, total = _declared_counts(self.path, self._bag_info)
-        detail, lost = loss_detail(self.path.name, self._rows.index, topics, expected, total)
+        cause = "damaged database pages"
+        if not _has_table(self._db, "messages"):
+            cause = "the messages table is missing"
+        detail, lost = loss_detail(self.path.name, self._rows.index, topics, expected, total, cause)
         if detail:  # else only an index or bookkeeping page was damaged: no message is lost
             self._skips.add(LOST_ROWS, detail, lost)
         return self._rows

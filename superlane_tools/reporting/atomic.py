@@ -103,3 +103,67 @@ def write_bytes_atomic(target: str | os.PathLike[str], data: bytes) -> Path:
 def write_text_atomic(target: str | os.PathLike[str], text: str) -> Path:
     """Write UTF-8 ``text`` to ``target`` atomically and return the final path."""
     return write_bytes_atomic(target, text.encode("utf-8"))
+
+
+def _remove(path: Path) -> None:
+    if path.is_dir() and not path.is_symlink():
+        shutil.rmtree(path, ignore_errors=True)
+    else:
+        with contextlib.suppress(OSError):
+            path.unlink()
+
+
+def settle_replaced(target: str | os.PathLike[str]) -> list[Path]:
+    """Settle what a killed :func:`replacing` left beside ``target``; return the paths touched.
+
+    An old output set aside by a process that no longer runs is put back when ``target`` is
+    missing (the kill came before the new output appeared), else removed (the new output is
+    there: the replacement the user asked for had happened).
+    """
+    final = Path(target)
+    touched: list[Path] = []
+    parent = final.parent if str(final.parent) else Path()
+    aside = re.compile(rf"^\.{re.escape(final.name)}\.(\d+)\.[0-9a-f]{{8}}\.old$")
+    with contextlib.suppress(OSError):
+        for entry in sorted(parent.iterdir()):
+            match = aside.match(entry.name)
+            if match is None or pid_alive(int(match[1])):
+                continue
+            if os.path.lexists(final):
+                _remove(entry)
+            else:
+                entry.rename(final)
+            touched.append(entry)
+    return touched
+
+
+@contextlib.contextmanager
+def replacing(target: str | os.PathLike[str]) -> Iterator[Path]:
+    """Set an existing output aside while the block writes a new one at ``target``.
+
+    The old output (a file or a folder) is renamed to ``.<name>.<pid>.<random>.old`` beside
+    it, so the block writes into a path that does not exist and nothing of the old output
+    survives in the new one. When the block succeeds the old output is removed; when it raises,
+    whatever the block left at ``target`` is removed and the old output is put back. A killed
+    process leaves the ``.old`` name, which :func:`remove_stale_temps` removes.
+
+    Raises:
+        OutputError: If the old output cannot be set aside.
+    """
+    final = Path(target)
+    if not os.path.lexists(final):
+        yield final
+        return
+    aside = final.with_name(f"{temp_prefix(final.name)}{os.urandom(4).hex()}.old")
+    try:
+        final.rename(aside)
+    except OSError as err:
+        raise OutputError(f"cannot replace {final}: {err.strerror}") from err
+    try:
+        yield final
+    except BaseException:
+        if os.path.lexists(final):
+            _remove(final)
+        aside.rename(final)
+        raise
+    _remove(aside)

@@ -434,3 +434,39 @@ def test_partial_input_exits_3_with_one_skipped_line_per_kind(
     kinds = [line.removeprefix("slt: skipped: ").split(": ")[0] for line in skipped]
     assert len(kinds) == len(set(kinds)), skipped  # one line per kind
     assert "slt: skipped:" not in res.stdout
+
+
+# Issue 35: every usage error names its command, every bad option value exits 2.
+
+WITH_O = [(path, cmd) for path, cmd in LEAVES if any("-o" in p.opts for p in _options(cmd))]
+
+
+@pytest.mark.parametrize(("path", "command"), WITH_O, ids=[" ".join(p) for p, _ in WITH_O])
+def test_o_without_a_value_names_the_command(path: tuple[str, ...], command: Any) -> None:
+    res = runner.invoke(app, [*path, "-o"])
+    assert res.exit_code == 2, res.output
+    lines = _stderr_lines(res)
+    name = " ".join(path)
+    assert lines == [f"slt: error: {name}: Option '-o' requires an argument. (see 'slt {name} -h')"]
+
+
+@pytest.mark.parametrize(
+    ("path", "command"),
+    _with_option("--model"),
+    ids=[" ".join(p) for p, _ in _with_option("--model")],
+)
+def test_unknown_model_is_a_usage_error(path: tuple[str, ...], command: Any) -> None:
+    res = runner.invoke(app, [*path, "--model", "nosuch_model"])
+    assert res.exit_code == 2, res.output
+    lines = _stderr_lines(res)
+    assert len(lines) == 1, res.stderr
+    assert lines[0].startswith(f"slt: error: {' '.join(path)}: Invalid value for '--model'")
+    assert "not a bundled model" in lines[0]
+
+
+def test_a_usage_error_raised_by_a_command_names_it(tmp_path: Path) -> None:
+    res = runner.invoke(app, ["convert", str(tmp_path / "a.nmea"), "-o", str(tmp_path / "o.mcap"),
+                              "--kind", "a.nmea=nope"])  # fmt: skip
+    assert res.exit_code == 2, res.output
+    assert _stderr_lines(res) == ["slt: error: convert: --kind must be one of video, nmea, gpx, "
+                                  "can, csv, got 'nope'"]  # fmt: skip

@@ -59,7 +59,8 @@ def test_print_config_round_trips() -> None:
 def test_bad_config_is_usage_error(tmp_path: Path) -> None:
     cfg = tmp_path / "bad.toml"
     cfg.write_text("[kpi]\nmin_width = 3\n", encoding="utf-8")
-    code, out = run_cli("reprocess", str(SAMPLE), "--config", str(cfg), "--out", str(tmp_path))
+    run = str(tmp_path / "run")
+    code, out = run_cli("reprocess", str(SAMPLE), "--config", str(cfg), "--out", run)
     assert code == 2
     assert "unknown keys in [kpi]: min_width" in out
     code, out = run_cli("reprocess", str(SAMPLE), "--backend", "magic")
@@ -127,6 +128,9 @@ def test_sample_drive_with_no_options(tmp_path: Path, monkeypatch: pytest.Monkey
     code, text = run_cli("reprocess", str(SAMPLE))
     assert code == 0, text
     assert "reprocessed 240 frames" in text
+    last = text.rstrip().splitlines()[-1]  # report.html and one number per method
+    assert last.startswith("report: runs/sample_drive/report.html -- SUPER "), last
+    assert last.endswith(" of frames available"), last
     run = tmp_path / "runs" / "sample_drive"
     for name in ("report.md", "report.html", "annotations.mcap", "plots/curvature_time.png"):
         assert (run / name).is_file(), name

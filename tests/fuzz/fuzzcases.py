@@ -736,8 +736,8 @@ def path_config_cases(rng: random.Random, n: int) -> Iterator[Case]:
     variants += [
         ("fifo-recording", fifo_rec, frozenset({1})),
         ("fifo-dbc", fifo_dbc, frozenset({1})),
-        ("out-is-file", out_is_file, frozenset({1})),
-        ("reprocess-out-is-file", reprocess_out_is_file, frozenset({1})),
+        ("out-is-file", out_is_file, frozenset({2})),  # an existing output: refused (exit 2)
+        ("reprocess-out-is-file", reprocess_out_is_file, frozenset({2})),
         ("missing", missing, frozenset({1, 2})),
         ("folder", folder, frozenset({1})),
         ("config-list", config("- frames\n- can\n"), frozenset({2})),
@@ -1204,10 +1204,10 @@ def kill_campaign(
         args += ["--workers", "1"]
         if command == "batch-ray":
             args += ["--engine", "ray"]
-    elif command == "reprocess":
-        args = ["reprocess", "d.mcap", "--out", OUT, "--no-plots"]
+    elif command == "reprocess":  # reruns replace the previous output: --overwrite
+        args = ["reprocess", "d.mcap", "--out", OUT, "--no-plots", "--overwrite"]
     else:
-        args = ["extract", "d.mcap", "--out", OUT]
+        args = ["extract", "d.mcap", "--out", OUT, "--overwrite"]
     t0 = time.perf_counter()
     proc = _slt(args, work)
     proc.wait(timeout=timeout_s)

@@ -74,7 +74,7 @@ def test_cat_bad_regex_and_no_match_are_usage_errors(tmp_path: Path) -> None:
     path = _drive(tmp_path / "d.mcap")
     bad = runner.invoke(app, ["cat", str(path), "-t", "("])
     assert bad.exit_code == 2
-    assert bad.stderr.startswith("slt: error: invalid topic regular expression")
+    assert bad.stderr.startswith("slt: error: cat: invalid topic regular expression")
     none = runner.invoke(app, ["cat", str(path), "-t", "^/nothing$"])
     assert none.exit_code == 2
     big = runner.invoke(app, ["cat", str(path), "-t", "image", "-n", "1", "--json"])
@@ -111,8 +111,9 @@ def test_filter_trims_topics_and_time_and_keeps_metadata(tmp_path: Path) -> None
         meta = [(r.name, dict(r.metadata)) for r in make_reader(handle).iter_metadata()]
     assert meta == [("vehicle", {"name": "car"})]
     again = runner.invoke(app, args)
-    assert again.exit_code == 1
-    assert "exists already" in again.stderr
+    assert again.exit_code == 2
+    assert "filter: " in again.stderr
+    assert "exists; pass --overwrite" in again.stderr
 
 
 def test_filter_refuses_outputs_it_cannot_copy_into(realdata: Path, tmp_path: Path) -> None:

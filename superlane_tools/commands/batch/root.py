@@ -46,17 +46,21 @@ def root_lock(root: Path) -> Iterator[None]:
                 raise BatchError(f"another slt batch is running on {root}{_owner(path)}") from err
             if not _same_file(handle.fileno(), path):
                 continue  # removed by the batch that just finished: lock the new one
-            handle.seek(0)
-            handle.truncate()
-            handle.write(f"pid {os.getpid()} on {socket.gethostname()}\n")
-            handle.flush()
+            try:
+                handle.seek(0)
+                handle.truncate()
+                handle.write(f"pid {os.getpid()} on {socket.gethostname()}\n")
+                handle.flush()
+            except OSError as err:  # a full disk or quota: say so, not a traceback
+                raise BatchError(f"cannot write {path}: {err.strerror}") from err
             try:
                 yield
             finally:
                 path.unlink(missing_ok=True)
             return
         finally:
-            handle.close()
+            with contextlib.suppress(OSError):  # the write error, if any, is raised above
+                handle.close()
     raise BatchError(f"could not take the lock {path}: it keeps being replaced")
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import os
 import subprocess
 
-from superlane_tools.commands.reprocess.result import Progress, ReprocessResult
+from superlane_tools.commands.reprocess.result import Phase, Progress, ReprocessResult
 from superlane_tools.commands.reprocess.run import reprocess
 from superlane_tools.drive.config import ReprocessConfig
 
@@ -18,6 +18,7 @@ def reprocess_run(
     command: str = "",
     with_signals: bool = False,
     compiler: subprocess.Popen[bytes] | None = None,
+    phase: Phase | None = None,
 ) -> ReprocessResult:
     """Reprocess into a staging folder beside ``target``, then publish it there in one step.
 
@@ -30,6 +31,7 @@ def reprocess_run(
         with_signals: Also add the decoded CAN signals and truth curves to the annotations.
         compiler: The lane-fit kernels' compiler, started early by the caller
             (:func:`~superlane_tools.lanes.kernel_cache.start_compiling`), or None.
+        phase: Called with a label as each phase of the run starts.
 
     Raises:
         OutputError: If ``target`` is a file or a foreign folder, or cannot be written.
@@ -40,5 +42,5 @@ def reprocess_run(
     warm_up_in_background(config.fit_params.backend, compiler)
     with staged_run(target) as stage:  # the whole run appears at once, or not at all
         return reprocess(
-            recording_path, stage, config, progress, command, with_signals=with_signals
+            recording_path, stage, config, progress, command, with_signals=with_signals, phase=phase
         )

@@ -6,11 +6,21 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from superlane_tools.records import Skipped
 
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from superlane_tools.drive.config import ReprocessConfig
+    from superlane_tools.reporting.drive_facts import DriveFacts
+
 Progress = Callable[[int, int | None], None]
 """Progress callback ``(frames done, frames total or None)``."""
+Phase = Callable[[str], None]
+"""Called with a label when a phase of the run starts (``self-check on 16 frames``, ``pass``,
+``report``), so that the progress display says what the time goes to."""
 
 
 @dataclass(frozen=True)
@@ -32,6 +42,8 @@ class ReprocessResult:
             (``with_signals``; None when none were added).
         implausible: The report's headline warning when no segmentation backend gave
             plausible lanes on the drive (per-drive self-check; "" otherwise).
+        availability: Per method that ran, in report order: ``(method, frames, frames
+            available, frames whose availability is unknown)`` over the whole drive.
     """
 
     status: str
@@ -43,6 +55,7 @@ class ReprocessResult:
     frames_per_s: float = 0.0
     signal_channels: dict[str, int] | None = None
     implausible: str = ""
+    availability: tuple[tuple[str, int, int, int], ...] = ()
 
 
 class RunClock:
@@ -71,3 +84,28 @@ class RunClock:
             "cpu_post": c2 - c1,
             "cpu_total": c2 - c0,
         }
+
+
+def self_check_label(config: ReprocessConfig, total: int | None) -> str:
+    """Return the progress label of the self-check phase (or of stage set-up without one)."""
+    from superlane_tools.drive.selfcheck import CLIP_FRAMES, SAMPLE_CLIPS
+
+    seg = config.segmentation
+    if seg.backend != "auto" or seg.model:
+        return "loading the segmentation model"
+    n = SAMPLE_CLIPS * CLIP_FRAMES
+    return f"self-check on {min(n, total) if total else n} frames"
+
+
+def availability_counts(
+    sequences: pd.DataFrame, facts: DriveFacts
+) -> tuple[tuple[str, int, int, int], ...]:
+    """Return ``(method, frames, available, unknown)`` over the drive per method that ran."""
+    out = []
+    for method in facts.methods_run():
+        rows = sequences[sequences["method"] == method] if len(sequences) else sequences
+        if not len(rows):
+            continue
+        sums = [int(rows[c].sum()) for c in ("n_frames", "n_available", "n_unknown")]
+        out.append((method, *sums))
+    return tuple(out)  # type: ignore[arg-type]

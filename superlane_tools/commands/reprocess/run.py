@@ -21,7 +21,14 @@ from superlane_tools.commands.reprocess.outputs import (
     run_provenance,
     write_outputs,
 )
-from superlane_tools.commands.reprocess.result import Progress, ReprocessResult, RunClock
+from superlane_tools.commands.reprocess.result import (
+    Phase,
+    Progress,
+    ReprocessResult,
+    RunClock,
+    availability_counts,
+    self_check_label,
+)
 from superlane_tools.corridor import TimeSegment, measurable_range_m
 from superlane_tools.drive.config import ReprocessConfig
 from superlane_tools.drive.finalize import drive_tables, kpi_segments
@@ -45,6 +52,7 @@ def reprocess(
     command: str = "",
     segments: Sequence[TimeSegment] | None = None,
     with_signals: bool = False,
+    phase: Phase | None = None,
 ) -> ReprocessResult:
     """Reprocess one drive into tables, plots, a report and Foxglove annotations.
 
@@ -56,6 +64,7 @@ def reprocess(
         command: Command line for the provenance.
         segments: KPI sequences of the drive (None: ``kpi.manifest``, else windows).
         with_signals: Also add the decoded CAN signals and truth curves to the annotations.
+        phase: Called with a label as each phase starts (opening, self-check, pass, report).
 
     Returns:
         Status, outputs, skipped data, timings and notes.
@@ -68,7 +77,9 @@ def reprocess(
     cfg = config or ReprocessConfig()
     src, out = Path(recording_path), Path(out_dir)
     clock = RunClock()
+    say = phase or (lambda _label: None)
     dbcs, dbc_paths = load_dbcs(cfg.can.dbcs)
+    say(f"opening {src.name}")
     with open_recording(src) as rec:
         topics = drive_topics(rec, cfg.topics)
         if not topics.frames:  # truth, dynamics and Mobileye still need no camera
@@ -76,16 +87,19 @@ def reprocess(
 
             return reprocess_signals(rec, src, out, cfg, (dbcs, dbc_paths), topics, command)
         camera, camera_source = resolve_camera(rec, topics.streams, cfg.camera)
+        total = frame_total(rec, topics.frames)
+        say(self_check_label(cfg, total))
         check = drive_self_check(src, topics.frames, cfg, camera)
         stages = FrameStages(check.config(cfg) if isinstance(check, SelfCheck) else cfg, camera)
         resolved = (topics, camera, stages)
         provenance = run_provenance(src, dbc_paths, cfg, resolved, segments, command, check)
         out.mkdir(parents=True, exist_ok=True)
-        total = frame_total(rec, topics.frames)
         sinks = open_sinks(out, cfg, stages, topics.frames, provenance, total)
+        say("pass")
         drive = run_frames(rec, topics, stages, sinks.all(), cfg.workers, progress)
         skipped = list(rec.skipped)
     clock.lap()
+    say("report: tables, plots, report")
     if drive.failed:
         skipped.append(Skipped("corrupt image", "; ".join(drive.failed[:5]), len(drive.failed)))
     frames, fps = drive.frames, drive.frames.frame_rate_hz()
@@ -132,4 +146,5 @@ def reprocess(
         frames_per_s=len(frames) / timings["total"] if timings["total"] > 0 else 0.0,
         signal_channels=add_signal_channels(out, derived) if with_signals else None,
         implausible=unlike_training_data(implausible) if implausible else "",
+        availability=availability_counts(derived.availability_sequences, derived.facts),
     )

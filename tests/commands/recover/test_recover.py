@@ -163,7 +163,7 @@ def test_ros2_sqlite3_split_fixture(realdata: Path, tmp_path: Path) -> None:
 
 @pytest.mark.parametrize(
     ("name", "message"),
-    [("rec.bag", "is written to OUT.mcap"), ("exists.mcap", "exists already")],
+    [("rec.bag", "is written to OUT.mcap"), ("exists.mcap", "exists; pass --overwrite")],
 )
 def test_bad_output_is_usage_error(sample: Path, tmp_path: Path, name: str, message: str) -> None:
     (tmp_path / "exists.mcap").write_bytes(b"")
