@@ -16,9 +16,10 @@ from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
+from numpy.typing import NDArray
 
 from superlane_tools.errors import ExitCode, UsageError
-from superlane_tools.fleet.bootstrap import LOST, TOO_FEW, UNAVAILABLE, holm
+from superlane_tools.fleet.bootstrap import LOST, TOO_FEW, UNAVAILABLE, FloatArray, holm
 from superlane_tools.fleet.compare import Comparison
 from superlane_tools.fleet.kpis import KPIS
 
@@ -166,23 +167,47 @@ def judge_gate(comparison: Comparison, rules: Sequence[GateRule]) -> GateResult:
             undecided.append(f"{row['kpi']}: too few drives ({row['n_drives']})")
         else:
             judged.append((row, rule))
-    p = np.array([float(r["p_value"]) for r, _ in judged], dtype=np.float64)
-    rejected = holm(p, alpha)
-    for (row, rule), significant in zip(judged, rejected, strict=True):
+    margins, goodness = [], []
+    for row, rule in judged:
         scale = _display_scale(str(row["unit"]))
-        margin = float(row["margin"]) if rule.margin is None else rule.margin / scale
+        margins.append(float(row["margin"]) if rule.margin is None else rule.margin / scale)
         sign = 1.0 if row["higher_is_better"] else -1.0
-        worse_bound = min(sign * float(row["ci_low"]), sign * float(row["ci_high"]))
-        if worse_bound > -margin:
-            continue
-        worse = sign * float(row["delta"]) < 0
-        line = _line(row, margin)
-        if significant and worse:
+        goodness.append([sign * float(row[c]) for c in ("delta", "ci_low", "ci_high")])
+    p = np.array([float(r["p_value"]) for r, _ in judged], dtype=np.float64)
+    g = np.array(goodness, dtype=np.float64).reshape(-1, 3)
+    fails, open_ = gate_flags(p, g[:, 0], np.minimum(g[:, 1], g[:, 2]), np.array(margins), alpha)
+    for (row, _), margin, fail, undecidable in zip(judged, margins, fails, open_, strict=True):
+        if fail:
+            line = _line(row, margin)
             regress.append(f"{line}; significant after Holm (p = {row['p_value']:.3g})")
-        else:
-            undecided.append(f"{line}; not significant after Holm: cannot decide")
+        elif undecidable:
+            undecided.append(f"{_line(row, margin)}; not significant after Holm: cannot decide")
     code = ExitCode.REGRESSION if regress else ExitCode.PARTIAL if undecided else ExitCode.OK
     return GateResult(code, tuple(regress), tuple(undecided), names, statement)
+
+
+def gate_flags(
+    p_values: FloatArray,
+    change: FloatArray,
+    worse_bound: FloatArray,
+    margins: FloatArray,
+    alpha: float,
+) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+    """Return which gated KPIs fail the gate and which leave it undecided.
+
+    Args:
+        p_values: Two-sided p-values of "no change" (Holm across them).
+        change: The changes, signed so that positive is better.
+        worse_bound: The intervals' worse bounds, signed the same way.
+        margins: The margins (>= 0), in the KPIs' units.
+        alpha: Family-wise level of Holm's procedure.
+
+    A KPI whose worse bound reaches the margin (``<= -margin``) fails when its change is worse
+    and significant after Holm, else leaves the gate undecided; one inside the margin passes.
+    """
+    crosses = ~(worse_bound > -margins)
+    fails = crosses & holm(p_values, alpha) & (change < 0)
+    return fails, crosses & ~fails
 
 
 def _lost_line(row: dict[str, object]) -> str:
