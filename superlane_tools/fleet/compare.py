@@ -18,9 +18,11 @@ import pandas as pd
 from superlane_tools.fleet.bootstrap import (
     DESCRIPTIVE,
     LOST,
+    UNAVAILABLE,
     UNPAIRED,
     BootstrapParams,
     Delta,
+    FloatArray,
     describe,
     drive_delta,
 )
@@ -45,7 +47,7 @@ above their scope; ``ci_low``/``ci_high``/``p_value`` NaN where no interval is d
 
 DriveKpis = tuple[DriveRun, pd.DataFrame]
 """A drive and its per-sequence KPI sums."""
-_SUMS = ("num_b", "den_b", "num_c", "den_c", "own_b", "raw_b", "raw_c")
+_SUMS = ("num_b", "den_b", "num_c", "den_c", "own_b", "raw_b", "raw_c", "both")
 
 
 @dataclass(frozen=True)
@@ -107,6 +109,7 @@ def _merge(b: pd.DataFrame, c: pd.DataFrame) -> pd.DataFrame:
     merged = left.merge(right, on=["sequence", "start_ns", "kpi"], how="inner")
     both = (merged["den_b"] > 0) & (merged["den_c"] > 0)
     merged["own_b"] = merged["num_b"]  # the base's own value, shown when the candidate lost it
+    merged["both"] = both.astype(np.float64)
     for column in ("num_b", "den_b", "num_c", "den_c"):
         merged[column] = merged[column].where(both, 0.0)
     return merged
@@ -137,56 +140,70 @@ def _fleet_delta(
     return drive_delta(k, b, c, params, margin, n_seq)
 
 
-def _describe_drive(k: Kpi, g: pd.DataFrame, n_seq: int) -> Delta:
-    b = (g["num_b"].to_numpy(np.float64), g["den_b"].to_numpy(np.float64))
-    c = (g["num_c"].to_numpy(np.float64), g["den_c"].to_numpy(np.float64))
-    if g["raw_b"].sum() > 0 and g["raw_c"].sum() == 0:
-        own = (g["own_b"].to_numpy(np.float64), g["raw_b"].to_numpy(np.float64))
-        return describe(k, own, c, LOST, n_seq)
-    return describe(k, b, c, DESCRIPTIVE, n_seq)
+def _described(scope: str, k: Kpi, g: pd.DataFrame, default: str) -> pd.DataFrame:
+    """Return values and deltas without an interval, one row per row of ``g`` (drive, sequence)."""
+
+    def col(name: str) -> FloatArray:
+        return g[name].to_numpy(np.float64)
+
+    lost = (col("raw_b") > 0) & (col("raw_c") == 0)
+    nb, db = np.where(lost, col("own_b"), col("num_b")), np.where(lost, col("raw_b"), col("den_b"))
+    nc = col("num_c")
+    if scope == "sequence" and k.per_drive == "abs":
+        nb, nc = np.abs(nb), np.abs(nc)
+    bv, cv = k.pooled(nb, db), k.pooled(nc, col("den_c"))
+    verdict = np.where(np.isnan(bv), UNAVAILABLE, np.where(lost, LOST, default))
+    margin = k.relative_margin * np.abs(bv) if k.relative_margin else np.full(len(g), k.margin)
+    n = len(g)
+    return pd.DataFrame(
+        {
+            "scope": scope,
+            "drive": g["drive"].to_numpy(),
+            "sequence": g["sequence"].to_numpy(np.int64) if scope == "sequence" else -1,
+            "category": g["category"].to_numpy(),
+            "start_ns": g["start_ns"].to_numpy(np.int64),
+            "kpi": k.name,
+            "label": k.label,
+            "unit": k.unit,
+            "higher_is_better": k.higher_is_better,
+            "base": bv,
+            "candidate": cv,
+            "delta": cv - bv,
+            "ci_low": np.full(n, np.nan),
+            "ci_high": np.full(n, np.nan),
+            "n_sequences": col("both").astype(np.int64),
+            "n_drives": 1,
+            "paired": True,
+            "p_value": np.full(n, np.nan),
+            "margin": margin,
+            "note": "",
+            "verdict": verdict,
+        },
+        columns=list(COLUMNS),
+    )
 
 
 def _scoped_rows(
-    drives: pd.DataFrame, seqs: pd.DataFrame, params: BootstrapParams, margins: Mapping[str, float]
+    drives: pd.DataFrame, params: BootstrapParams, margins: Mapping[str, float]
 ) -> list[dict[str, object]]:
     rows: list[dict[str, object]] = []
-    groups = [("fleet", "", drives, seqs)]
+    groups = [("fleet", "", drives)]
     cats = sorted(set(drives["category"]))
     if len(cats) > 1:
-        groups += [
-            ("category", c, drives[drives["category"] == c], seqs[seqs["category"] == c])
-            for c in cats
-        ]
-    for scope, cat, d_all, s_all in groups:
+        groups += [("category", c, drives[drives["category"] == c]) for c in cats]
+    for scope, cat, d_all in groups:
         for kpi, g in d_all.groupby("kpi", sort=False):
             k = KPI_BY_NAME[str(kpi)]
-            s = s_all[s_all["kpi"] == kpi]
-            n_seq = int(((s["den_b"] > 0) & (s["den_c"] > 0)).sum())
-            delta = _fleet_delta(k, g, params, margins.get(k.name), n_seq)
+            delta = _fleet_delta(k, g, params, margins.get(k.name), int(g["both"].sum()))
             rows.append(_row(scope, k.name, delta, category=cat))
-    for (kpi, drive), g in drives.groupby(["kpi", "drive"], sort=False):
-        k = KPI_BY_NAME[str(kpi)]
-        s = seqs[(seqs["kpi"] == kpi) & (seqs["drive"] == drive)]
-        one = _describe_drive(k, g, int(((s["den_b"] > 0) & (s["den_c"] > 0)).sum()))
-        where = {"drive": drive, "category": g["category"].iloc[0]}
-        rows.append(_row("drive", k.name, one, **where, start_ns=int(g["start_ns"].iloc[0])))
     return rows
 
 
-def _sequence_rows(seqs: pd.DataFrame) -> list[dict[str, object]]:
-    rows: list[dict[str, object]] = []
-    for kpi, g in seqs.groupby("kpi", sort=False):
-        k = KPI_BY_NAME[str(kpi)]
-        nb, db = g["num_b"].to_numpy(np.float64), g["den_b"].to_numpy(np.float64)
-        nc, dc = g["num_c"].to_numpy(np.float64), g["den_c"].to_numpy(np.float64)
-        if k.per_drive == "abs":
-            nb, nc = np.abs(nb), np.abs(nc)
-        cols = zip(g["drive"], g["sequence"], g["category"], g["start_ns"], strict=True)
-        for i, (drive, seq, cat, t0) in enumerate(cols):
-            one = describe(k, (nb[i : i + 1], db[i : i + 1]), (nc[i : i + 1], dc[i : i + 1]), "")
-            where = {"drive": drive, "sequence": int(seq), "category": cat, "start_ns": int(t0)}
-            rows.append(_row("sequence", k.name, one._replace(n_sequences=1), **where))
-    return rows
+def _unscoped(frame: pd.DataFrame, scope: str, default: str) -> list[pd.DataFrame]:
+    return [
+        _described(scope, KPI_BY_NAME[str(kpi)], g, default)
+        for kpi, g in frame.groupby("kpi", sort=False)
+    ]
 
 
 def _unpaired_rows(
@@ -242,11 +259,13 @@ def compare_fleets(
     seqs = pd.concat(parts, ignore_index=True) if parts else pd.DataFrame()
     n_matched = int(seqs.groupby(["drive", "sequence"]).ngroups) if len(seqs) else 0
     if matched:
-        rows = _scoped_rows(drive_sums(seqs), seqs, params, margins)
-        rows += _sequence_rows(seqs)
+        drives = drive_sums(seqs)
+        parts_out = [pd.DataFrame(_scoped_rows(drives, params, margins), columns=list(COLUMNS))]
+        parts_out += _unscoped(drives, "drive", DESCRIPTIVE)
+        parts_out += _unscoped(seqs, "sequence", "")
+        table = pd.concat(parts_out, ignore_index=True)
     else:
-        rows = _unpaired_rows(base, candidate)
-    table = pd.DataFrame(rows, columns=list(COLUMNS))
+        table = pd.DataFrame(_unpaired_rows(base, candidate), columns=list(COLUMNS))
     used = {k.name: margins.get(k.name, k.margin) for k in KPIS}
     return Comparison(
         table,
