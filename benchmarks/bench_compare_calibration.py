@@ -200,7 +200,7 @@ def _one(name: str, m: int, effect: float, args: argparse.Namespace, seed: int) 
         "mean_delta": float(np.mean(s.delta)),
         "sign_flip": {"significant": float(np.mean(significant))},
         "bootstrap_t": {
-            "excludes_0": float(np.mean((lo > 0) | (hi < 0))),
+            "excludes_0": float(np.mean((lo > 0) | (hi < 0))),  # the hull (slt compare)
             "better_or_worse": float(np.mean([v in ("better", "worse") for v in verdicts])),
             "worse": float(np.mean([v == "worse" for v in verdicts])),
             "equivalent": float(np.mean([v == "equivalent within margin" for v in verdicts])),
@@ -318,7 +318,7 @@ def real_aa(n_drives: int) -> dict[str, Any]:
 
 def _table(data: dict[str, Any]) -> str:
     lines = [
-        "| KPI | scenario | drives | sign-flip p < 5 % | bootstrap-t excludes 0 | better/worse "
+        "| KPI | scenario | drives | sign-flip p < 5 % | interval excludes 0 | better/worse "
         "verdicts | t over drives excludes 0 | drive percentile excludes 0 | sequence percentile "
         "excludes 0 (before) |",
         "|---|---|---|---|---|---|---|---|---|",

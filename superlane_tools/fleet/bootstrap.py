@@ -117,6 +117,7 @@ class Studentized(NamedTuple):
     se: FloatArray
     d_star: FloatArray
     t_star: FloatArray
+    n_drives: int
 
 
 def _f(transform: str, r: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -180,14 +181,24 @@ def studentized(
     d_star, se_star = _stats(tuple(drawn), m, transform)
     with np.errstate(invalid="ignore", divide="ignore"):
         t_star = np.where(se_star > 0, (d_star - delta[:, None]) / se_star, np.nan)
-    return Studentized(delta, se, d_star, t_star)
+    return Studentized(delta, se, d_star, t_star, m)
 
 
 def interval(s: Studentized, confidence: float) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Return the bootstrap-t interval bounds and the bootstrap-t p-value of "no change"."""
+    """Return the interval bounds and the bootstrap-t p-value of "no change".
+
+    The interval is the hull of the bootstrap-t interval and the linearised t interval
+    (``delta +- t(m - 1) se``): with drives of very different levels the bootstrap-t alone
+    excluded 0 in 8-10 % of no-change fleets in the calibration, the t interval alone in up to
+    9 % of skewed (RMSE) ones; the hull stays near 5 % in both.
+    """
+    from scipy.stats import t as student_t
+
     alpha = 1.0 - confidence
     q_hi, q_lo = np.nanquantile(s.t_star, [1 - alpha / 2, alpha / 2], axis=1)
-    low, high = s.delta - q_hi * s.se, s.delta - q_lo * s.se
+    t_crit = student_t.ppf(1 - alpha / 2, np.maximum(s.n_drives - 1, 1))
+    low = np.minimum(s.delta - q_hi * s.se, s.delta - t_crit * s.se)
+    high = np.maximum(s.delta - q_lo * s.se, s.delta + t_crit * s.se)
     with np.errstate(invalid="ignore", divide="ignore"):
         t_obs = np.where(s.se > 0, s.delta / s.se, 0.0)
     valid = np.isfinite(s.t_star).sum(axis=1)
@@ -313,9 +324,8 @@ def drive_delta(
         note = "zero spread: the same change on every drive"
         if m < params.min_drives:
             return out(delta, nan, nan, nan, note, TOO_FEW)
-        return out(
-            delta, delta, delta, 0.0 if delta else 1.0, note, judge(kpi, margin, delta, delta)
-        )
+        verdict = judge(kpi, margin, delta, delta) if delta else EQUIVALENT
+        return out(delta, delta, delta, 0.0 if delta else 1.0, note, verdict)
     if m < max(params.min_drives, 2):
         return out(delta, nan, nan, nan, "", TOO_FEW)
     rng = np.random.default_rng(params.seed)
