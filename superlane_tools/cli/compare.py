@@ -17,6 +17,7 @@ from superlane_tools.cli._common import (
     exit_with,
     report_skipped,
 )
+from superlane_tools.errors import message_line
 
 COMPARE_EXIT_HELP = (
     f"{EXIT_CODES_HELP} With --fail-on-regression: 4 when a gated KPI regressed (significantly "
@@ -137,7 +138,7 @@ def compare_cmd(
     for line in result.gate.regressions:
         err_console.print(f"slt: regression: {line}", markup=False)
     for line in result.gate.undecided:
-        err_console.print(f"slt: gate: {line}", markup=False)
+        err_console.print(message_line("note", f"gate cannot decide: {line}"), markup=False)
     exit_with(max(code, result.gate.code))
 
 

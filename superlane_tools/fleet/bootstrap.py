@@ -132,7 +132,8 @@ def _f(transform: str, r: FloatArray) -> tuple[FloatArray, FloatArray]:
 def resample_counts(m: int, n_resamples: int, rng: np.random.Generator) -> FloatArray:
     """Return ``(n_resamples, m)`` counts of each of ``m`` drives in resamples with replacement."""
     idx = rng.integers(0, m, (n_resamples, m)) + m * np.arange(n_resamples)[:, None]
-    return np.bincount(idx.ravel(), minlength=m * n_resamples).reshape(n_resamples, m) * 1.0
+    counts = np.bincount(idx.ravel(), minlength=m * n_resamples).reshape(n_resamples, m)
+    return counts.astype(np.float64)
 
 
 def _stats(sums: tuple[FloatArray, ...], m: int, transform: str) -> tuple[FloatArray, FloatArray]:
@@ -152,8 +153,8 @@ def _stats(sums: tuple[FloatArray, ...], m: int, transform: str) -> tuple[FloatA
 
 def _moments(nb: FloatArray, db: FloatArray, nc: FloatArray, dc: FloatArray) -> FloatArray:
     """Return the per-drive products the studentized statistic needs, stacked last."""
-    cols = (nb, db, nc, dc, nb * nb, db * db, nb * db, nc * nc, dc * dc, nc * dc)
-    cols += (nc * nb, nc * db, dc * nb, dc * db)
+    cols = [nb, db, nc, dc, nb * nb, db * db, nb * db, nc * nc, dc * dc, nc * dc]
+    cols += [nc * nb, nc * db, dc * nb, dc * db]
     return np.stack(cols, axis=-1)
 
 

@@ -244,7 +244,10 @@ def compare_fleets(
     """
     margins = dict(margins or {})
     by_key = {d.key: (d, s) for d, s in candidate}
-    matched, unaligned, only_base, parts = [], [], [], []
+    matched: list[tuple[DriveRun, DriveRun]] = []
+    unaligned: list[tuple[DriveRun, DriveRun]] = []
+    only_base: list[DriveRun] = []
+    parts: list[pd.DataFrame] = []
     for drive, seqs in base:
         other = by_key.pop(drive.key, None)
         if other is None:

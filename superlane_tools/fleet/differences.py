@@ -99,9 +99,16 @@ def run_differences(base: Iterable[DriveRun], candidate: Iterable[DriveRun]) -> 
 def difference_lines(differences: pd.DataFrame) -> list[str]:
     """Return one line per real difference (the self-check's details excluded)."""
     lines = []
-    for row in differences[~differences["folded"].astype(bool)].itertuples(index=False):
-        name = row.key if row.what in ("config", "segmentation backend") else row.what
-        if row.what == "model sha256":
-            name = f"model {row.key} (SHA-256)"
-        lines.append(f"{name}: base {row.base}; candidate {row.candidate}")
+    shown = differences[~differences["folded"].astype(bool)]
+    for what, key, base, cand in zip(
+        shown["what"].astype(str),
+        shown["key"].astype(str),
+        shown["base"].astype(str),
+        shown["candidate"].astype(str),
+        strict=True,
+    ):
+        name = key if what in ("config", "segmentation backend") else what
+        if what == "model sha256":
+            name = f"model {key} (SHA-256)"
+        lines.append(f"{name}: base {base}; candidate {cand}")
     return lines

@@ -111,7 +111,7 @@ def _gate_lines(gate: GateResult | None) -> list[str]:
     outcome = {ExitCode.OK: "passed", ExitCode.REGRESSION: "FAILED"}.get(gate.code, "CANNOT DECIDE")
     lines = [f"- **release gate: {outcome}** ({gate.statement})"]
     lines += [f"- regression: {line}" for line in gate.regressions]
-    return lines + [f"- undecided: {line}" for line in gate.undecided]
+    return lines + [f"- cannot decide: {line}" for line in gate.undecided]
 
 
 def _per_drive(table: pd.DataFrame) -> Section | None:

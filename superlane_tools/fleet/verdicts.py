@@ -11,8 +11,8 @@ change.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
-from typing import NamedTuple
+from collections.abc import Hashable, Mapping, Sequence
+from typing import Any, NamedTuple
 
 import numpy as np
 import pandas as pd
@@ -154,7 +154,7 @@ def judge_gate(comparison: Comparison, rules: Sequence[GateRule]) -> GateResult:
         return GateResult(
             ExitCode.REGRESSION if regress else ExitCode.PARTIAL,
             tuple(regress),
-            (f"gate cannot decide: {problem}",) if problem else (),
+            (problem,) if problem else (),
             names,
             statement,
         )
@@ -210,12 +210,12 @@ def gate_flags(
     return fails, crosses & ~fails
 
 
-def _lost_line(row: dict[str, object]) -> str:
+def _lost_line(row: Mapping[Hashable, Any]) -> str:
     value = _value(float(str(row["base"])), str(row["unit"]))
     return f"{row['kpi']}: measured by the base ({value}), by the candidate on no drive"
 
 
-def _line(row: dict[str, object], margin: float) -> str:
+def _line(row: Mapping[Hashable, Any], margin: float) -> str:
     unit = str(row["unit"])
     scale, suffix = (100.0, " pp") if unit == "ratio" else (1.0, f" {unit}")
     return (
