@@ -179,7 +179,7 @@ def judge_gate(comparison: Comparison, rules: Sequence[GateRule]) -> GateResult:
     for (row, _), margin, fail, undecidable in zip(judged, margins, fails, open_, strict=True):
         if fail:
             line = _line(row, margin)
-            regress.append(f"{line}; significant after Holm (p = {row['p_value']:.3g})")
+            regress.append(f"{line}; significant after Holm (p = {row['p_value']:.2g})")
         elif undecidable:
             undecided.append(f"{_line(row, margin)}; not significant after Holm: cannot decide")
     code = ExitCode.REGRESSION if regress else ExitCode.PARTIAL if undecided else ExitCode.OK
@@ -221,9 +221,13 @@ def _line(row: Mapping[Hashable, Any], margin: float) -> str:
     return (
         f"{row['kpi']}: {_value(float(str(row['base'])), unit)} -> "
         f"{_value(float(str(row['candidate'])), unit)}, change "
-        f"{_change(float(str(row['delta'])), unit)}, interval "
-        f"{_ci(float(str(row['ci_low'])), float(str(row['ci_high'])), unit, '')} reaches past "
-        f"the margin {scale * margin:.3g}{suffix} ({row['n_drives']} drives)"
+        f"{_change(float(str(row['delta'])), unit)}, "
+        + (
+            "the same on every drive"
+            if row["note"]
+            else "interval " + _ci(float(str(row["ci_low"])), float(str(row["ci_high"])), unit, "")
+        )
+        + f", past the margin {scale * margin:.3g}{suffix} ({row['n_drives']} drives)"
     )
 
 
