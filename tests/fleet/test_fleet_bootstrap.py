@@ -1,4 +1,4 @@
-"""Intervals over drives, the sign-flip test, verdicts, Holm and the gate (pure; real runs: commands/)."""
+"""Intervals over drives, the sign-flip test, verdicts, Holm, the gate (pure; runs: commands/)."""
 
 from __future__ import annotations
 
