@@ -70,7 +70,7 @@ def _describe(values: Counter[str], n: int, what: str) -> str:
         return "-"
 
     def show(v: str) -> str:
-        return v[:12] if what == "model sha256" else v
+        return v[:12] if what == "model sha256" else v or "(none)"
 
     if len(values) == 1 and next(iter(values.values())) == n:
         return show(next(iter(values)))
