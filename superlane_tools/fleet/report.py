@@ -176,11 +176,13 @@ def compare_sections(
             "Fleet verdict",
             [
                 *_gate_lines(gate),
+                "",
                 f"Candidate - base over the matched drives; {comparison.params.text()}. "
                 "Verdict: better / worse when the interval excludes 0 and leaves the margin, "
                 "equivalent when it lies inside +-margin, inconclusive otherwise; too few "
                 "drives below the minimum; unavailable: the base has no value (e.g. no truth), "
                 "never counted as 0; lost: the base measured it, the candidate on no drive.",
+                "",
                 MULTIPLE_COMPARISONS,
             ],
             [verdict_table(fleet)],
