@@ -101,12 +101,15 @@ def _row(scope: str, kpi: str, d: Delta, **where: object) -> dict[str, object]:
 
 
 def _merge(b: pd.DataFrame, c: pd.DataFrame) -> pd.DataFrame:
-    """Join one drive's sequences of both runs; a sequence counts where both have a value."""
+    """Join the drives' sequences of both runs; a sequence counts where both have a value.
+
+    Rows join by ``pair`` (the matched drive pair), sequence index, start time and KPI.
+    """
     left = b.rename(columns={"num": "num_b", "den": "den_b", "measured": "raw_b"})
-    right = c[["sequence", "start_ns", "kpi", "num", "den", "measured"]].rename(
+    right = c[["pair", "sequence", "start_ns", "kpi", "num", "den", "measured"]].rename(
         columns={"num": "num_c", "den": "den_c", "measured": "raw_c"}
     )
-    merged = left.merge(right, on=["sequence", "start_ns", "kpi"], how="inner")
+    merged = left.merge(right, on=["pair", "sequence", "start_ns", "kpi"], how="inner")
     both = (merged["den_b"] > 0) & (merged["den_c"] > 0)
     merged["own_b"] = merged["num_b"]  # the base's own value, shown when the candidate lost it
     merged["both"] = both.astype(np.float64)
@@ -248,19 +251,24 @@ def compare_fleets(
     unaligned: list[tuple[DriveRun, DriveRun]] = []
     only_base: list[DriveRun] = []
     parts: list[pd.DataFrame] = []
+    pairs: list[tuple[DriveRun, DriveRun]] = []
+    right: list[pd.DataFrame] = []
     for drive, seqs in base:
         other = by_key.pop(drive.key, None)
         if other is None:
             only_base.append(drive)
             continue
-        merged = _merge(_tagged(drive, seqs), other[1])
-        (matched if len(merged) else unaligned).append((drive, other[0]))
-        parts.append(merged)
+        parts.append(_tagged(drive, seqs).assign(pair=len(pairs)))
+        right.append(other[1].assign(pair=len(pairs)))
+        pairs.append((drive, other[0]))
     only_candidate = [d for d, _ in by_key.values()]
+    seqs = _merge(pd.concat(parts), pd.concat(right)) if pairs else pd.DataFrame()
+    lined_up = set(seqs["pair"]) if pairs else set()
+    for i, pair in enumerate(pairs):
+        (matched if i in lined_up else unaligned).append(pair)
     n_seq_b = sum(s["sequence"].nunique() for _, s in base)
     n_seq_c = sum(s["sequence"].nunique() for _, s in candidate)
-    seqs = pd.concat(parts, ignore_index=True) if parts else pd.DataFrame()
-    n_matched = int(seqs.groupby(["drive", "sequence"]).ngroups) if len(seqs) else 0
+    n_matched = int(seqs.groupby(["pair", "sequence"]).ngroups) if len(seqs) else 0
     if matched:
         drives = drive_sums(seqs)
         parts_out = [pd.DataFrame(_scoped_rows(drives, params, margins), columns=list(COLUMNS))]
