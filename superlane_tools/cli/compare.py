@@ -18,11 +18,14 @@ from superlane_tools.cli._common import (
     report_skipped,
 )
 from superlane_tools.cli._outputs import new_output, overwrite_option
-from superlane_tools.errors import ExitCode
+from superlane_tools.errors import ExitCode, message_line
 
 COMPARE_EXIT_HELP = (
-    f"{EXIT_CODES_HELP} With --fail-on-regression: 4 when a gated KPI is worse (outputs "
-    "written; wins over 3)."
+    f"{EXIT_CODES_HELP} With --fail-on-regression: 4 when a gated KPI regressed (significantly "
+    "worse past its margin, or lost by the candidate; outputs written; wins over 3), 3 when the "
+    "gate cannot decide (too few drives, no matched drive or sequence, an interval past the "
+    "margin without a significant change), 0 only when every gated KPI is shown within its "
+    "margin."
 )
 
 
@@ -38,6 +41,34 @@ def _rules(values: list[str] | None) -> list[str] | None:
     return values
 
 
+def _margins(values: list[str] | None) -> list[str] | None:
+    from superlane_tools.errors import UsageError
+
+    for value in values or []:
+        try:
+            _parse_margin(value)
+        except UsageError as err:
+            raise typer.BadParameter(str(err)) from err
+    return values
+
+
+def _parse_margin(text: str) -> tuple[str, float]:
+    """Parse ``KPI=VALUE`` (display unit: percentage points for ratios) into the KPI's unit."""
+    from superlane_tools.errors import UsageError
+    from superlane_tools.fleet import KPI_BY_NAME
+
+    name, _, value = text.partition("=")
+    if name not in KPI_BY_NAME:
+        raise UsageError(f"--margin {text}: unknown KPI {name!r} (names as in compare.md)")
+    try:
+        margin = float(value)
+    except ValueError:
+        margin = float("nan")
+    if not margin >= 0:
+        raise UsageError(f"--margin {text}: expected KPI=VALUE with a number >= 0")
+    return name, margin / 100.0 if KPI_BY_NAME[name].unit == "ratio" else margin
+
+
 def compare_cmd(
     base: Annotated[Path, typer.Argument(help="Base: a reprocess run folder or batch root.")],
     candidate: Annotated[Path, typer.Argument(help="Candidate: run folder or batch root.")],
@@ -46,10 +77,21 @@ def compare_cmd(
         list[str] | None,
         typer.Option(
             "--fail-on-regression",
-            metavar="KPI[:THRESHOLD]",
-            help="Exit 4 when this KPI (name, family or 'all') is judged worse by more than "
-            "THRESHOLD (KPI unit; percentage points for ratios). Repeatable.",
+            metavar="KPI[:MARGIN]",
+            help="Gate on this KPI (name, family or 'all'; a few primary KPIs, see compare.md): "
+            "exit 4 when it regressed past MARGIN (KPI unit; percentage points for ratios; "
+            "default the KPI's margin), 3 when the gate cannot decide. Repeatable; Holm across "
+            "the gated KPIs.",
             callback=_rules,
+        ),
+    ] = None,
+    margin: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--margin",
+            metavar="KPI=VALUE",
+            help="Margin of a KPI's verdict (KPI unit; percentage points for ratios). Repeatable.",
+            callback=_margins,
         ),
     ] = None,
     seed: Annotated[int, typer.Option("--seed", help="Bootstrap seed.")] = 0,
@@ -60,7 +102,7 @@ def compare_cmd(
     no_plots: Annotated[bool, typer.Option("--no-plots", help="Skip plots/*.png.")] = False,
     overwrite: Annotated[bool, overwrite_option()] = False,
 ) -> None:
-    """Compare a candidate run with a base run: fleet KPI deltas with 95 % bootstrap intervals.
+    """Compare a candidate run with a base run: fleet KPI deltas with 95 % intervals over drives.
 
     BASE and CANDIDATE are each a `slt reprocess` run folder, a folder of run folders or a
     `slt batch` output root. Drives are matched by recording (content hash) and window;
@@ -74,6 +116,7 @@ def compare_cmd(
     with cli_errors():
         params = CompareParams(
             bootstrap=BootstrapParams(n_resamples=resamples, seed=seed),
+            margins=dict(_parse_margin(v) for v in margin or []),
             spans=SpanParams(max_spans=spans),
             gate=tuple(parse_rule(v) for v in fail_on_regression or []),
             plots=not no_plots,
@@ -83,19 +126,23 @@ def compare_cmd(
             result = compare_runs(base, candidate, out, params)
     fleet = result.comparison.fleet_rows()
     counts = fleet["verdict"].value_counts()
-    for row in result.differences.head(5).itertuples(index=False):
-        console.print(f"differs: {row.what} {row.key}: {row.base} -> {row.candidate}", markup=False)
+    from superlane_tools.fleet import difference_lines
+
+    for line in difference_lines(result.differences)[:5]:
+        console.print(f"differs: {line}", markup=False)
+    matched, n_b, n_c = result.comparison.n_drives()
     summary = ", ".join(f"{counts.get(v, 0)} {v}" for v in ("worse", "better"))
     console.print(
-        f"compared {len(result.comparison.matched)} matched drives: {summary}, "
-        f"{len(fleet) - counts.get('worse', 0) - counts.get('better', 0)} other KPIs "
-        f"-> {out}",
+        f"compared {matched} matched drives (of {n_b} base, {n_c} candidate): {summary}, "
+        f"{len(fleet) - counts.get('worse', 0) - counts.get('better', 0)} other KPIs -> {out}",
         markup=False,
     )
     code = report_skipped(result.skipped)
-    for line in result.regressions:
+    for line in result.gate.regressions:
         err_console.print(f"slt: regression: {line}", markup=False)
-    exit_with(ExitCode.REGRESSION if result.regressions else code)
+    for line in result.gate.undecided:
+        err_console.print(message_line("note", f"gate cannot decide: {line}"), markup=False)
+    exit_with(max(code, result.gate.code))
 
 
 def register(app: typer.Typer) -> None:

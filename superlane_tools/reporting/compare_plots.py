@@ -1,4 +1,4 @@
-"""Plots of ``slt compare``: per-drive KPI deltas with intervals, availability timelines."""
+"""Plots of ``slt compare``: the fleet's and each drive's KPI deltas, availability timelines."""
 
 from __future__ import annotations
 
@@ -16,10 +16,11 @@ MAX_DRIVES_SHOWN = 30
 
 
 def plot_deltas(table: pd.DataFrame, kpis: Sequence[str], path: Path) -> Path:
-    """Plot per-drive deltas (candidate - base) with their intervals, one panel per KPI.
+    """Plot per-drive deltas (candidate - base) beside the fleet's, one panel per KPI.
 
-    ``table`` is the comparison table (scopes ``drive`` and ``fleet``); the fleet's delta is the
-    first bar of each panel.
+    ``table`` is the comparison table (scopes ``drive`` and ``fleet``); the fleet's delta, with
+    its interval over drives, is the first bar of each panel; a drive's delta is descriptive
+    (no interval: one drive's sequences are not independent).
     """
     plt = _pyplot()
     fig, axes = plt.subplots(len(kpis), 1, figsize=(9, 2.2 * len(kpis) + 0.6), squeeze=False)

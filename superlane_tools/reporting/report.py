@@ -40,12 +40,18 @@ def _fmt(value: Any) -> str:
     return str(value)
 
 
+def _cell(text: str) -> str:
+    """Escape a Markdown table cell: a ``|`` would end the cell, a newline the row."""
+    return text.replace("|", "\\|").replace("\n", " ")
+
+
 def markdown_table(frame: pd.DataFrame) -> str:
     """Return a GitHub-flavoured Markdown table of a DataFrame (floats to 3 significant digits)."""
-    cols = [str(c) for c in frame.columns]
+    cols = [_cell(str(c)) for c in frame.columns]
     lines = ["| " + " | ".join(cols) + " |", "|" + "|".join("---" for _ in cols) + "|"]
     lines += [
-        "| " + " | ".join(_fmt(v) for v in row) + " |" for row in frame.itertuples(index=False)
+        "| " + " | ".join(_cell(_fmt(v)) for v in row) + " |"
+        for row in frame.itertuples(index=False)
     ]
     return "\n".join(lines)
 

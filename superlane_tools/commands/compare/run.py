@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -13,6 +14,7 @@ from superlane_tools.fleet import (
     DriveKpis,
     DriveRun,
     FleetError,
+    GateResult,
     GateRule,
     SpanParams,
     compare_fleets,
@@ -20,8 +22,8 @@ from superlane_tools.fleet import (
     disagreement_spans,
     find_drives,
     frame_disagreement,
+    judge_gate,
     read_tables,
-    regressions,
     run_differences,
     sequence_kpis,
 )
@@ -34,16 +36,17 @@ DELTA_PLOT_KPIS = (
     "availability_frames.super",
     "curvature_rmse_truth.super_path",
     "lane_width_bias",
-    "ego_pair_share",
+    "coverage.fit",
 )
 """KPIs of the per-drive delta plot."""
 
 
 @dataclass(frozen=True)
 class CompareParams:
-    """Settings of one comparison (intervals, spans, the release gate, plots)."""
+    """Settings of one comparison (intervals, margins, spans, the release gate, plots)."""
 
     bootstrap: BootstrapParams = field(default_factory=BootstrapParams)
+    margins: Mapping[str, float] = field(default_factory=dict)
     spans: SpanParams = field(default_factory=SpanParams)
     gate: tuple[GateRule, ...] = ()
     plots: bool = True
@@ -58,9 +61,14 @@ class CompareResult:
     comparison: Comparison
     differences: pd.DataFrame
     spans: pd.DataFrame
-    regressions: tuple[str, ...]
+    gate: GateResult
     skipped: tuple[Skipped, ...]
     outputs: tuple[Path, ...] = field(default=())
+
+    @property
+    def regressions(self) -> tuple[str, ...]:
+        """Return the gate's regression lines (exit 4)."""
+        return self.gate.regressions
 
 
 def _read(
@@ -71,12 +79,13 @@ def _read(
     kb, kc, parts = [], [], []
     for drive in base:
         tables = read_tables(drive)
-        kb.append((drive, sequence_kpis(tables)))
         cand = others.pop(drive.key, None)
         if cand is None:
+            kb.append((drive, sequence_kpis(tables)))
             continue
-        cand_tables = read_tables(cand)
-        kc.append((cand, sequence_kpis(cand_tables)))
+        cand_tables = read_tables(cand)  # conditional KPIs: on frames both runs produced
+        kb.append((drive, sequence_kpis(tables, cand_tables)))
+        kc.append((cand, sequence_kpis(cand_tables, tables)))
         spans = disagreement_spans(
             drive.drive, frame_disagreement(tables, cand_tables, params), params
         )
@@ -99,7 +108,8 @@ def _plots(out: Path, result: CompareResult, params: CompareParams) -> list[Path
 
     layout = CompareLayout(out)
     pngs = [plot_deltas(result.comparison.table, DELTA_PLOT_KPIS, layout.deltas_plot())]
-    matched = {b.drive: (b, c) for b, c in result.comparison.matched}
+    pairs = (*result.comparison.matched, *result.comparison.unaligned)
+    matched = {b.drive: (b, c) for b, c in pairs}
     worst = list(dict.fromkeys(result.spans["drive"])) if not result.spans.empty else []
     for k, drive in enumerate(worst[: params.timelines]):
         base, cand = matched[drive]
@@ -128,16 +138,15 @@ def compare_runs(base: Path, candidate: Path, out: Path, params: CompareParams) 
             raise FleetError(f"{fleet.root}: empty fleet: no drive with a reprocess run")
     differences = run_differences(fleets[0].drives, fleets[1].drives)
     kpis_base, kpis_cand, spans = _read(fleets[0].drives, fleets[1].drives, params.spans)
-    comparison = compare_fleets(kpis_base, kpis_cand, params.bootstrap)
+    comparison = compare_fleets(kpis_base, kpis_cand, params.bootstrap, params.margins)
     skipped = [*fleets[0].skipped, *fleets[1].skipped]
     skipped += [Skipped("drive only in the base", d.drive) for d in comparison.only_base]
     skipped += [Skipped("drive only in the candidate", d.drive) for d in comparison.only_candidate]
+    skipped += [
+        Skipped("drive whose sequences do not line up", b.drive) for b, _ in comparison.unaligned
+    ]
     result = CompareResult(
-        comparison,
-        differences,
-        spans,
-        tuple(regressions(comparison.fleet_rows(), params.gate)),
-        tuple(skipped),
+        comparison, differences, spans, judge_gate(comparison, params.gate), tuple(skipped)
     )
     provenance = Provenance(
         command=params.command or "slt compare",
@@ -145,6 +154,8 @@ def compare_runs(base: Path, candidate: Path, out: Path, params: CompareParams) 
             "base": str(base),
             "candidate": str(candidate),
             "bootstrap": params.bootstrap.text(),
+            "margins": dict(comparison.margins),
+            "gate": [r.text() for r in params.gate],
         },
     )
     layout = CompareLayout(out)
@@ -160,8 +171,7 @@ def compare_runs(base: Path, candidate: Path, out: Path, params: CompareParams) 
         comparison,
         differences,
         result.spans,
-        result.regressions,
-        params.gate,
+        result.gate if params.gate else None,
         [p.relative_to(out).as_posix() for p in images],
     )
     written += write_report(layout.report, title, sections)
@@ -169,7 +179,7 @@ def compare_runs(base: Path, candidate: Path, out: Path, params: CompareParams) 
         result.comparison,
         differences,
         result.spans,
-        result.regressions,
+        result.gate,
         result.skipped,
         tuple(written),
     )
@@ -180,6 +190,7 @@ def _drives(comparison: Comparison) -> pd.DataFrame:
     rows = [("matched", b, b.folder, c.folder) for b, c in comparison.matched]
     rows += [("only in the base", b, b.folder, None) for b in comparison.only_base]
     rows += [("only in the candidate", c, None, c.folder) for c in comparison.only_candidate]
+    rows += [("sequences do not line up", b, b.folder, c.folder) for b, c in comparison.unaligned]
     columns = ["drive", "status", "recording", "category", "base_folder", "candidate_folder"]
     return pd.DataFrame(
         [

@@ -1,4 +1,8 @@
-"""`slt compare` flags a weaker model and a wrong camera pitch (real reprocess runs, slow)."""
+"""`slt compare` sees a weaker model and a wrong camera pitch (real reprocess runs, slow).
+
+Two drives are too few for a verdict (docs/compare.md: 10), so these check the changes' signs
+and that the verdict says so; the gate's verdicts on ten drives are in test_compare.py.
+"""
 
 from __future__ import annotations
 
@@ -13,7 +17,7 @@ from superlane_tools.camera.profiles import camera_to_yaml
 from superlane_tools.commands.compare import CompareParams, compare_runs
 from superlane_tools.commands.reprocess import reprocess
 from superlane_tools.drive.config import ReprocessConfig
-from superlane_tools.fleet import UNAVAILABLE, WORSE
+from superlane_tools.fleet import TOO_FEW, UNPAIRED
 from superlane_tools.reporting.run_folder import staged_run
 from superlane_tools.simulation.drive import simulate_drive
 
@@ -71,21 +75,22 @@ def fleets(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
 def test_a_weaker_model_is_worse(fleets: dict[str, Path], tmp_path: Path) -> None:
     result = compare_runs(fleets["base"], fleets["v1"], tmp_path, QUICK)
     fleet = result.comparison.fleet_rows().set_index("kpi")
-    assert fleet.at["availability_frames.super", "verdict"] == WORSE, fleet["verdict"]
-    assert fleet.at["curvature_rmse_dynamics.super", "verdict"] == WORSE, fleet["verdict"]
+    assert fleet.at["availability_frames.super", "delta"] < 0, fleet["delta"]
+    assert fleet.at["availability_frames.super", "verdict"] == TOO_FEW
+    assert fleet.at["availability_frames.super", "n_drives"] == 2
     assert "onnx:super_seg_v1" in set(result.differences["key"])
 
 
 def test_a_wrong_camera_pitch_is_worse(fleets: dict[str, Path], tmp_path: Path) -> None:
     result = compare_runs(fleets["base"], fleets["pitch"], tmp_path, QUICK)
     fleet = result.comparison.fleet_rows().set_index("kpi")
-    assert fleet.at["lane_width_bias", "verdict"] == WORSE, fleet["verdict"]
+    assert fleet.at["lane_width_bias", "delta"] > 0, fleet["delta"]
     assert fleet.at["availability_frames.mobileye", "delta"] == 0.0  # CAN: untouched
     pitch = result.differences.set_index("key")
     assert pitch.at["resolved.camera.extrinsics.pitch_rad", "candidate"] == "0.1"
 
 
-def test_a_run_without_truth_has_unavailable_truth_kpis(oracle_runs: Any, tmp_path: Path) -> None:
+def test_a_run_without_truth_has_no_truth_kpis(oracle_runs: Any, tmp_path: Path) -> None:
     from typer.testing import CliRunner
 
     from superlane_tools.cli.app import app
@@ -106,6 +111,6 @@ def test_a_run_without_truth_has_unavailable_truth_kpis(oracle_runs: Any, tmp_pa
     result = compare_runs(oracle_runs.base.parent, tmp_path / "no_truth", tmp_path / "out", QUICK)
     fleet = result.comparison.fleet_rows().set_index("kpi")
     truth = fleet.loc[fleet.index.str.startswith("curvature_rmse_truth")]
-    assert (truth["verdict"] == UNAVAILABLE).all(), truth
+    assert (truth["verdict"] == UNPAIRED).all(), truth  # another recording: no matched drive
     assert all(math.isnan(v) for v in truth["candidate"])  # unavailable, never 0
-    assert "unavailable" in (tmp_path / "out" / "compare.md").read_text()
+    assert "no drive matched" in (tmp_path / "out" / "compare.md").read_text()
