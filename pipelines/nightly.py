@@ -10,6 +10,9 @@ With ``--baseline ROOT`` (an earlier output root, e.g. the production model's), 
 root is compared with it (``slt compare``: ``OUT/summary/compare/``), the frames worth labelling
 are mined (``slt mine`` with the comparison's spans: ``OUT/summary/mined/``) and both go into
 the fleet summary report. ``--fail-on-regression KPI[:THRESHOLD]`` (repeatable) gates on it.
+The night's fleet KPIs and its comparison are then appended to the fleet's history,
+``HISTORY/history/night=NIGHT/`` (``--history``, default ``--out``; ``--night``, default
+today's UTC date), which ``slt history HISTORY`` plots night over night.
 
 Exit codes: 0 when the night's work was done, even if some recordings were corrupt (they are
 listed in ``OUT/batch_status.parquet`` and the report); 1 on a systemic failure: more than
@@ -23,7 +26,8 @@ Usage:
         [--manifest FILE] [--state FILE] [--engine local|ray] [--workers N]
         [--ray-address auto] [--job reprocess|extract] [--config FILE] [--retries 1]
         [--settle-min 10] [--max-failed 0.5]
-        [--baseline ROOT [--fail-on-regression KPI[:THRESHOLD]] [--mine 50]]
+        [--baseline ROOT [--fail-on-regression KPI[:THRESHOLD]] [--mine 50]
+         [--max-per-drive 10] [--history DIR] [--night YYYY-MM-DD]]
 """
 
 from __future__ import annotations
@@ -86,6 +90,19 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         help="exit 4 when this KPI is worse than in the baseline (see slt compare)",
     )
     ap.add_argument("--mine", type=int, default=50, help="frames to mine (0: none)")
+    ap.add_argument(
+        "--max-per-drive", type=int, default=10, help="most mined frames of one drive (0: no cap)"
+    )
+    ap.add_argument(
+        "--history",
+        type=Path,
+        help="nightly root whose history/ dataset the night is appended to (default: --out)",
+    )
+    ap.add_argument(
+        "--night",
+        default=time.strftime("%Y-%m-%d", time.gmtime()),
+        help="the night's name in the history, YYYY-MM-DD (default: today, UTC)",
+    )
     return ap.parse_args(argv)
 
 
@@ -95,6 +112,7 @@ def compare_with_baseline(args: argparse.Namespace) -> int:
     from superlane_tools.commands.compare import CompareParams, compare_runs
     from superlane_tools.commands.mine import mine_runs
     from superlane_tools.fleet import parse_rule
+    from superlane_tools.fleet.history import record_night
     from superlane_tools.fleet.mining import MineParams
     from superlane_tools.reporting.report import Section
     from superlane_tools.reporting.run_layout import SUMMARY_DIR, CompareLayout, SummaryLayout
@@ -128,7 +146,7 @@ def compare_with_baseline(args: argparse.Namespace) -> int:
         mined = mine_runs(
             [args.out],
             layout.mined,
-            MineParams(max_frames=args.mine),
+            MineParams(max_frames=args.mine, max_per_drive=args.max_per_drive or None),
             compare_dir=layout.comparison,
             command=command,
         )
@@ -147,6 +165,15 @@ def compare_with_baseline(args: argparse.Namespace) -> int:
             )
         )
     write_summary(args.out, command, sections)
+    history = record_night(
+        args.history or args.out,
+        args.night,
+        args.out,
+        compare_dir=layout.comparison,
+        baseline=args.baseline,
+        command=command,
+    )
+    print(f"nightly: history: appended {len(history)} files for {args.night}")
     print(f"nightly: compared with {args.baseline}: {len(result.regressions)} regressions")
     for line in result.regressions:
         print(f"nightly: regression: {line}", file=sys.stderr)
@@ -177,12 +204,17 @@ def new_recordings(source: Path, after_ns: int, before_ns: int) -> list[BatchEnt
 
 def run(args: argparse.Namespace) -> int:
     if args.baseline is not None:  # bad gate rules or a missing baseline: before any work
-        from superlane_tools.fleet import parse_rule
+        from superlane_tools.fleet import FleetError, parse_rule
+        from superlane_tools.fleet.history import check_night
 
         for rule in args.fail_on_regression:
             parse_rule(rule)
         if not args.baseline.is_dir():
             raise UsageError(f"--baseline {args.baseline}: no such folder")
+        try:
+            check_night(args.night)
+        except FleetError as err:
+            raise UsageError(f"--night: {err}") from err
     state_path = args.state or args.out / STATE_FILE
     state = read_state(state_path)
     cutoff_ns = time.time_ns() - int(args.settle_min * 60e9)

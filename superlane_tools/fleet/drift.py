@@ -11,9 +11,10 @@ higher is better, ``v_t - v_{t-1}`` otherwise) and ``m`` the KPI's drift margin:
   steady decline whatever the step size.
 * **cusum**: a one-sided CUSUM (Page 1954) on the nightly changes,
   ``S_t = max(0, S_{t-1} + w_t - m * CUSUM_SLACK)``, alarm when ``S_t >= m`` (then ``S`` restarts
-  at 0). Changes under a quarter of the margin a night are tolerated as noise and a better night
-  pays back a worse one, so it catches a decline with noisy nights in between, which the
-  decline rule misses, and a single step past ``1.25 m``.
+  at 0). The changes telescope: ``S`` is the fall from the best value since ``S`` was last 0,
+  less an eighth of the margin per night, so a steady worsening under ``m / 8`` a night is
+  tolerated, a better night pays back a worse one, and it catches a decline with better nights
+  in between, which the decline rule misses, and a single step past ``1.125 m``.
 
 An alarm is **caught** when a night inside its window (after its first night) had a comparison
 verdict ``worse`` for that KPI: that night's gate saw it. The others are the drifts the gates
@@ -34,7 +35,7 @@ from superlane_tools.fleet.kpis import KPI_BY_NAME
 
 DECLINE_STEPS = 3
 """Consecutive worsening nights (changes) the decline rule needs."""
-CUSUM_SLACK = 0.25
+CUSUM_SLACK = 0.125
 """Nightly worsening tolerated by the CUSUM, as a fraction of the margin."""
 WORSE = "worse"
 DEFAULT_MARGINS: Mapping[str, float] = {
