@@ -16,6 +16,7 @@ higher is better, ``v_t - v_{t-1}`` otherwise) and ``m`` the KPI's drift margin:
   tolerated, a better night pays back a worse one, and it catches a decline with better nights
   in between, which the decline rule misses, and a single step past ``1.125 m``.
 
+Alarms of one KPI whose windows overlap or touch are one drift (``rule`` = ``decline+cusum``).
 An alarm is **caught** when a night inside its window (after its first night) had a comparison
 verdict ``worse`` for that KPI: that night's gate saw it. The others are the drifts the gates
 missed. Margins (:func:`drift_margin`): ``--margin KPI:VALUE``; else the KPI's own margin where
@@ -38,6 +39,7 @@ DECLINE_STEPS = 3
 CUSUM_SLACK = 0.125
 """Nightly worsening tolerated by the CUSUM, as a fraction of the margin."""
 WORSE = "worse"
+RULES = ("decline", "cusum")
 DEFAULT_MARGINS: Mapping[str, float] = {
     "availability_frames": 0.02,
     "availability_sequences": 0.05,
@@ -126,6 +128,20 @@ def cusum_alarms(steps: np.ndarray, margin: float) -> list[Alarm]:
     return out
 
 
+def merged(alarms: Sequence[Alarm]) -> list[Alarm]:
+    """Join alarms whose windows overlap or touch into one (rules joined by ``+``)."""
+    out: list[Alarm] = []
+    for alarm in sorted(alarms, key=lambda a: (a.start, a.stop)):
+        if out and alarm.start <= out[-1].stop:
+            last = out[-1]
+            rules = {*last.rule.split("+"), alarm.rule}
+            rule = "+".join(r for r in RULES if r in rules)
+            out[-1] = Alarm(rule, last.start, max(last.stop, alarm.stop))
+        else:
+            out.append(alarm)
+    return out
+
+
 def kpi_drifts(
     kpi: str,
     nights: Sequence[str],
@@ -143,7 +159,7 @@ def kpi_drifts(
     said = [verdicts[k] for k in keep]
     steps = worse_steps(vals, spec.higher_is_better if spec is not None else True)
     rows: list[dict[str, object]] = []
-    for alarm in decline_alarms(steps, margin) + cusum_alarms(steps, margin):
+    for alarm in merged(decline_alarms(steps, margin) + cusum_alarms(steps, margin)):
         caught = [days[k] for k in range(alarm.start + 1, alarm.stop + 1) if said[k] == WORSE]
         rows.append(
             {

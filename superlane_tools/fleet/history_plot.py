@@ -38,12 +38,14 @@ def plot_kpi_history(
     spec = KPI_BY_NAME.get(kpi)
     scale = 100.0 if spec is not None and spec.unit == "ratio" else 1.0
     fig, ax = plt.subplots(figsize=(9, 3.2))
-    ax.plot(x, values * scale, color="0.3", linewidth=1.2, zorder=2)
+    ax.plot(x, values * scale, color="0.3", linewidth=1.2, zorder=2, label="fleet value")
     colours = [VERDICT_COLOURS.get(str(v), "0.6") for v in rows["verdict"]]
     ax.scatter(x, values * scale, c=colours, s=30, zorder=3)
     for night, _, after in model_changes:
         if night in pos:
-            ax.axvline(pos[night] - 0.5, color="tab:red", linestyle="--", linewidth=1)
+            ax.axvline(
+                pos[night] - 0.5, color="tab:red", linestyle="--", linewidth=1, label="model change"
+            )
             ax.annotate(
                 f"model: {after}",
                 (pos[night] - 0.5, 1.0),
@@ -55,16 +57,26 @@ def plot_kpi_history(
             )
     for night, _, _ in config_changes:
         if night in pos:
-            ax.axvline(pos[night] - 0.45, color="tab:blue", linestyle=":", linewidth=1)
+            ax.axvline(
+                pos[night] - 0.45,
+                color="tab:blue",
+                linestyle=":",
+                linewidth=1,
+                label="config change",
+            )
     for drift in drifts[drifts["kpi"] == kpi].itertuples():
         lo, hi = pos.get(str(drift.first_night)), pos.get(str(drift.last_night))
         if lo is not None and hi is not None:
             colour = "0.85" if drift.caught else "tab:orange"
-            ax.axvspan(lo, hi, color=colour, alpha=0.25, zorder=1)
+            what = "drift (a gate caught it)" if drift.caught else "drift no gate caught"
+            ax.axvspan(lo, hi, color=colour, alpha=0.25, zorder=1, label=what)
     ax.set_xticks(x, nights, rotation=30, ha="right", fontsize=7)
     unit = "%" if scale == 100.0 else (spec.unit if spec is not None else "")
     label = spec.label if spec is not None else kpi
     ax.set_title(f"{label} ({unit}) over the nights", fontsize=9)
     ax.grid(True, axis="y", alpha=0.3)
+    handles, labels = ax.get_legend_handles_labels()
+    unique = dict(zip(labels, handles, strict=True))
+    ax.legend(unique.values(), unique.keys(), fontsize=7, loc="best")
     fig.tight_layout()
     return _save(fig, path)

@@ -40,7 +40,7 @@ def test_a_slow_steady_decline_is_flagged_and_uncaught() -> None:
     assert not row["caught"]
     # 0.6 pp a night exceeds the CUSUM's slack of 0.25 pp by 0.35 pp: 6 steps to reach 2 pp
     assert found[found["rule"] == "cusum"].empty
-    assert list(drifts(_series([*values, values[-1] - 0.006]))["rule"]) == ["decline", "cusum"]
+    assert list(drifts(_series([*values, values[-1] - 0.006]))["rule"]) == ["decline+cusum"]
 
 
 def test_noise_without_a_trend_is_not_flagged() -> None:
