@@ -84,9 +84,7 @@ def history(
     gate = CompareParams(plots=False, gate=(parse_rule(f"{KPI}:2"),))
     for k, night in enumerate(NIGHTS):
         fleet = root / "fleets" / night
-        config = _night_config(
-            oracle_config(labels), k, labels, root / "labels", oracle_config
-        )
+        config = _night_config(oracle_config(labels), k, labels, root / "labels", oracle_config)
         with staged_run(fleet / "curves") as stage:
             reprocess(oracle_runs.recording, stage, config, command=f"test night {k}")
         compare_dir = baseline = None
