@@ -12,7 +12,8 @@ are mined (``slt mine`` with the comparison's spans: ``OUT/summary/mined/``) and
 the fleet summary report. ``--fail-on-regression KPI[:THRESHOLD]`` (repeatable) gates on it.
 The night's fleet KPIs and its comparison are then appended to the fleet's history,
 ``HISTORY/history/night=NIGHT/`` (``--history``, default ``--out``; ``--night``, default
-today's UTC date), which ``slt history HISTORY`` plots night over night.
+today's UTC date), which ``slt history HISTORY`` plots night over night. Without
+``--baseline``, ``--history DIR`` appends the night's fleet summary alone (reprocess jobs).
 
 Exit codes: 0 when the night's work was done, even if some recordings were corrupt (they are
 listed in ``OUT/batch_status.parquet`` and the report); 1 on a systemic failure: more than
@@ -204,13 +205,16 @@ def new_recordings(source: Path, after_ns: int, before_ns: int) -> list[BatchEnt
 
 def run(args: argparse.Namespace) -> int:
     if args.baseline is not None:  # bad gate rules or a missing baseline: before any work
-        from superlane_tools.fleet import FleetError, parse_rule
-        from superlane_tools.fleet.history import check_night
+        from superlane_tools.fleet import parse_rule
 
         for rule in args.fail_on_regression:
             parse_rule(rule)
         if not args.baseline.is_dir():
             raise UsageError(f"--baseline {args.baseline}: no such folder")
+    if args.baseline is not None or args.history is not None:
+        from superlane_tools.fleet import FleetError
+        from superlane_tools.fleet.history import check_night
+
         try:
             check_night(args.night)
         except FleetError as err:
@@ -255,7 +259,14 @@ def run(args: argparse.Namespace) -> int:
     if args.manifest is None:
         state["watermark_ns"] = cutoff_ns
     write_text_atomic(state_path, json.dumps(state, indent=1))
-    return compare_with_baseline(args) if args.baseline is not None else 0
+    if args.baseline is not None:
+        return compare_with_baseline(args)
+    if args.history is not None:  # no comparison tonight: the fleet summary alone
+        from superlane_tools.fleet.history import record_night
+
+        record_night(args.history, args.night, args.out, command=params.command)
+        print(f"nightly: history: appended the fleet summary for {args.night}")
+    return 0
 
 
 def main(argv: list[str] | None = None) -> int:
