@@ -24,7 +24,7 @@ import hashlib
 import json
 import re
 import time
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -183,9 +183,10 @@ def comparison_rows(
     Columns the table lacks (``n_drives`` before the drive became the unit) are null.
     """
 
-    def column(name: str, dtype: str) -> pd.Series:
+    def column(name: str, dtype: Any) -> pd.Series:
         if name in fleet_rows:
-            return fleet_rows[name].astype(dtype)
+            out: pd.Series = fleet_rows[name].astype(dtype)
+            return out
         return pd.Series([None] * len(fleet_rows), dtype=dtype)
 
     return pd.DataFrame(
@@ -316,9 +317,8 @@ def read_history(path: Path, latest: bool = True) -> pd.DataFrame:
     if latest and len(table):
         last = table.groupby([HISTORY_PARTITION, "kind"])["recorded_ns"].transform("max")
         table = table[table["recorded_ns"] == last]
-    return table.sort_values([HISTORY_PARTITION, "kind", "kpi"], kind="stable").reset_index(
-        drop=True
-    )
+    ordered: pd.DataFrame = table.sort_values([HISTORY_PARTITION, "kind", "kpi"], kind="stable")
+    return ordered.reset_index(drop=True)
 
 
 def nightly_series(history: pd.DataFrame) -> pd.DataFrame:
@@ -342,9 +342,8 @@ def nightly_series(history: pd.DataFrame) -> pd.DataFrame:
 
 def changes(series: pd.DataFrame, column: str) -> list[tuple[str, str, str]]:
     """Return ``(night, before, after)`` for every night whose ``column`` differs from the last."""
-    per_night: Mapping[str, str] = (
-        series.dropna(subset=[column]).groupby(HISTORY_PARTITION)[column].first().to_dict()
-    )
+    firsts = series.dropna(subset=[column]).groupby(HISTORY_PARTITION)[column].first()
+    per_night = {str(k): str(v) for k, v in firsts.items()}
     out = []
     previous: str | None = None
     for night in sorted(per_night):

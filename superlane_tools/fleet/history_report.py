@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -40,10 +41,10 @@ def format_change(kpi: str, change: float) -> str:
     return f"{change:+.3g} {spec.unit if spec is not None else ''}".strip()
 
 
-def drift_line(row: Mapping[str, object]) -> str:
+def drift_line(row: Mapping[Any, Any]) -> str:
     """Return one drift alarm as one line (what, how much, when, which rule, caught or not)."""
     kpi = str(row["kpi"])
-    first, last = float(row["first_value"]), float(row["last_value"])  # type: ignore[arg-type]
+    first, last = float(row["first_value"]), float(row["last_value"])
     caught = (
         f"caught by the gate on {row['caught_by']}"
         if row["caught"]
@@ -53,7 +54,7 @@ def drift_line(row: Mapping[str, object]) -> str:
         f"{kpi}: {format_value(kpi, first)} -> {format_value(kpi, last)} "
         f"({format_change(kpi, last - first)}) over {row['nights']} nights, "
         f"{row['first_night']} to {row['last_night']} (rule {row['rule']}, margin "
-        f"{format_change(kpi, float(row['margin'])).lstrip('+')}): {caught}"  # type: ignore[arg-type]
+        f"{format_change(kpi, float(row['margin'])).lstrip('+')}): {caught}"
     )
 
 
