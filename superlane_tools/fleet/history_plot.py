@@ -4,12 +4,15 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from superlane_tools.fleet.kpis import KPI_BY_NAME
 from superlane_tools.reporting.plots import _pyplot, _save
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 VERDICT_COLOURS = {"better": "tab:green", "worse": "tab:red"}
 

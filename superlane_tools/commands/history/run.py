@@ -11,8 +11,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-
-import pandas as pd
+from typing import TYPE_CHECKING
 
 from superlane_tools.errors import UsageError
 from superlane_tools.fleet import FleetError
@@ -22,6 +21,9 @@ from superlane_tools.fleet.history_report import drift_line, history_sections
 from superlane_tools.reporting import Provenance, write_table
 from superlane_tools.reporting.report import write_report
 from superlane_tools.reporting.run_layout import HistoryReportLayout
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 
 @dataclass(frozen=True)
