@@ -205,3 +205,20 @@ def test_duckdb_reads_the_dataset(history: History) -> None:
         f"WHERE kpi = '{KPI}' AND kind = 'fleet' ORDER BY night"
     ).df()
     assert list(rows["night"].astype(str)) == NIGHTS
+
+
+def test_n_drives_is_read_when_the_comparison_has_it(history: History, tmp_path: Path) -> None:
+    from superlane_tools.reporting import Provenance, write_table
+
+    night = NIGHTS[1]
+    table = pd.read_parquet(history.root.parent / "compare" / night / "compare.parquet")
+    for name, n_drives in (("without", None), ("with", 1)):
+        folder = tmp_path / name
+        written = table.drop(columns=["n_drives"], errors="ignore")
+        if n_drives is not None:
+            written = written.assign(n_drives=n_drives)
+        write_table(written, folder / "compare.parquet", Provenance(command="test"))
+        record_night(tmp_path / name, night, history.fleets[1], folder, history.fleets[0])
+        rows = read_history(tmp_path / name)
+        got = rows.loc[rows["kind"] == "compare", "n_drives"]
+        assert got.isna().all() if n_drives is None else (got == n_drives).all(), got
