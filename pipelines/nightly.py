@@ -10,6 +10,10 @@ With ``--baseline ROOT`` (an earlier output root, e.g. the production model's), 
 root is compared with it (``slt compare``: ``OUT/summary/compare/``), the frames worth labelling
 are mined (``slt mine`` with the comparison's spans: ``OUT/summary/mined/``) and both go into
 the fleet summary report. ``--fail-on-regression KPI[:THRESHOLD]`` (repeatable) gates on it.
+The night's fleet KPIs and its comparison are then appended to the fleet's history,
+``HISTORY/history/night=NIGHT/`` (``--history``, default ``--out``; ``--night``, default
+today's UTC date), which ``slt history HISTORY`` plots night over night. Without
+``--baseline``, ``--history DIR`` appends the night's fleet summary alone (reprocess jobs).
 
 Exit codes: 0 when the night's work was done, even if some recordings were corrupt (they are
 listed in ``OUT/batch_status.parquet`` and the report); 1 on a systemic failure: more than
@@ -23,7 +27,8 @@ Usage:
         [--manifest FILE] [--state FILE] [--engine local|ray] [--workers N]
         [--ray-address auto] [--job reprocess|extract] [--config FILE] [--retries 1]
         [--settle-min 10] [--max-failed 0.5]
-        [--baseline ROOT [--fail-on-regression KPI[:THRESHOLD]] [--mine 50]]
+        [--baseline ROOT [--fail-on-regression KPI[:THRESHOLD]] [--mine 50]
+         [--max-per-drive 10] [--history DIR] [--night YYYY-MM-DD]]
 """
 
 from __future__ import annotations
@@ -86,6 +91,19 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         help="exit 4 when this KPI is worse than in the baseline (see slt compare)",
     )
     ap.add_argument("--mine", type=int, default=50, help="frames to mine (0: none)")
+    ap.add_argument(
+        "--max-per-drive", type=int, default=10, help="most mined frames of one drive (0: no cap)"
+    )
+    ap.add_argument(
+        "--history",
+        type=Path,
+        help="nightly root whose history/ dataset the night is appended to (default: --out)",
+    )
+    ap.add_argument(
+        "--night",
+        default=time.strftime("%Y-%m-%d", time.gmtime()),
+        help="the night's name in the history, YYYY-MM-DD (default: today, UTC)",
+    )
     return ap.parse_args(argv)
 
 
@@ -95,6 +113,7 @@ def compare_with_baseline(args: argparse.Namespace) -> int:
     from superlane_tools.commands.compare import CompareParams, compare_runs
     from superlane_tools.commands.mine import mine_runs
     from superlane_tools.fleet import parse_rule
+    from superlane_tools.fleet.history import record_night
     from superlane_tools.fleet.mining import MineParams
     from superlane_tools.reporting.report import Section
     from superlane_tools.reporting.run_layout import SUMMARY_DIR, CompareLayout, SummaryLayout
@@ -128,7 +147,7 @@ def compare_with_baseline(args: argparse.Namespace) -> int:
         mined = mine_runs(
             [args.out],
             layout.mined,
-            MineParams(max_frames=args.mine),
+            MineParams(max_frames=args.mine, max_per_drive=args.max_per_drive or None),
             compare_dir=layout.comparison,
             command=command,
         )
@@ -147,6 +166,15 @@ def compare_with_baseline(args: argparse.Namespace) -> int:
             )
         )
     write_summary(args.out, command, sections)
+    history = record_night(
+        args.history or args.out,
+        args.night,
+        args.out,
+        compare_dir=layout.comparison,
+        baseline=args.baseline,
+        command=command,
+    )
+    print(f"nightly: history: appended {len(history)} files for {args.night}")
     print(f"nightly: compared with {args.baseline}: {len(result.regressions)} regressions")
     for line in result.regressions:
         print(f"nightly: regression: {line}", file=sys.stderr)
@@ -183,6 +211,14 @@ def run(args: argparse.Namespace) -> int:
             parse_rule(rule)
         if not args.baseline.is_dir():
             raise UsageError(f"--baseline {args.baseline}: no such folder")
+    if args.baseline is not None or args.history is not None:
+        from superlane_tools.fleet import FleetError
+        from superlane_tools.fleet.history import check_night
+
+        try:
+            check_night(args.night)
+        except FleetError as err:
+            raise UsageError(f"--night: {err}") from err
     state_path = args.state or args.out / STATE_FILE
     state = read_state(state_path)
     cutoff_ns = time.time_ns() - int(args.settle_min * 60e9)
@@ -223,7 +259,14 @@ def run(args: argparse.Namespace) -> int:
     if args.manifest is None:
         state["watermark_ns"] = cutoff_ns
     write_text_atomic(state_path, json.dumps(state, indent=1))
-    return compare_with_baseline(args) if args.baseline is not None else 0
+    if args.baseline is not None:
+        return compare_with_baseline(args)
+    if args.history is not None:  # no comparison tonight: the fleet summary alone
+        from superlane_tools.fleet.history import record_night
+
+        record_night(args.history, args.night, args.out, command=params.command)
+        print(f"nightly: history: appended the fleet summary for {args.night}")
+    return 0
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -62,6 +62,7 @@ COMMAND_RANKS = {
     "segment": 1,
     "compare": 1,
     "mine": 1,
+    "history": 1,
     "recover": 1,
     "batch": 2,
 }

@@ -15,6 +15,7 @@ from superlane_tools.cli import (
     corridor,
     dbc,
     extract,
+    history,
     info,
     lanes,
     mine,
@@ -84,6 +85,7 @@ recover.register(app)
 dbc.register(app)
 compare.register(app)
 mine.register(app)
+history.register(app)
 
 
 def main() -> None:

@@ -18,7 +18,7 @@ from superlane_tools.cli._common import (
     report_skipped,
 )
 from superlane_tools.cli._outputs import new_output, overwrite_option
-from superlane_tools.errors import ExitCode, message_line
+from superlane_tools.errors import message_line
 
 COMPARE_EXIT_HELP = (
     f"{EXIT_CODES_HELP} With --fail-on-regression: 4 when a gated KPI regressed (significantly "

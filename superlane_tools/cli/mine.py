@@ -35,6 +35,14 @@ def mine_cmd(
         bool, typer.Option("--require-all", help="A frame must fire every criterion (AND).")
     ] = False,
     max_frames: Annotated[int, typer.Option("--max-frames", min=1, help="Cap.")] = 50,
+    max_per_drive: Annotated[
+        int,
+        typer.Option(
+            "--max-per-drive",
+            min=0,
+            help="Most frames from one drive, so one bad drive cannot fill the set (0: no cap).",
+        ),
+    ] = 10,
     min_gap_s: Annotated[
         float, typer.Option("--min-gap-s", min=0.0, help="Least time between picks of a drive.")
     ] = 1.0,
@@ -52,8 +60,10 @@ def mine_cmd(
 
     Writes images/*.jpg with CULane .lines.txt beside each, labels.json (TuSimple, what
     `slt train --data tusimple=SET` reads) and manifest.parquet (drive, recording, time,
-    reasons, scores) under --out. Picks are spread out: never two of one drive closer than
-    --min-gap-s, at most --max-frames.
+    reasons, scores) under --out. Images are saved at their recorded size and the
+    pre-annotations drawn in those pixels (at most 5 lines, nearest the ego lane). Picks are
+    spread out: never two of one drive closer than --min-gap-s, at most --max-per-drive of one
+    drive, at most --max-frames.
     """
     from superlane_tools.commands.mine import mine_runs
     from superlane_tools.errors import UsageError
@@ -67,6 +77,7 @@ def mine_cmd(
                 require_all,
                 max_frames,
                 min_gap_s,
+                max_per_drive=max_per_drive or None,
             )
         except FleetError as err:
             raise UsageError(str(err)) from err

@@ -1,49 +1,88 @@
-"""Camera frames of a recording, for ``slt mine``.
+"""Camera frames of a recording, for ``slt mine``, read through the video-aware reader.
 
-JPEG bytes at chosen log times (the mined label set) and reduced grayscale frames (the
-``low_light`` criterion).
+Frames come from :func:`~superlane_tools.recording.read_with_video` (the reader ``extract``
+uses: JPEG, PNG, raw and H.264 / H.265 / AV1 / VP9 ``CompressedVideo`` topics alike), so a
+video camera yields the same picks as a JPEG one. :func:`frame_jpegs` gives the frames at chosen
+log times as JPEGs at their recorded (source) size, the mined label set;
+:func:`gray_frames` every frame reduced to grayscale, for the ``low_light`` criterion.
 """
 
 from __future__ import annotations
 
 from collections.abc import Collection, Iterator
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
 from superlane_tools.fleet.errors import FleetError
-from superlane_tools.recording import open_recording
+from superlane_tools.recording import open_recording, read_with_video
+from superlane_tools.recording.base import field_value
 from superlane_tools.recording.errors import RecordingError
+from superlane_tools.recording.images import decode_frame, sniff_format
+from superlane_tools.recording.streams import RAW_IMAGE_TYPES
+from superlane_tools.recording.video import DECODED_MSGTYPE
+from superlane_tools.records import Message
 
 
-def frame_jpegs(recording: Path, topic: str, times_ns: Collection[int]) -> dict[int, bytes]:
-    """Return log time -> JPEG of the camera frames of ``topic`` at ``times_ns``.
+class FrameJpeg(NamedTuple):
+    """One camera frame as saved in a label set.
 
-    Frames that do not decode are left out (the caller reports them).
+    Attributes:
+        data: JPEG bytes: the recorded JPEG itself when the frame was one, else the decoded
+            pixels encoded (video, PNG, raw).
+        width: Recorded (source) width, pixels.
+        height: Recorded (source) height, pixels.
+    """
+
+    data: bytes
+    width: int
+    height: int
+
+
+def _recorded_jpeg(msg: Message) -> bytes | None:
+    """Return the message's payload when it is a JPEG image (kept as recorded, no re-encode)."""
+    if msg.msgtype in RAW_IMAGE_TYPES or msg.msgtype == DECODED_MSGTYPE:
+        return None
+    payload = field_value(msg.data, "data")
+    if payload is None:
+        return None
+    raw = payload if isinstance(payload, bytes) else bytes(payload)
+    return raw if sniff_format(raw) == "jpeg" else None
+
+
+def frame_jpegs(recording: Path, topic: str, times_ns: Collection[int]) -> dict[int, FrameJpeg]:
+    """Return log time -> JPEG at source size of the camera frames of ``topic`` at ``times_ns``.
+
+    Video topics are read from the last keyframe before the first wanted time, so every wanted
+    frame decodes. Frames that do not decode are left out (the caller reports them).
 
     Raises:
         FleetError: If the recording cannot be opened or read.
     """
     import cv2  # late: heavy import
 
-    from superlane_tools.recording.images import decode_frame
-
     wanted = set(times_ns)
-    out: dict[int, bytes] = {}
+    out: dict[int, FrameJpeg] = {}
     if not wanted:
         return out
     try:
         with open_recording(recording) as rec:
-            for msg in rec.messages([topic], min(wanted), max(wanted) + 1):
-                if msg.log_time_ns not in wanted:
+            for msg in read_with_video(rec, [topic], min(wanted), max(wanted) + 1):
+                if msg.topic != topic or msg.log_time_ns not in wanted:
                     continue
                 try:
-                    ok, data = cv2.imencode(".jpg", decode_frame(msg))
+                    image = decode_frame(msg)
                 except ValueError:
                     continue
-                if ok:
-                    out[msg.log_time_ns] = data.tobytes()
+                data = _recorded_jpeg(msg)
+                if data is None:
+                    ok, encoded = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, 95])
+                    if not ok:
+                        continue
+                    data = encoded.tobytes()
+                out[msg.log_time_ns] = FrameJpeg(data, int(image.shape[1]), int(image.shape[0]))
     except RecordingError as err:
         raise FleetError(f"{recording}: {err}") from err
     return out
@@ -59,19 +98,21 @@ def gray_frames(
     """Yield ``(log time, grayscale image about ``width`` wide)`` for every frame of ``topic``.
 
     JPEG frames are decoded directly at a reduced size where one still covers ``width``
-    (:func:`~superlane_tools.recording.images.decode_reduced`), then resized. Frames that do not
-    decode are left out (the caller reports them).
+    (:func:`~superlane_tools.recording.images.decode_reduced`), video frames by the video
+    decoder, then resized. Frames that do not decode are left out (the caller reports them).
 
     Raises:
         FleetError: If the recording cannot be opened or read.
     """
     import cv2  # late: heavy import
 
-    from superlane_tools.recording.images import decode_frame, decode_reduced
+    from superlane_tools.recording.images import decode_reduced
 
     try:
         with open_recording(recording) as rec:
-            for msg in rec.messages([topic]):
+            for msg in read_with_video(rec, [topic]):
+                if msg.topic != topic:
+                    continue
                 try:
                     reduced = decode_reduced(msg, width)
                     bgr = reduced[0] if reduced is not None else decode_frame(msg)

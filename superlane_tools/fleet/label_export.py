@@ -1,4 +1,10 @@
-"""Pre-annotations of mined frames from the run's fitted lanes: TuSimple and CULane records."""
+"""Pre-annotations of mined frames from the run's fitted lanes: TuSimple and CULane records.
+
+The lines are drawn in the pixels of the saved image: the run's camera is resized to the
+frame's recorded (source) size, not the processing size the fit ran at (``lanes.parquet``'s
+``width`` / ``height``), so a 960x540 frame processed at 640x360 gets its lines at 960x540. At
+most :data:`MAX_LANES` lines per frame (TuSimple's most): those nearest the ego lane.
+"""
 
 from __future__ import annotations
 
@@ -12,6 +18,7 @@ from superlane_tools.evaluation.culane import format_lines
 from superlane_tools.evaluation.tusimple import TuSimpleRecord
 from superlane_tools.evaluation.tusimple_export import (
     NO_POINT,
+    TUSIMPLE_MAX_LINES,
     ExportOptions,
     fitted_frame,
     frame_record,
@@ -19,6 +26,8 @@ from superlane_tools.evaluation.tusimple_export import (
 
 TUSIMPLE_ROWS = tuple(range(160, 720, 10))
 """TuSimple's ``h_samples`` for a 720-row image (scaled to other heights)."""
+MAX_LANES = TUSIMPLE_MAX_LINES
+"""Most lines written per frame (TuSimple labels at most 5): those with the smallest |offset|."""
 
 
 def h_samples(height: int) -> list[float]:
@@ -27,16 +36,22 @@ def h_samples(height: int) -> list[float]:
 
 
 def pre_annotation(
-    row: Mapping[str, Any], camera: CameraModel, raw_file: str
+    row: Mapping[str, Any], camera: CameraModel, raw_file: str, size: tuple[int, int]
 ) -> tuple[TuSimpleRecord, str]:
     """Return a frame's TuSimple record and its CULane ``.lines.txt`` text from its fit row.
 
-    The camera is resized to the row's image size; lines outside the image are left out.
+    Args:
+        row: The frame's ``lanes.parquet`` row (lines in the vehicle frame, metres).
+        camera: The run's camera (any image size: it is resized).
+        raw_file: The saved image's path in the label set.
+        size: ``(width, height)`` of the saved image, pixels: the frame's recorded size.
+
+    Lines outside the image are left out; at most :data:`MAX_LANES`, nearest the ego lane.
     """
-    size = (int(row["width"]), int(row["height"]))
     cam = camera if size == (camera.width, camera.height) else camera.resized(*size)
     rows = h_samples(size[1])
-    record = frame_record(fitted_frame(row, raw_file), cam, rows, ExportOptions(max_lines=None))
+    options = ExportOptions(max_lines=MAX_LANES)
+    record = frame_record(fitted_frame(row, raw_file), cam, rows, options)
     record = record._replace(raw_file=raw_file)
     return record, culane_text(record.lanes, rows)
 

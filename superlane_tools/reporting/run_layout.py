@@ -223,6 +223,40 @@ class MineLayout(_Layout):
     images = _File(MINE_IMAGES_DIR)
 
 
+# ---- the fleet's history (pipelines/nightly.py appends, slt history reads) ---------------------
+HISTORY_DIR = "history"
+"""The partitioned Parquet dataset of nightly KPIs under a nightly root (``night=DATE/``)."""
+HISTORY_REPORT_FILE = "history.md"
+"""``slt history``'s page; ``history.html`` is written beside it."""
+HISTORY_DRIFTS_FILE = "history_drifts.parquet"
+HISTORY_PARTITION = "night"
+"""The dataset's hive partition key: the night, ``YYYY-MM-DD``."""
+
+
+@dataclass(frozen=True)
+class HistoryLayout(_Layout):
+    """The fleet's history under a nightly root: the dataset and one night's partition."""
+
+    dataset = _File(HISTORY_DIR)
+
+    def partition(self, night: str) -> Path:
+        """Return the folder of one night's files (``history/night=DATE``)."""
+        return self.dataset / f"{HISTORY_PARTITION}={night}"
+
+
+@dataclass(frozen=True)
+class HistoryReportLayout(_Layout):
+    """The paths of one ``slt history`` output folder."""
+
+    report = _File(HISTORY_REPORT_FILE)
+    drifts = _File(HISTORY_DRIFTS_FILE)
+    plots = _File(PLOTS_DIR)
+
+    def kpi_plot(self, kpi: str) -> Path:
+        """Return the path of one KPI's plot over the nights."""
+        return self.plots / f"history_{kpi.replace('.', '_')}.png"
+
+
 def example_plot_name(frame_index: int) -> str:
     """Return the file name (under :data:`PLOTS_DIR`) of a frame's example plot."""
     return f"example_{frame_index:06d}.png"
@@ -611,3 +645,37 @@ def checked_table(name: str, table: pa.Table | pd.DataFrame) -> pa.Table:
     if problems:
         raise SchemaMismatchError(f"{name}: {'; '.join(problems)}")
     return table
+
+
+HISTORY_SCHEMA = pa.schema(
+    [
+        ("recorded_ns", pa.int64()),
+        ("kind", pa.string()),
+        ("root", pa.string()),
+        ("baseline", pa.string()),
+        ("model", pa.string()),
+        ("model_id", pa.string()),
+        ("config_id", pa.string()),
+        ("tool_version", pa.string()),
+        ("base_model", pa.string()),
+        ("base_config_id", pa.string()),
+        ("kpi", pa.string()),
+        ("unit", pa.string()),
+        ("higher_is_better", pa.bool_()),
+        ("value", pa.float64()),
+        ("base_value", pa.float64()),
+        ("delta", pa.float64()),
+        ("ci_low", pa.float64()),
+        ("ci_high", pa.float64()),
+        ("n_drives", pa.int64()),
+        ("n_sequences", pa.int64()),
+        ("verdict", pa.string()),
+    ]
+)
+"""One file of the fleet's history (the night is the partition key, not a column of the file).
+
+``kind``: ``fleet`` (the night's fleet summary: ``value`` is the fleet value, no interval) or
+``compare`` (the night's comparison with its baseline: ``value`` is the candidate's, with the
+base value, the delta, its interval and the verdict). Nulls where a value does not apply or
+the comparison table lacks the column (``n_drives`` of older tables).
+"""

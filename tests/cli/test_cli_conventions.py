@@ -279,6 +279,7 @@ BAD_VALUES: dict[str, list[str]] = {
     "filter": ["--topics", "(", str(SAMPLE), "-o", "unused.mcap"],
     "recover": ["-o", str(SAMPLE), str(SAMPLE)],  # an existing output is refused
     "tables availability": ["--by", "nosuch", str(REPO)],
+    "history": ["--margin", "x", str(REPO)],
 }
 """Bad values the issue reports, and those of commands without a number option (the others get
 "x" for their first number option)."""
@@ -399,6 +400,7 @@ NOT_PARTIAL = {
     "camera estimate": "frames without lanes are not data lost (counted in the profile)",
     "dbc show": "DBC repairs are notes; a DBC that does not load is an error",
     "eval attributes": "one record per frame: a missing frame is scored, not skipped",
+    "history": "reads the history dataset whole; an unreadable file is an error",
     "lanes export-kitti": "exports what the lanes table holds",
     "lanes export-tusimple": "exports what the lanes table holds",
     "simulate dataset": "no input",

@@ -1,8 +1,9 @@
 """``slt mine RUN_OR_ROOT... -o SET``: score frames, pick spread-out ones, export a label set.
 
-The set: ``images/<drive>_<frame>.jpg`` with ``images/<drive>_<frame>.lines.txt`` (CULane
-pre-annotations) beside each, ``labels.json`` (TuSimple lines, the folder ``slt train
---data tusimple=SET`` reads) and ``manifest.parquet`` (drive, recording, time, reasons, scores).
+The set: ``images/<drive>_<frame>.jpg`` (the frame at its recorded size) with
+``images/<drive>_<frame>.lines.txt`` (CULane pre-annotations, in that image's pixels) beside
+each, ``labels.json`` (TuSimple lines, the folder ``slt train --data tusimple=SET`` reads) and
+``manifest.parquet`` (drive, recording, time, image size, reasons, scores).
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from typing import Any
 import pandas as pd
 
 from superlane_tools.camera.model import CameraModel
+from superlane_tools.commands.mine.spans import drive_ranges, read_spans
 from superlane_tools.evaluation.culane import SUFFIX as CULANE_SUFFIX
 from superlane_tools.evaluation.tusimple import format_record
 from superlane_tools.fleet import DriveRun, FleetError, find_drives, read_tables
@@ -26,7 +28,7 @@ from superlane_tools.fleet.runs import read_lanes
 from superlane_tools.records import Skipped
 from superlane_tools.reporting import Provenance, write_bytes_atomic, write_table
 from superlane_tools.reporting.atomic import write_text_atomic
-from superlane_tools.reporting.run_layout import CompareLayout, MineLayout
+from superlane_tools.reporting.run_layout import MineLayout
 
 LINES_SUFFIX = CULANE_SUFFIX
 
@@ -50,15 +52,6 @@ def _recording(drive: DriveRun, search: Sequence[Path]) -> Path | None:
         if found is not None:
             return found
     return None
-
-
-def _spans(compare_dir: Path | None) -> pd.DataFrame:
-    if compare_dir is None:
-        return pd.DataFrame(columns=["recording", "start_ns", "stop_ns"])
-    path = CompareLayout(compare_dir).spans
-    if not path.is_file():
-        raise FleetError(f"{compare_dir}: no {path.name} (not an slt compare output)")
-    return pd.read_parquet(path)
 
 
 def _resolved(drive: DriveRun) -> dict[str, Any]:
@@ -107,13 +100,12 @@ def mine_runs(
     drives = list(by_name.values())
     if not drives:
         raise FleetError("empty fleet: no drive with a reprocess run")
-    spans = _spans(compare_dir)
+    spans = read_spans(compare_dir)
     layout = MineLayout(out)
     pool = []
     skipped: list[Skipped] = []
     for label, drive in by_name.items():
-        mine = spans[spans["recording"] == drive.recording]
-        ranges = list(zip(mine["start_ns"].astype(int), mine["stop_ns"].astype(int), strict=True))
+        ranges = drive_ranges(spans, drive)
         lit = "low_light" in params.criteria
         lighting = _lighting(drive, recordings) if lit else None
         scores = frame_scores(read_tables(drive), ranges, params, lighting)
@@ -147,9 +139,9 @@ def mine_runs(
                 skipped.append(Skipped("undecodable frame", f"{name} frame {index}"))
                 continue
             raw = f"{layout.images.name}/{name}_{index:06d}.jpg"
-            written.append(write_bytes_atomic(out / raw, jpeg))
+            written.append(write_bytes_atomic(out / raw, jpeg.data))
             fit = {str(k): v for k, v in fits.loc[index].to_dict().items()}
-            record, lines = pre_annotation(fit, camera, raw)
+            record, lines = pre_annotation(fit, camera, raw, (jpeg.width, jpeg.height))
             written.append(write_text_atomic(out / raw.replace(".jpg", LINES_SUFFIX), lines))
             labels.append(format_record(record))
             rows.append(
@@ -159,6 +151,8 @@ def mine_runs(
                     "image": raw,
                     "frame_index": index,
                     "log_time_ns": t_ns,
+                    "width": jpeg.width,
+                    "height": jpeg.height,
                     "reasons": str(pick["reasons"]),
                     "score": float(pick["score"]),
                     **{c: float(pick[c]) for c in params.criteria},
@@ -172,6 +166,7 @@ def mine_runs(
             "criteria": list(params.criteria),
             "require_all": params.require_all,
             "max_frames": params.max_frames,
+            "max_per_drive": params.max_per_drive,
             "min_gap_s": params.min_gap_s,
         },
     )
