@@ -35,10 +35,13 @@ REPORT_TIME = re.compile(r"self-check on (\d+) frames \(\d+(?:\.\d+)? s\)")
 """A measured time in ``report.md``: the segmentation self-check's wall time."""
 REPORT_DATE = re.compile(r"^- date: .* UTC$")
 """The report's date line (when it was written): never reproducible."""
+REPORT_TIMING = re.compile(r"^- wall: .*$")
+"""The report's Timing section (measured times): never reproducible."""
 
 
 def _masked(line: str) -> str:
     line = REPORT_TIME.sub(r"self-check on \1 frames (measured s)", line)
+    line = REPORT_TIMING.sub("- (measured times masked)", line)
     return REPORT_DATE.sub("- date: (masked)", line)
 
 

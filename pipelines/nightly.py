@@ -18,8 +18,10 @@ today's UTC date), which ``slt history HISTORY`` plots night over night. Without
 Exit codes: 0 when the night's work was done, even if some recordings were corrupt (they are
 listed in ``OUT/batch_status.parquet`` and the report); 1 on a systemic failure: more than
 ``--max-failed`` of the attempted recordings failed, or the output root is unwritable or locked
-by another run; 2 on a bad command line; 4 when a KPI named by ``--fail-on-regression`` is
-worse than in the baseline (the night's outputs and reports are written). The watermark only
+by another run; 2 on a bad command line; 4 when a KPI named by ``--fail-on-regression``
+regressed against the baseline, 3 when that gate cannot decide (too few drives,
+nothing matched: ``slt compare``'s rules; the night's outputs and reports are written in both
+cases). The watermark only
 advances after a run without systemic failure.
 
 Usage:
@@ -178,7 +180,11 @@ def compare_with_baseline(args: argparse.Namespace) -> int:
     print(f"nightly: compared with {args.baseline}: {len(result.regressions)} regressions")
     for line in result.regressions:
         print(f"nightly: regression: {line}", file=sys.stderr)
-    return 4 if result.regressions else 0
+    if result.regressions:
+        return 4
+    for line in result.gate.undecided:  # a gate never passes what it could not judge
+        print(f"nightly: gate cannot decide: {line}", file=sys.stderr)
+    return 3 if result.gate.gated and result.gate.undecided else 0
 
 
 def read_state(path: Path) -> dict[str, object]:

@@ -278,6 +278,11 @@ def report_lost(skipped: Sequence[Skipped], nothing_read: bool, where: object) -
     if code != ExitCode.OK and nothing_read:
         say("error", f"{where}: no message is readable (what was lost is above)")
         return ExitCode.ERROR
+    if isinstance(where, Path):  # a damaged recording: name the command that salvages it
+        from superlane_tools.reporting.drive_notes import recover_hint
+
+        if hint := recover_hint(where, skipped):
+            say("note", hint.replace("`", ""))
     return code
 
 

@@ -16,6 +16,7 @@ from superlane_tools.cli._common import (
     err_console,
     exit_with,
 )
+from superlane_tools.cli._outputs import new_output, overwrite_option
 from superlane_tools.errors import ExitCode
 
 HISTORY_EXIT_HELP = (
@@ -55,6 +56,7 @@ def history_cmd(
         bool, typer.Option("--fail-on-drift", help="Exit 4 on a drift no gate caught.")
     ] = False,
     no_plots: Annotated[bool, typer.Option("--no-plots", help="Skip plots/*.png.")] = False,
+    overwrite: Annotated[bool, overwrite_option()] = False,
 ) -> None:
     """Plot each KPI of the fleet over the nights and flag drifts no night's gate caught.
 
@@ -70,7 +72,7 @@ def history_cmd(
     for value in margin or []:
         name, _, number = value.partition(":")
         margins[name] = float(number)
-    with cli_errors():
+    with cli_errors(), new_output(out, overwrite, [root]):
         result = history_report(
             root,
             out,

@@ -83,9 +83,9 @@ def drift_margin(kpi: str, values: Sequence[float], given: Mapping[str, float]) 
     own = getattr(spec, "margin", None)
     if own is not None and np.isfinite(own) and own > 0:
         return float(own)
-    if spec is not None and spec.min_relative > 0:
+    if spec is not None and spec.relative_margin > 0:
         finite = np.asarray([v for v in values if np.isfinite(v)])
-        return spec.min_relative * float(np.median(np.abs(finite))) if finite.size else np.inf
+        return spec.relative_margin * float(np.median(np.abs(finite))) if finite.size else np.inf
     family = kpi.partition(".")[0]
     return DEFAULT_MARGINS.get(family, np.inf)
 

@@ -49,6 +49,8 @@ class ReportFacts:
             per-drive self-check; "" when one did, or when it did not run).
         header: The report's opening lines: tool version, command line, date, model licences.
         input_bytes: Size of the recording, bytes (0 unknown): what a truncation lost.
+        timing: The pass's measured times in one line (wall, process CPU, per stage summed
+            over the worker threads): the detail behind the CLI's short ``times:`` line.
     """
 
     recording: Path
@@ -60,6 +62,7 @@ class ReportFacts:
     implausible: str = ""
     header: tuple[str, ...] = ()
     input_bytes: int = 0
+    timing: str = ""
 
 
 @dataclass(frozen=True)
@@ -140,6 +143,7 @@ def drive_sections(
         _availability_section(settings, facts, tables.availability_sequences, images),
         *_reasons_section(facts),
         *_examples_section(facts, images),
+        *([Section("Timing", [f"- {run.timing}"])] if run.timing else []),
     ]
 
 

@@ -12,14 +12,15 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Mapping, Sequence
-from typing import Any
-
-import numpy as np
-from numpy.typing import NDArray
+from typing import TYPE_CHECKING, Any
 
 from superlane_tools.camera.canonical import CanonicalCamera, CanonicalMaps, canonical_maps
 from superlane_tools.camera.model import CameraModel
 from superlane_tools.scene.backend import SegmentationBackend, check_image
+
+if TYPE_CHECKING:
+    import numpy as np
+    from numpy.typing import NDArray
 
 CARD_KEY = "canonical_camera"
 """Model card ``training`` entry of a model trained in the canonical camera (its mapping)."""

@@ -50,6 +50,8 @@ def test_info_exit_3_when_something_was_skipped(drive: SimpleNamespace, tmp_path
     result = runner.invoke(app, ["info", str(cut), "--json"])
     assert result.exit_code == 3, result.output
     assert "slt: skipped: truncated file" in result.stderr
+    # the damaged file is named with the command that salvages it
+    assert "slt recover cut.mcap -o cut.recovered.mcap writes a valid copy" in result.stderr
     doc = json.loads(result.stdout)
     assert doc["skipped"][0]["what"] == "truncated file"
     assert 0 < doc["message_count"] < drive.total

@@ -63,6 +63,7 @@ WRITERS: dict[str, tuple[str, Args]] = {
         lambda i, o: [_file(i, "l.parquet"), "--camera", "tusimple", "--out", str(o)],
     ),
     "mine": ("folder", lambda i, o: [_dir(i, "run"), "-o", str(o)]),
+    "history": ("folder", lambda i, o: [_dir(i, "root"), "-o", str(o)]),
     "recover": ("file", lambda i, o: [_file(i, "d.mcap"), "-o", str(o)]),
     "segment": ("folder", lambda i, o: [_dir(i, "images"), "-o", str(o)]),
     "simulate": ("file", lambda _, o: ["-s", "highway_straight", "-o", str(o)]),

@@ -70,6 +70,11 @@ class RunClock:
         self._wall.append(time.perf_counter())
         self._cpu.append(time.process_time())
 
+    def pass_timings(self) -> dict[str, float]:
+        """Return ``pass_wall`` and ``cpu_pass`` (call after the first lap)."""
+        (w0, w1), (c0, c1) = self._wall[:2], self._cpu[:2]
+        return {"pass_wall": w1 - w0, "cpu_pass": c1 - c0}
+
     def timings(self) -> dict[str, float]:
         """Return ``pass_wall``, ``post``, ``total`` and ``cpu_pass``, ``cpu_post``, ``cpu_total``.
 

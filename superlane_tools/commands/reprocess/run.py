@@ -39,7 +39,7 @@ from superlane_tools.drive.stages import FrameStages
 from superlane_tools.recording import open_recording
 from superlane_tools.recording.calibration import resolve_camera
 from superlane_tools.records import Skipped
-from superlane_tools.reporting.drive_notes import unlike_training_data
+from superlane_tools.reporting.drive_notes import timing_line, unlike_training_data
 from superlane_tools.reporting.drive_sections import ReportFacts
 
 
@@ -131,6 +131,7 @@ def reprocess(
         notes,
         tuple(skipped),
         implausible,
+        timing=timing_line(frames.stage_totals() | clock.pass_timings()),
     )
     written, rendered = sinks.written(drive)
     written += write_outputs(out, derived, provenance, cfg, [], facts, rendered)

@@ -63,9 +63,9 @@ def test_nightly_appends_each_night_to_the_history(
     compare = super_.loc[("2026-11-02", "compare")]
     assert compare["baseline"] == str(production)
     assert np.isclose(compare["delta"], -0.4)
-    assert compare["verdict"] == "worse"
+    assert compare["verdict"] == "too few drives"  # one drive: no fleet verdict
     shown = CliRunner().invoke(app, ["history", str(history), "-o", str(tmp_path / "page")])
     assert shown.exit_code == 0, shown.output
-    assert "2 nights, 17 KPIs" in shown.output
+    assert "2 nights, 21 KPIs" in shown.output
     assert (tmp_path / "page" / "history.md").is_file()
     assert nightly.main([*args, "--night", "yesterday"]) == 2

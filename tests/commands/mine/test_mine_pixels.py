@@ -170,7 +170,7 @@ def quality_drive(
     return make_bad_drive(root, oracle_config, "quality", (320, 180), 12.0, 10.0, QUALITY_BAD)
 
 
-@pytest.mark.parametrize(("gap", "least"), [("1.0", 0.6), ("0.3", 0.9)])
+@pytest.mark.parametrize(("gap", "least"), [("1.0", 0.6), ("0.3", 0.75)])
 def test_picks_fall_inside_the_bad_spans_not_uniformly(
     quality_drive: Any, tmp_path: Path, gap: str, least: float
 ) -> None:

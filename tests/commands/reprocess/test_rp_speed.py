@@ -16,7 +16,7 @@ import pytest
 
 from superlane_tools.camera.profiles import load_camera
 from superlane_tools.commands.reprocess import ReprocessConfig, reprocess
-from superlane_tools.corridor import CorridorParams, corridor_from_mask
+from superlane_tools.corridor import CorridorParams, corridor_from_mask, measurable_range_m
 from superlane_tools.errors import ConfigError
 from superlane_tools.recording.images import decode_frame, decode_reduced
 from superlane_tools.records import Message
@@ -116,7 +116,10 @@ def test_corridor_from_mask_equals_per_pixel_measurement(profile: str) -> None:
         got = corridor_from_mask(prob, camera, params)
         want = _per_pixel_reference(prob, camera, params)
         assert got.n_rows == want[2]
-        assert np.allclose(got[:2], want[:2], rtol=1e-9, equal_nan=True)
+        # the length is capped at the camera's measurable range (issue 35 item 3)
+        cap = measurable_range_m(camera.resized(prob.shape[1], prob.shape[0]))
+        capped = (want[0], float(np.fmin(want[1], cap)))
+        assert np.allclose(got[:2], capped, rtol=1e-9, equal_nan=True)
 
 
 def test_reprocess_reduced_decode_and_cpu_timings(tmp_path: Path) -> None:
