@@ -82,7 +82,7 @@ LITE_NAME, LITE_NC_NAME = "super_seg_v5", "super_seg_v5_nc"
 """The lite0 recipe's model, and its variant without CamVid (no non-commercial data)."""
 LITE_SIM_FRAMES, LITE_STEPS, LITE_BUDGET_S = 160, 6000, 4500.0
 CANON_NAME, CANON_NC_NAME = "super_seg_v6", "super_seg_v6_nc"
-"""The canonical recipe's model (lite0-s16, 512x160, canonical camera) and its variant w/o CamVid."""
+"""The canonical recipe's model (lite0-s16, 512x160, canonical camera); _nc: without CamVid."""
 CANON_ARCH, CANON_SIZE = "lite0-s16", "512x160"
 CULANE_TRAIN = "culane/driver_23_05151649_0422"
 """The CULane day clip trained on (pipelines/culane_night.py DAY_TRAIN_FOLDER)."""

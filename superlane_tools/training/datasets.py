@@ -60,8 +60,8 @@ class DatasetSpec:
         weight: Relative sampling weight of the dataset (per step, not per frame).
         split: ``train``, ``val`` or ``all`` frames of the folder.
         levels: Hierarchy levels (1-4) this dataset trains; None = every level it labels.
-        expand_m: ``tusimple`` and ``culane`` only: label a band this wide (metres) on each side of every
-            marking as road (SUPER II-B, "expand the lane marking to its vicinity").
+        expand_m: ``tusimple`` and ``culane`` only: label a band this wide (metres) on each
+            side of every marking as road (SUPER II-B, "expand the lane marking to its vicinity").
         camera: The frames' camera (profile name or YAML, e.g. one ``slt camera estimate``
             wrote) for the canonical camera; "" = the reader's own (``tusimple``: the
             ``tusimple`` profile; simulator folders: every frame's camera from the index;

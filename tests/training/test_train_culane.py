@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 from pathlib import Path
 
 import numpy as np
@@ -25,7 +26,7 @@ MARK = NODE_CODES["lane_marking"]
 def _dense(line: np.ndarray) -> np.ndarray:
     """Points every pixel along a polyline."""
     out = []
-    for a, b in zip(line[:-1], line[1:], strict=True):
+    for a, b in itertools.pairwise(line):
         n = max(2, int(np.ceil(np.hypot(*(b - a)))) + 1)
         out.append(np.linspace(a, b, n))
     return np.concatenate(out)
@@ -50,7 +51,8 @@ def _check_on_lines(codes: np.ndarray, lines: list[np.ndarray]) -> None:
 def test_culane_reader_draws_markings_on_the_labelled_lanes(realdata: Path) -> None:
     folder = realdata / CLIP
     loaded = load_set(DatasetSpec("culane", folder), "segmentation", (820, 295), max_frames=3)
-    assert loaded.codes is not None and loaded.images.shape == (3, 295, 820, 3)
+    assert loaded.codes is not None
+    assert loaded.images.shape == (3, 295, 820, 3)
     assert loaded.names == tuple(p.name for p in culane_frames(folder)[:3])
     assert not loaded.canonical
     checked = 0
@@ -68,7 +70,8 @@ def test_culane_reader_maps_lanes_exactly_into_the_canonical_camera(realdata: Pa
     canonical = CanonicalCamera.for_input(512, 160)
     spec = DatasetSpec("culane", folder, camera="tusimple")  # any known camera: the mapping
     loaded = load_set(spec, "segmentation", (512, 160), max_frames=2, canonical=canonical)
-    assert loaded.canonical and loaded.codes is not None
+    assert loaded.canonical
+    assert loaded.codes is not None
     first = culane_frames(folder)[0]
     view = CanonicalView(load_camera("tusimple").resized(1640, 590), canonical)
     lines = [view.points(_dense(line)) for line in culane_polylines(first)]

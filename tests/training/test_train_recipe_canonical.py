@@ -23,7 +23,8 @@ def test_canonical_list_trains_driver_23_never_driver_161(tmp_path: Path) -> Non
     camera = tmp_path / "culane_day_train.yaml"
     listing = tm.canonical_list(realdata, tmp_path / "sim", tmp_path, True, camera)
     text = listing.read_text(encoding="utf-8")
-    assert "driver_23_05151649_0422" in text and "driver_161" not in text
+    assert "driver_23_05151649_0422" in text
+    assert "driver_161" not in text
     specs = {s.reader: s for s in load_dataset_list(listing)}
     assert set(specs) == {"tusimple", "culane", "camvid", "sim"}
     assert specs["culane"].camera == str(camera)
@@ -45,17 +46,21 @@ def test_canonical_command_line(tmp_path: Path) -> None:
     assert args[:2] == ["train", "segmentation"]
     assert _values(args, "--arch") == "lite0-s16"
     assert _values(args, "--size") == "512x160"
-    assert "--canonical-camera" in args and _values(args, "--augment") == "canonical"
+    assert "--canonical-camera" in args
+    assert _values(args, "--augment") == "canonical"
     assert "--crop" not in args
     assert _values(args, "--threads") == str(os.cpu_count())
-    assert _values(args, "--checkpoint") == str(ckpt) and "--resume" in args
-    assert _values(args, "--budget-s") == "7200" and _values(args, "--steps") == "6000"
+    assert _values(args, "--checkpoint") == str(ckpt)
+    assert "--resume" in args
+    assert _values(args, "--budget-s") == "7200"
+    assert _values(args, "--steps") == "6000"
     assert _values(args, "--val-data") == str(tmp_path.resolve())
     assert _values(args, "--validate-every") == "250"
     quiet = tm.canonical_command(
         tmp_path / "d.yaml", tmp_path / "m.onnx", tm.QUICK, "cpu", 60.0, 2, ckpt, (None, 300)
     )
-    assert "--val-data" not in quiet and _values(quiet, "--max-frames") == "2"
+    assert "--val-data" not in quiet
+    assert _values(quiet, "--max-frames") == "2"
 
 
 def test_recipe_command_parses_through_slt_train(tmp_path: Path) -> None:
