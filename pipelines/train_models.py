@@ -37,12 +37,25 @@ and validates every 300 steps on the real dev sets (TuSimple dev, the held-out C
 CULane night, CamVid val), exporting the weights best on the worst set. ``--no-camvid`` leaves
 CamVid (CC BY-NC) out: a model for commercial use.
 
+``--recipe canonical`` trains the next segmentation model (``super_seg_v6``; ``_nc`` without
+CamVid), the recommended fast variant ``--arch lite0-s16`` at 512x160 in the canonical virtual
+camera (``--canonical-camera --augment canonical``, no crop: it would move the horizon row the
+canonical camera fixes): TuSimple ``train_frames`` less its 30 dev frames (weight 0.35, marking
+expansion), the real CULane day clip of driver 23 (0.2; its camera estimated from its frames
+without the labels, as ``pipelines/culane_night.py`` does, into ``WORK/culane_day_train.yaml``, so
+it is resampled into the canonical camera; driver 161 is the held-out clip and never trained
+on), CamVid (0.15, camera unknown: as it is) and the 160 simulator frames (0.3). Torch threads =
+the cores, a budget of ``--budget-s`` seconds capped at ``--steps`` (6000), the checkpoint
+``checkpoints/super_seg_v6.ckpt.pt`` always resumed (rerun the same command to continue),
+validation every ``--validate-every`` steps on the real dev sets keeping the best-on-worst weights.
+
 ``--quick`` runs the same steps on a few frames and steps (CI). ``--device cuda`` trains on a GPU.
 
 Usage:
     python pipelines/train_models.py [--quick] [--work DIR] [--out DIR] [--ship]
         [--task segmentation|corridor|both] [--no-train] [--no-eval] [--device cpu|cuda]
-        [--realdata DIR] [--json results.json] [--recipe v4|lite0] [--budget-s S] [--no-camvid]
+        [--realdata DIR] [--json results.json] [--recipe v4|lite0|canonical] [--budget-s S]
+        [--steps N] [--validate-every N] [--no-camvid]
 """
 
 from __future__ import annotations
@@ -68,6 +81,13 @@ TASKS = ("segmentation", "corridor")
 LITE_NAME, LITE_NC_NAME = "super_seg_v5", "super_seg_v5_nc"
 """The lite0 recipe's model, and its variant without CamVid (no non-commercial data)."""
 LITE_SIM_FRAMES, LITE_STEPS, LITE_BUDGET_S = 160, 6000, 4500.0
+CANON_NAME, CANON_NC_NAME = "super_seg_v6", "super_seg_v6_nc"
+"""The canonical recipe's model (lite0-s16, 512x160, canonical camera); _nc: without CamVid."""
+CANON_ARCH, CANON_SIZE = "lite0-s16", "512x160"
+CULANE_TRAIN = "culane/driver_23_05151649_0422"
+"""The CULane day clip trained on (pipelines/culane_night.py DAY_TRAIN_FOLDER)."""
+CULANE_HELD_OUT = "culane/driver_161_06030819_0755"
+"""The held-out CULane day clip: validation only, never in a training list."""
 EXPAND_M = 0.6
 """Road band on each side of a TuSimple marking in the second segmentation stage, metres."""
 
@@ -166,6 +186,75 @@ def lite0_list(realdata: Path | None, sim: Path, work: Path, camvid: bool) -> Pa
             )
     path.write_text("datasets:\n" + "\n".join(rows) + "\n", encoding="utf-8")
     return path
+
+
+def culane_camera(realdata: Path, work: Path) -> Path:
+    """Estimate the driver-23 clip's camera from its frames (labels unused); reuse it if present."""
+    out = work / "culane_day_train.yaml"
+    if not out.is_file():
+        sys.path.insert(0, str(Path(__file__).resolve().parent))
+        from culane_night import estimate_camera
+
+        estimate_camera(realdata, out, CULANE_TRAIN)
+    return out.resolve()
+
+
+def canonical_list(
+    realdata: Path | None, sim: Path, work: Path, camvid: bool, camera: Path | None
+) -> Path:
+    """Write the canonical recipe's dataset list (TuSimple, CULane driver 23, CamVid, simulator).
+
+    ``camera``: the CULane clip's estimated camera (None: the clip is left out).
+    """
+    path = work / ("datasets_canonical.yaml" if camvid else "datasets_canonical_nc.yaml")
+    rows = []
+    if realdata is not None:
+        root = realdata.resolve()
+        rows.append(
+            f"  - {{reader: tusimple, folder: {root / 'tusimple' / 'train_frames'}, "
+            f"weight: 0.35, expand_m: {EXPAND_M}}}"
+        )
+        if camera is not None:
+            rows.append(
+                f"  - {{reader: culane, folder: {root / CULANE_TRAIN}, weight: 0.2, "
+                f"expand_m: {EXPAND_M}, camera: {camera}}}"
+            )
+        if camvid:
+            rows.append(f"  - {{reader: camvid, folder: {root / 'camvid'}, weight: 0.15}}")
+    rows.append(f"  - {{reader: sim, folder: {sim.resolve()}, weight: 0.3}}")
+    if any(CULANE_HELD_OUT in row for row in rows):
+        raise RuntimeError(f"{CULANE_HELD_OUT} is the held-out clip: never train on it")
+    path.write_text("datasets:\n" + "\n".join(rows) + "\n", encoding="utf-8")
+    return path
+
+
+def canonical_command(
+    listing: Path,
+    out: Path,
+    plan: Plan,
+    device: str,
+    budget_s: float,
+    steps: int,
+    checkpoint: Path,
+    val: tuple[Path | None, int],
+) -> list[str]:
+    """Return the canonical recipe's ``slt train`` arguments (torch threads: every core).
+
+    ``val``: ``(real-data folder, every N steps)``; no validation without real data or with 0.
+    """
+    args = ["train", "segmentation", "--arch", CANON_ARCH, "--size", CANON_SIZE]
+    args += ["--canonical-camera", "--augment", "canonical"]
+    args += ["--datasets", str(listing), "--out", str(out), "--steps", str(steps)]
+    args += ["--budget-s", f"{budget_s:g}", "--lr", "0.002", "--dice-bands", "3"]
+    args += ["--seed", str(MODEL_SEED), "--batch", str(plan.batch), "--device", device]
+    args += ["--threads", str(os.cpu_count() or 1)]
+    if plan.max_frames is not None:
+        args += ["--max-frames", str(plan.max_frames)]
+    args += ["--checkpoint", str(checkpoint), "--resume", "--checkpoint-every-s", "300"]
+    realdata, every = val
+    if realdata is not None and every > 0:
+        args += ["--val-data", str(realdata.resolve()), "--validate-every", str(every)]
+    return args
 
 
 def lite0_command(
@@ -309,9 +398,17 @@ def main(argv: list[str] | None = None) -> int:
         help="real data folder (TuSimple, CamVid, KITTI); simulator only when absent",
     )
     ap.add_argument("--json", type=Path, help="write the results here too")
-    ap.add_argument("--recipe", choices=("v4", "lite0"), default="v4", help="segmentation recipe")
-    ap.add_argument("--budget-s", type=float, default=LITE_BUDGET_S, help="lite0 time budget, s")
-    ap.add_argument("--no-camvid", action="store_true", help="lite0 without CamVid (CC BY-NC)")
+    ap.add_argument(
+        "--recipe", choices=("v4", "lite0", "canonical"), default="v4", help="segmentation recipe"
+    )
+    ap.add_argument(
+        "--budget-s", type=float, default=LITE_BUDGET_S, help="lite0/canonical time budget, s"
+    )
+    ap.add_argument("--steps", type=int, default=LITE_STEPS, help="lite0/canonical step cap")
+    ap.add_argument(
+        "--validate-every", type=int, default=300, help="canonical: validate every N steps"
+    )
+    ap.add_argument("--no-camvid", action="store_true", help="without CamVid (CC BY-NC)")
     args = ap.parse_args(argv)
 
     from superlane_tools.training import TrainingError, require_torch
@@ -324,7 +421,7 @@ def main(argv: list[str] | None = None) -> int:
     plan = QUICK if args.quick else FULL
     size = _size(plan.image_size)
     sim_frames = plan.sim_frames
-    if args.recipe == "lite0" and not args.quick:
+    if args.recipe in ("lite0", "canonical") and not args.quick:
         sim_frames = LITE_SIM_FRAMES
     sim = args.work / f"sim_train_s{TRAIN_SEED}_{sim_frames}_{size}"
     test = args.work / f"sim_test_s{TEST_SEED}_{plan.test_frames}_{size}"
@@ -342,13 +439,25 @@ def main(argv: list[str] | None = None) -> int:
     if args.recipe == "lite0":
         seg = args.out / f"{LITE_NC_NAME if args.no_camvid else LITE_NAME}.onnx"
         listing = lite0_list(realdata, sim, args.work, camvid=not args.no_camvid)
-        steps = plan.seg_steps if args.quick else LITE_STEPS
+        steps = plan.seg_steps if args.quick else args.steps
         budget = 60.0 if args.quick else args.budget_s
         ckpt_dir = args.work if args.quick else REPO / "checkpoints"
         resume = (ckpt_dir / f"{seg.stem}.ckpt.pt", realdata)
         commands["segmentation"] = [
             lite0_command(listing, seg, plan, args.device, budget, steps, resume)
         ]
+    if args.recipe == "canonical":
+        seg = args.out / f"{CANON_NC_NAME if args.no_camvid else CANON_NAME}.onnx"
+        camera = culane_camera(realdata, args.work) if realdata is not None else None
+        listing = canonical_list(realdata, sim, args.work, not args.no_camvid, camera)
+        ckpt = (args.work if args.quick else REPO / "checkpoints") / f"{seg.stem}.ckpt.pt"
+        commands["segmentation"] = [
+            canonical_command(
+                listing, seg, plan, args.device, 60.0 if args.quick else args.budget_s,
+                plan.seg_steps if args.quick else args.steps, ckpt,
+                (realdata, args.validate_every),
+            )
+        ]  # fmt: skip
     commands = {t: c for t, c in commands.items() if args.task in (t, "both")}
     results["commands"].update(
         {t: " && ".join(shlex.join(["slt", *c]) for c in stages) for t, stages in commands.items()}

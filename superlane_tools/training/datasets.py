@@ -5,6 +5,9 @@ A dataset entry names its reader, its folder and a sampling weight (``--data tus
 
 * ``sim`` (alias ``superlane``): a ``slt simulate dataset`` folder (leaf ids, corridor masks);
 * ``tusimple``: a folder with ``labels.json`` in TuSimple format (:mod:`.tusimple_targets`);
+* ``culane``: one CULane clip (``NNNNN.jpg`` with ``NNNNN.lines.txt``), lane lines drawn as
+  markings and the road between them exactly as TuSimple's (:mod:`.tusimple_targets`); a clip
+  is one split (train on one clip, validate on another: never split a clip by frame);
 * ``camvid``: CamVid 11 classes (``CLASSES.txt``; ``train/`` and ``val/`` with ``images/`` and
   ``labels/``), ``road`` -> ``drivable``;
 * any other bundled adapter (``cityscapes``, ``mapillary_vistas``, ``apollo``) or adapter YAML: an
@@ -44,7 +47,7 @@ from superlane_tools.training.tusimple_targets import (
 SPLITS = ("train", "val", "all")
 TUSIMPLE_VAL_FRAMES = 30
 """The last this many frames of a TuSimple folder are its validation split (never trained on)."""
-NATIVE = ("sim", "superlane", "tusimple", "camvid")
+NATIVE = ("sim", "superlane", "tusimple", "culane", "camvid")
 
 
 @dataclass(frozen=True)
@@ -57,12 +60,12 @@ class DatasetSpec:
         weight: Relative sampling weight of the dataset (per step, not per frame).
         split: ``train``, ``val`` or ``all`` frames of the folder.
         levels: Hierarchy levels (1-4) this dataset trains; None = every level it labels.
-        expand_m: ``tusimple`` only: label a band this wide (metres) on each side of every
-            marking as road (SUPER II-B, "expand the lane marking to its vicinity").
+        expand_m: ``tusimple`` and ``culane`` only: label a band this wide (metres) on each
+            side of every marking as road (SUPER II-B, "expand the lane marking to its vicinity").
         camera: The frames' camera (profile name or YAML, e.g. one ``slt camera estimate``
             wrote) for the canonical camera; "" = the reader's own (``tusimple``: the
             ``tusimple`` profile; simulator folders: every frame's camera from the index;
-            others: unknown, frames left as they are).
+            ``culane`` and others: unknown, frames left as they are).
     """
 
     reader: str
@@ -155,9 +158,9 @@ def validate_spec(spec: DatasetSpec) -> DatasetSpec:
         raise TrainingError(f"{spec.text()}: the weight must be > 0")
     if spec.levels is not None and not set(spec.levels) <= {1, 2, 3, 4}:
         raise TrainingError(f"{spec.text()}: levels must lie in 1..4, got {spec.levels}")
-    if spec.expand_m < 0 or (spec.expand_m > 0 and spec.reader != "tusimple"):
+    if spec.expand_m < 0 or (spec.expand_m > 0 and spec.reader not in ("tusimple", "culane")):
         raise TrainingError(
-            f"{spec.text()}: expand_m must be >= 0 and applies to the tusimple reader only"
+            f"{spec.text()}: expand_m must be >= 0 and applies to the tusimple and culane readers"
         )
     return spec
 
@@ -266,6 +269,88 @@ def read_tusimple(
     return np.stack(images), np.stack(codes), np.stack(corridors), tuple(names)
 
 
+def culane_frames(folder: Path) -> list[Path]:
+    """Return the frames of a CULane clip folder that have a ``.lines.txt`` label, sorted.
+
+    Raises:
+        TrainingError: If there is none.
+    """
+    frames = [p for p in sorted(folder.glob("*.jpg")) if culane_label_path(p).is_file()]
+    if not frames:
+        raise TrainingError(f"{folder}: no CULane NNNNN.jpg + NNNNN.lines.txt pairs")
+    return frames
+
+
+def culane_label_path(image: Path) -> Path:
+    """Return the ``.lines.txt`` label file of a CULane frame."""
+    return image.with_name(image.stem + ".lines.txt")
+
+
+def culane_polylines(image: Path) -> list[NDArray[np.float64]]:
+    """Return a CULane frame's labelled lanes as ``(K, 2)`` pixel polylines, top to bottom.
+
+    Raises:
+        TrainingError: If the label file is unreadable or malformed.
+    """
+    from superlane_tools.evaluation.culane import read_lines_file
+    from superlane_tools.evaluation.errors import EvaluationError
+
+    try:
+        lanes = read_lines_file(culane_label_path(image))
+    except EvaluationError as err:
+        raise TrainingError(str(err)) from err
+    lines = []
+    for lane in lanes:
+        pts = np.asarray(lane, np.float64).reshape(-1, 2)
+        pts = pts[np.argsort(pts[:, 1], kind="stable")]
+        if len(pts) >= 2:
+            lines.append(pts)
+    return lines
+
+
+def read_culane(
+    spec: DatasetSpec,
+    size: tuple[int, int],
+    max_frames: int | None = None,
+    canonical: CanonicalCamera | None = None,
+) -> tuple[NDArray[np.uint8], NDArray[np.uint8], NDArray[np.uint8], tuple[str, ...]]:
+    """Return images, node codes, corridor targets and names of one CULane clip.
+
+    The ``.lines.txt`` lanes become markings (paint width from the labelled lane gaps), the road
+    between the outer lanes and the ego lane, as for TuSimple. With ``canonical`` every frame is
+    resampled from ``spec.camera`` (required: CULane's camera is unknown, estimate it) and the
+    lanes are mapped exactly. The whole clip is one split: ``split: val`` is refused.
+
+    Raises:
+        TrainingError: On ``split: val``, a missing camera, or unreadable frames or labels.
+    """
+    if spec.split == "val":
+        raise TrainingError(
+            f"{spec.text()}: a CULane clip is split by clip, not by frame: "
+            "validate on another clip's folder"
+        )
+    if canonical is not None and not spec.camera:
+        raise TrainingError(f"{spec.text()}: the canonical camera needs the clip's `camera`")
+    width, height = size
+    base = _spec_camera(spec, "") if canonical is not None else None
+    images, codes, corridors, names = [], [], [], []
+    for path in culane_frames(spec.folder)[:max_frames]:
+        image = _imread(path)
+        lines = culane_polylines(path)
+        if base is not None and canonical is not None:
+            view = CanonicalView(base.resized(image.shape[1], image.shape[0]), canonical)
+            images.append(view.image(image))
+            lines = [line for line in (view.points(line) for line in lines) if len(line) >= 2]
+        else:
+            scale = np.array([width / image.shape[1], height / image.shape[0]])
+            lines = [line * scale for line in lines]
+            images.append(_resize(image, size, nearest=False))
+        codes.append(road_and_marking_codes(lines, width, height, spec.expand_m))
+        corridors.append(corridor_target(lines, width, height))
+        names.append(path.name)
+    return np.stack(images), np.stack(codes), np.stack(corridors), tuple(names)
+
+
 def camvid_pairs(folder: Path, split: str) -> list[tuple[Path, Path]]:
     """Return ``(image, label)`` paths of a CamVid root's split (or of one split folder).
 
@@ -362,6 +447,8 @@ def load_set(
         canonical = None  # unknown camera (or the corridor task): frames stay as they are
     if spec.reader == "tusimple":
         images, codes, corridor, names = read_tusimple(spec, size, max_frames, canonical)
+    elif spec.reader == "culane":
+        images, codes, corridor, names = read_culane(spec, size, max_frames, canonical)
     elif spec.reader == "camvid":
         if task != "segmentation":
             raise TrainingError(f"{spec.text()}: CamVid has no ego-lane labels (task {task})")

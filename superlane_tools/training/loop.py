@@ -224,7 +224,12 @@ def _validator(params: Any, history: Any) -> Any:
         return None
     from superlane_tools.training.validation import Validator, real_dev_sets
 
-    validator = Validator(real_dev_sets(params.val_data), params.best_path)
+    canonical = None
+    if getattr(params, "canonical_camera", False):
+        from superlane_tools.camera.canonical import CanonicalCamera
+
+        canonical = CanonicalCamera.for_input(*params.input_size)
+    validator = Validator(real_dev_sets(params.val_data), params.best_path, canonical=canonical)
     if isinstance(history, list) and history:
         validator.history = list(history)
         if params.best_path.is_file():  # a fresh clone may hold the checkpoint only

@@ -15,6 +15,11 @@ pixels within 10 px of a labelled lane polyline, at 640 px image width), and
 
 * ``camvid_val``: level-2 mIoU on every 4th CamVid ``val`` frame.
 
+A model trained in the canonical camera (``--canonical-camera``) is validated the way
+``slt reprocess --canonical-camera`` runs it: the frames of a set whose camera is known
+(TuSimple: its profile) are resampled into the canonical camera and the labels mapped back to
+the frame's pixels; the sets of unknown camera (CULane, CamVid) are resized as they are.
+
 The worst set's score decides: the weights whose worst set is the best so far are written
 (atomically) beside the checkpoint as ``NAME.best.pt``. The end-to-end chains
 (``pipelines/real_frames_eval.py``: lanes fitted and scored with LaneEval, CULane F1) are the
@@ -58,12 +63,14 @@ class DevSet:
         images: BGR frames scaled to :data:`WIDTH`.
         lanes: Per frame, the labelled lanes as ``(N, 2)`` pixel polylines (lane sets).
         codes: Per frame, node-code labels (CamVid), empty for lane sets.
+        camera: The frames' camera (profile name; "" = unknown) for the canonical camera.
     """
 
     name: str
     images: tuple[NDArray[np.uint8], ...]
     lanes: tuple[tuple[NDArray[np.float64], ...], ...] = ()
     codes: tuple[NDArray[np.uint8], ...] = ()
+    camera: str = ""
 
 
 def _scaled(path: Path) -> tuple[NDArray[np.uint8], float]:
@@ -103,7 +110,7 @@ def _tusimple(root: Path) -> DevSet | None:
                     polys.append(np.stack([x[keep], rows[keep]], axis=1) * scale)
             images.append(image)
             lanes.append(tuple(polys))
-    return DevSet("tusimple_dev", tuple(images), tuple(lanes))
+    return DevSet("tusimple_dev", tuple(images), tuple(lanes), camera="tusimple")
 
 
 def _culane(root: Path, folder: str, name: str) -> DevSet | None:
@@ -199,13 +206,45 @@ def marking_f(
     return 2 * recall * precision / (recall + precision) if recall + precision > 0 else 0.0
 
 
-def score_sets(segment: Segmenter, sets: Sequence[DevSet]) -> dict[str, float]:
-    """Return each dev set's score (lane-marking F, or CamVid level-2 mIoU) for a segmenter."""
+def canonical_segmenter(segment: Segmenter, camera: str, canonical: Any) -> Segmenter:
+    """Return ``segment`` run in the canonical camera, its labels mapped back to the frame.
+
+    Args:
+        segment: The segmenter of canonical images.
+        camera: The frames' camera (profile name or YAML).
+        canonical: The :class:`~superlane_tools.camera.canonical.CanonicalCamera`.
+    """
+    from superlane_tools.camera.canonical import canonical_maps
+    from superlane_tools.camera.profiles import load_camera
+
+    base = load_camera(camera)
+    maps: dict[tuple[int, int], Any] = {}
+
+    def run(image: NDArray[np.uint8]) -> NDArray[np.uint8]:
+        size = (image.shape[1], image.shape[0])
+        if size not in maps:
+            maps[size] = canonical_maps(base.resized(*size), canonical)
+        return np.asarray(maps[size].labels_to_source(segment(maps[size].to_canonical(image))))
+
+    return run
+
+
+def score_sets(
+    segment: Segmenter, sets: Sequence[DevSet], canonical: Any = None
+) -> dict[str, float]:
+    """Return each dev set's score (lane-marking F, or CamVid level-2 mIoU) for a segmenter.
+
+    With ``canonical`` (a :class:`~superlane_tools.camera.canonical.CanonicalCamera`), the sets
+    whose camera is known are segmented in it (:func:`canonical_segmenter`).
+    """
     from superlane_tools.training.evaluate import level_miou
 
     scores = {}
     for dev in sets:
-        labels = [segment(image) for image in dev.images]
+        run = segment
+        if canonical is not None and dev.camera:
+            run = canonical_segmenter(segment, dev.camera, canonical)
+        labels = [run(image) for image in dev.images]
         if dev.codes:
             value = float(level_miou(labels, dev.codes, 2)["miou"])
         else:
@@ -273,12 +312,14 @@ class Validator:
         best_path: Where the best weights go (``NAME.best.pt``).
         history: Every validation so far: ``{step, scores, worst_set, worst, seconds}``.
         best: The best entry of ``history`` (None before the first validation).
+        canonical: The canonical camera the model was trained in (None: none).
     """
 
     sets: Sequence[DevSet]
     best_path: Path
     history: list[dict[str, Any]] = field(default_factory=list)
     best: dict[str, Any] | None = None
+    canonical: Any = None
 
     def run(self, model: Any, exported: Any, spec: Any, step: int) -> dict[str, Any]:
         """Score ``model`` (through its exported module) at ``step``; save it when best."""
@@ -290,7 +331,8 @@ class Validator:
         model.eval()
         try:
             with tempfile.TemporaryDirectory() as tmp:
-                scores = score_sets(onnx_segmenter(exported, spec, Path(tmp)), self.sets)
+                segment = onnx_segmenter(exported, spec, Path(tmp))
+                scores = score_sets(segment, self.sets, self.canonical)
         finally:
             model.to(device)
             model.train(was_training)

@@ -1,0 +1,78 @@
+"""`pipelines/train_models.py --recipe canonical`: its command line and its datasets list."""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+from superlane_tools.training.datasets import load_dataset_list
+
+REPO = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(REPO / "pipelines"))
+
+import train_models as tm  # noqa: E402
+
+
+def _values(args: list[str], flag: str) -> str:
+    return args[args.index(flag) + 1]
+
+
+def test_canonical_list_trains_driver_23_never_driver_161(tmp_path: Path) -> None:
+    realdata = tmp_path / "data"
+    camera = tmp_path / "culane_day_train.yaml"
+    listing = tm.canonical_list(realdata, tmp_path / "sim", tmp_path, True, camera)
+    text = listing.read_text(encoding="utf-8")
+    assert "driver_23_05151649_0422" in text
+    assert "driver_161" not in text
+    specs = {s.reader: s for s in load_dataset_list(listing)}
+    assert set(specs) == {"tusimple", "culane", "camvid", "sim"}
+    assert specs["culane"].camera == str(camera)
+    assert specs["culane"].folder == realdata.resolve() / tm.CULANE_TRAIN
+    # TuSimple's train split: the dev frames real_frames_eval holds out are left out
+    assert specs["tusimple"].split == "train"
+    assert specs["tusimple"].folder == realdata.resolve() / "tusimple" / "train_frames"
+    nc = load_dataset_list(tm.canonical_list(realdata, tmp_path / "sim", tmp_path, False, None))
+    assert [s.reader for s in nc] == ["tusimple", "sim"]
+    assert "driver_161" in tm.CULANE_HELD_OUT
+
+
+def test_canonical_command_line(tmp_path: Path) -> None:
+    ckpt = REPO / "checkpoints" / "super_seg_v6.ckpt.pt"
+    args = tm.canonical_command(
+        tmp_path / "d.yaml", tmp_path / "super_seg_v6.onnx", tm.FULL, "cpu", 7200.0, 6000, ckpt,
+        (tmp_path, 250),
+    )  # fmt: skip
+    assert args[:2] == ["train", "segmentation"]
+    assert _values(args, "--arch") == "lite0-s16"
+    assert _values(args, "--size") == "512x160"
+    assert "--canonical-camera" in args
+    assert _values(args, "--augment") == "canonical"
+    assert "--crop" not in args
+    assert _values(args, "--threads") == str(os.cpu_count())
+    assert _values(args, "--checkpoint") == str(ckpt)
+    assert "--resume" in args
+    assert _values(args, "--budget-s") == "7200"
+    assert _values(args, "--steps") == "6000"
+    assert _values(args, "--val-data") == str(tmp_path.resolve())
+    assert _values(args, "--validate-every") == "250"
+    quiet = tm.canonical_command(
+        tmp_path / "d.yaml", tmp_path / "m.onnx", tm.QUICK, "cpu", 60.0, 2, ckpt, (None, 300)
+    )
+    assert "--val-data" not in quiet
+    assert _values(quiet, "--max-frames") == "2"
+
+
+def test_recipe_command_parses_through_slt_train(tmp_path: Path) -> None:
+    """The CLI accepts every option the recipe passes (an unknown one would exit 2)."""
+    from typer.testing import CliRunner
+
+    from superlane_tools.cli.app import app
+
+    args = tm.canonical_command(
+        tmp_path / "missing.yaml", tmp_path / "m.onnx", tm.QUICK, "cpu", 60.0, 2,
+        tmp_path / "m.ckpt.pt", (None, 300),
+    )  # fmt: skip
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code != 2, result.output
+    assert "missing.yaml" in result.output
