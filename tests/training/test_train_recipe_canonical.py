@@ -11,7 +11,14 @@ from superlane_tools.training.datasets import load_dataset_list
 REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO / "pipelines"))
 
-import train_models as tm  # noqa: E402
+import importlib.util  # noqa: E402
+
+_SPEC = importlib.util.spec_from_file_location("train_models", REPO / "pipelines/train_models.py")
+assert _SPEC is not None
+assert _SPEC.loader is not None
+tm = importlib.util.module_from_spec(_SPEC)
+sys.modules["train_models"] = tm
+_SPEC.loader.exec_module(tm)
 
 
 def _values(args: list[str], flag: str) -> str:
