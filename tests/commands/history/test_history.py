@@ -2,7 +2,7 @@
 
 Five nights of the 4 s oracle drive of tests/commands/conftest.py: night k's run is blind
 (blank oracle labels) in frames 20 .. 20 + 3k - 1, so SUPER's availability falls 3 frames (5 pp) a
-night; each night is compared with the night before and gated on
+night from 59 of 60 frames; each night is compared with the night before and gated on
 ``availability_frames.super:2``. Night 3 changes the corridor threshold (a configuration
 change), night 4 the corridor network (``ego_corridor_v2``: a model change).
 """
@@ -34,10 +34,9 @@ runner = CliRunner()
 NIGHTS = [f"2026-11-{k:02d}" for k in range(1, 6)]
 KPI = "availability_frames.super"
 
-DRIFT_OPEN = (
-    "after the merge with the gate's new KPI margins the 100 -> 80 % availability decline "
-    "is no longer flagged as a drift: open, see the closing note"
-)
+FIRST = 59 / 60
+"""Night 0's SUPER availability: the oracle's frame 7 fits a 7.3 m pair (a dash gap under the
+20-point line evidence rule) and is "too wide"; the blinding takes 3 frames more each night."""
 
 
 @dataclass(frozen=True)
@@ -114,12 +113,13 @@ def test_the_history_holds_every_night_fleet_and_comparison(history: History) ->
     assert (per_night["fleet"] == 21).all()
     assert list(per_night["compare"]) == [0, 21, 21, 21, 21]
     fleet = table[(table["kind"] == "fleet") & (table["kpi"] == KPI)].set_index("night")
-    assert np.allclose(fleet["value"], [1.0 - 3 * k / 60 for k in range(5)])
+    assert np.allclose(fleet["value"], [FIRST - 3 * k / 60 for k in range(5)])
     assert (fleet["n_drives"] == 1).all()
     assert (fleet["n_sequences"] == 15).all()
     comp = table[(table["kind"] == "compare") & (table["kpi"] == KPI)].set_index("night")
     assert np.allclose(comp["delta"], -0.05)
-    assert comp["ci_low"].notna().all()
+    assert (comp["verdict"] == "too few drives").all()  # the drive is the unit: one drive
+    assert comp["ci_low"].isna().all()  # gives no interval
     assert set(comp["baseline"]) == {str(f) for f in history.fleets[:-1]}
     # with pandas, as docs/compare.md shows: the night comes back from the partitions
     plain = pd.read_parquet(history.root / "history")
@@ -127,10 +127,6 @@ def test_the_history_holds_every_night_fleet_and_comparison(history: History) ->
     assert set(plain["night"].astype(str)) == set(NIGHTS)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason=DRIFT_OPEN,
-)
 def test_a_drift_every_night_s_gate_passed_is_flagged(history: History, tmp_path: Path) -> None:
     assert history.regressions == [(), (), (), ()]  # no night's gate failed
     result = history_report(history.root, tmp_path, HistoryParams(plots=False))
@@ -142,7 +138,7 @@ def test_a_drift_every_night_s_gate_passed_is_flagged(history: History, tmp_path
     assert decline["rule"] == "decline+cusum"
     assert (decline["first_night"], decline["last_night"]) == (NIGHTS[0], NIGHTS[-1])
     assert np.isclose(decline["change"], -0.2)
-    assert any(line.startswith(f"{KPI}: 100.0% -> 80.0% (-20.0 pp)") for line in result.drift_lines)
+    assert any(line.startswith(f"{KPI}: 98.3% -> 78.3% (-20.0 pp)") for line in result.drift_lines)
     assert not result.uncaught["kpi"].str.contains("corridor_net").any()
 
 
@@ -172,24 +168,17 @@ def test_a_rerun_night_appends_a_file_and_the_latest_wins(history: History, tmp_
     assert len(read_history(copy, latest=False)) == len(read_history(history.root)) + 21
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason=DRIFT_OPEN,
-)
 def test_cli(history: History, tmp_path: Path) -> None:
-    out = tmp_path / "page"
-    ok = runner.invoke(app, ["history", str(history.root), "-o", str(out), "--no-plots"])
+    base = ["history", str(history.root), "-o", str(tmp_path / "page"), "--no-plots"]
+    ok = runner.invoke(app, base)
     assert ok.exit_code == 0, ok.output
     assert "5 nights, 21 KPIs, 1 model changes" in ok.output
-    assert f"slt: drift: {KPI}: 100.0% -> 80.0%" in ok.output
-    gated = runner.invoke(
-        app, ["history", str(history.root), "-o", str(out), "--no-plots", "--fail-on-drift"]
-    )
+    assert f"slt: drift: {KPI}: 98.3% -> 78.3%" in ok.output
+    kept = runner.invoke(app, [*base, "--fail-on-drift"])
+    assert kept.exit_code == 2  # the page exists: --overwrite replaces it
+    gated = runner.invoke(app, [*base, "--fail-on-drift", "--overwrite"])
     assert gated.exit_code == 4
-    wide = runner.invoke(
-        app,
-        ["history", str(history.root), "-o", str(out), "--no-plots", "--margin", f"{KPI}:0.5"],
-    )
+    wide = runner.invoke(app, [*base, "--margin", f"{KPI}:0.5", "--overwrite"])
     assert wide.exit_code == 0
     assert f"slt: drift: {KPI}" not in wide.output  # a 50 pp margin: 20 pp is no drift
 
