@@ -237,8 +237,12 @@ def canonical_command(
     steps: int,
     checkpoint: Path,
     val: tuple[Path | None, int],
+    threads: int | None = None,
 ) -> list[str]:
     """Return the canonical recipe's ``slt train`` arguments (torch threads: every core).
+
+    ``threads``: torch threads (None: every core; 1 on a machine shared with other jobs, where
+    threads waiting for each other at every operation cost more than the second core gives).
 
     ``val``: ``(real-data folder, every N steps)``; no validation without real data or with 0.
     """
@@ -247,7 +251,7 @@ def canonical_command(
     args += ["--datasets", str(listing), "--out", str(out), "--steps", str(steps)]
     args += ["--budget-s", f"{budget_s:g}", "--lr", "0.002", "--dice-bands", "3"]
     args += ["--seed", str(MODEL_SEED), "--batch", str(plan.batch), "--device", device]
-    args += ["--threads", str(os.cpu_count() or 1)]
+    args += ["--threads", str(threads or os.cpu_count() or 1)]
     if plan.max_frames is not None:
         args += ["--max-frames", str(plan.max_frames)]
     args += ["--checkpoint", str(checkpoint), "--resume", "--checkpoint-every-s", "300"]
@@ -406,6 +410,9 @@ def main(argv: list[str] | None = None) -> int:
     )
     ap.add_argument("--steps", type=int, default=LITE_STEPS, help="lite0/canonical step cap")
     ap.add_argument(
+        "--threads", type=int, default=None, help="canonical: torch threads (default: the cores)"
+    )
+    ap.add_argument(
         "--validate-every", type=int, default=300, help="canonical: validate every N steps"
     )
     ap.add_argument("--no-camvid", action="store_true", help="without CamVid (CC BY-NC)")
@@ -455,7 +462,7 @@ def main(argv: list[str] | None = None) -> int:
             canonical_command(
                 listing, seg, plan, args.device, 60.0 if args.quick else args.budget_s,
                 plan.seg_steps if args.quick else args.steps, ckpt,
-                (realdata, args.validate_every),
+                (realdata, args.validate_every), args.threads,
             )
         ]  # fmt: skip
     commands = {t: c for t, c in commands.items() if args.task in (t, "both")}

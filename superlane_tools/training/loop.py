@@ -222,7 +222,7 @@ def _validator(params: Any, history: Any) -> Any:
     """Return the validator of a segmentation run with dev data, else None."""
     if params.task != "segmentation" or params.val_data is None or params.validate_every <= 0:
         return None
-    from superlane_tools.training.validation import Validator, real_dev_sets
+    from superlane_tools.training.validation import PROTOCOL, Validator, real_dev_sets
 
     canonical = None
     if getattr(params, "canonical_camera", False):
@@ -230,10 +230,10 @@ def _validator(params: Any, history: Any) -> Any:
 
         canonical = CanonicalCamera.for_input(*params.input_size)
     validator = Validator(real_dev_sets(params.val_data), params.best_path, canonical=canonical)
-    if isinstance(history, list) and history:
-        validator.history = list(history)
-        if params.best_path.is_file():  # a fresh clone may hold the checkpoint only
-            validator.best = max(history, key=lambda e: e["worst"])
+    if isinstance(history, list):  # only entries of this validation protocol compare
+        validator.history = [e for e in history if e.get("protocol") == PROTOCOL]
+        if validator.history and params.best_path.is_file():  # a clone may hold the checkpoint
+            validator.best = max(validator.history, key=lambda e: e["worst"])
     return validator
 
 

@@ -16,9 +16,13 @@ pixels within 10 px of a labelled lane polyline, at 640 px image width), and
 * ``camvid_val``: level-2 mIoU on every 4th CamVid ``val`` frame.
 
 A model trained in the canonical camera (``--canonical-camera``) is validated the way
-``slt reprocess --canonical-camera`` runs it: the frames of a set whose camera is known
-(TuSimple: its profile) are resampled into the canonical camera and the labels mapped back to
-the frame's pixels; the sets of unknown camera (CULane, CamVid) are resized as they are.
+``slt reprocess --canonical-camera`` runs it: the frames of a lane set are resampled into the
+canonical camera and the labels mapped back to the frame's pixels. TuSimple's camera is its
+profile; each CULane set's camera is estimated from its own frames with the labels unused
+(:func:`estimated_camera`, as ``pipelines/real_frames_eval.py`` does for its end-to-end CULane
+numbers); CamVid (no lane labels, camera unknown) is resized as it is, as it is trained.
+Every history entry carries :data:`PROTOCOL`: entries of another protocol (a checkpoint from
+before a change of the sets or of their cameras) are not compared with new ones.
 
 The worst set's score decides: the weights whose worst set is the best so far are written
 (atomically) beside the checkpoint as ``NAME.best.pt``. The end-to-end chains
@@ -39,6 +43,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from superlane_tools.camera.model import CameraModel
 from superlane_tools.reporting.run_layout import TUSIMPLE_LABELS_FILE
 from superlane_tools.training.checkpoint import save_checkpoint
 from superlane_tools.training.errors import TrainingError
@@ -49,6 +54,8 @@ RECALL_PX, PRECISION_PX = 3, 10
 CAMVID_STRIDE = 4
 CULANE_DAY_DEV = "culane/driver_161_06030819_0755"
 CULANE_NIGHT = "culane/nightblur_0531_2336_0004"
+PROTOCOL = 2
+"""Version of the validation (sets, scores, cameras); 2: CULane in its estimated camera."""
 
 Segmenter = Callable[[NDArray[np.uint8]], NDArray[np.uint8]]
 """BGR image -> leaf-id image of the same size."""
@@ -63,14 +70,15 @@ class DevSet:
         images: BGR frames scaled to :data:`WIDTH`.
         lanes: Per frame, the labelled lanes as ``(N, 2)`` pixel polylines (lane sets).
         codes: Per frame, node-code labels (CamVid), empty for lane sets.
-        camera: The frames' camera (profile name; "" = unknown) for the canonical camera.
+        camera: The frames' camera (a profile name or a :class:`CameraModel`; "" = unknown),
+            for the canonical camera.
     """
 
     name: str
     images: tuple[NDArray[np.uint8], ...]
     lanes: tuple[tuple[NDArray[np.float64], ...], ...] = ()
     codes: tuple[NDArray[np.uint8], ...] = ()
-    camera: str = ""
+    camera: str | CameraModel = ""
 
 
 def _scaled(path: Path) -> tuple[NDArray[np.uint8], float]:
@@ -125,7 +133,48 @@ def _culane(root: Path, folder: str, name: str) -> DevSet | None:
         lines = read_lines_file(path.with_name(path.stem + ".lines.txt"))
         images.append(image)
         lanes.append(tuple(np.asarray(pts, np.float64) * scale for pts in lines if len(pts) >= 2))
-    return DevSet(name, tuple(images), tuple(lanes))
+    from superlane_tools.camera.errors import CameraError
+
+    try:
+        camera: str | CameraModel = estimated_camera(images, name)
+    except CameraError:  # too few frames show both ego lines: segmented as they are
+        camera = ""
+    return DevSet(name, tuple(images), tuple(lanes), camera=camera)
+
+
+def estimated_camera(images: Sequence[NDArray[np.uint8]], name: str) -> CameraModel:
+    """Estimate the camera of frames of an unknown camera from the frames alone (no labels).
+
+    The classical backend's lane-line pixels of each frame give its two ego lines; their
+    vanishing points and a 3.7 m lane give pitch, yaw, roll and height; the intrinsics assume
+    the dashcam field of view (``camera.extrinsics_estimate.frame_intrinsics``).
+
+    Raises:
+        TrainingError: If there are no frames.
+    """
+    from superlane_tools.camera.extrinsics_estimate import (
+        estimate_extrinsics,
+        frame_intrinsics,
+        frame_lines,
+    )
+    from superlane_tools.hierarchy import LEAF_IDS
+    from superlane_tools.lanes import CODE_OF
+    from superlane_tools.scene.classical import ClassicalExtractor
+
+    if not images:
+        raise TrainingError(f"validation: no frames to estimate the camera of {name}")
+    lut = np.zeros(256, dtype=bool)
+    for node in CODE_OF:
+        leaf = LEAF_IDS.get(node)
+        if leaf is not None:
+            lut[leaf] = True
+    backend = ClassicalExtractor()
+    k, _ = frame_intrinsics(images[0].shape[1], images[0].shape[0], None, None, None)
+    lines = []
+    for index, image in enumerate(images):
+        rows, cols = np.nonzero(lut[backend.segment(image)])
+        lines.append(frame_lines(np.stack([cols, rows], axis=1).astype(np.float64), k, index))
+    return CameraModel(k, estimate_extrinsics(lines, k, 3.7).extrinsics, name=name)
 
 
 def _camvid(root: Path) -> DevSet | None:
@@ -206,18 +255,18 @@ def marking_f(
     return 2 * recall * precision / (recall + precision) if recall + precision > 0 else 0.0
 
 
-def canonical_segmenter(segment: Segmenter, camera: str, canonical: Any) -> Segmenter:
+def canonical_segmenter(segment: Segmenter, camera: str | CameraModel, canonical: Any) -> Segmenter:
     """Return ``segment`` run in the canonical camera, its labels mapped back to the frame.
 
     Args:
         segment: The segmenter of canonical images.
-        camera: The frames' camera (profile name or YAML).
+        camera: The frames' camera (profile name, YAML or model).
         canonical: The :class:`~superlane_tools.camera.canonical.CanonicalCamera`.
     """
     from superlane_tools.camera.canonical import canonical_maps
     from superlane_tools.camera.profiles import load_camera
 
-    base = load_camera(camera)
+    base = camera if isinstance(camera, CameraModel) else load_camera(camera)
     maps: dict[tuple[int, int], Any] = {}
 
     def run(image: NDArray[np.uint8]) -> NDArray[np.uint8]:
@@ -338,6 +387,7 @@ class Validator:
             model.train(was_training)
         worst_set = min(scores, key=lambda name: scores[name])
         entry = {
+            "protocol": PROTOCOL,
             "step": step,
             "scores": scores,
             "worst_set": worst_set,

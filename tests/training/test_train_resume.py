@@ -158,3 +158,46 @@ def test_every_real_dev_set_loads_with_its_labels() -> None:
     assert len(sets["culane_day_dev"].images) == 60  # the held-out clip, never the driver-23 one
     assert sum(len(lanes) for lanes in sets["culane_day_dev"].lanes) > 100
     assert all(img.shape[1] == 640 for img in sets["culane_night"].images)
+
+
+@pytest.mark.skipif(not (REALDATA / "culane").is_dir(), reason="needs the real data")
+def test_culane_dev_sets_are_validated_in_a_camera_estimated_from_their_frames() -> None:
+    from superlane_tools.camera.model import CameraModel
+
+    sets = {s.name: s for s in real_dev_sets(REALDATA)}
+    assert sets["tusimple_dev"].camera == "tusimple"  # its profile
+    assert sets["camvid_val"].camera == ""  # no lanes, camera unknown: as it is
+    for name in ("culane_day_dev", "culane_night"):
+        camera = sets[name].camera
+        assert isinstance(camera, CameraModel), name
+        assert camera.intrinsics.width == 640  # the dev frames' width
+        assert 0.5 < camera.extrinsics.height_m < 3.5
+        assert abs(math.degrees(camera.extrinsics.pitch_rad)) < 10
+
+
+def test_a_resumed_run_drops_validations_of_another_protocol(
+    toy_data: Path, tiny_params: Callable[..., TrainParams], tmp_path: Path
+) -> None:
+    from superlane_tools.training.loop import _validator
+    from superlane_tools.training.validation import PROTOCOL
+
+    dev = tmp_path / "dev"  # one small real set is enough to build the validator
+    (dev / "culane").mkdir(parents=True)
+    night = REALDATA / "culane" / "nightblur_0531_2336_0004"
+    if not night.is_dir():
+        pytest.skip("needs the real data")
+    (dev / "culane" / night.name).symlink_to(night)
+    params = replace(_params(tiny_params, toy_data, tmp_path / "v.onnx", 4), validate_every=2)
+    params = replace(params, val_data=dev)
+    params.best_path.parent.mkdir(parents=True, exist_ok=True)
+    params.best_path.write_bytes(b"kept weights")
+    old = {"step": 300, "scores": {"culane_night": 0.9}, "worst_set": "culane_night", "worst": 0.9}
+    new = {**old, "protocol": PROTOCOL, "step": 600, "worst": 0.4}
+    stale = _validator(params, [old])
+    assert stale is not None
+    assert stale.history == []
+    assert stale.best is None
+    kept = _validator(params, [old, new])
+    assert kept is not None
+    assert kept.history == [new]
+    assert kept.best == new
