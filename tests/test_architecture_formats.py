@@ -50,9 +50,9 @@ def _docstrings(tree: ast.AST) -> set[int]:
     ids: set[int] = set()
     for node in ast.walk(tree):
         body = getattr(node, "body", None)
-        if isinstance(body, list) and body and isinstance(body[0], ast.Expr):
-            if isinstance(body[0].value, ast.Constant):
-                ids.add(id(body[0].value))
+        first = body[0] if isinstance(body, list) and body else None
+        if isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant):
+            ids.add(id(first.value))
         if isinstance(node, ast.Expr) and isinstance(node.value, ast.Constant):
             ids.add(id(node.value))  # attribute docstrings after an assignment
     return ids
@@ -84,11 +84,11 @@ def format_literals(source: str) -> Iterator[tuple[int, str]]:
         if not isinstance(node, ast.Constant) or id(node) in skip:
             continue
         value = node.value
-        if isinstance(value, bytes) and _is_magic(value, magics):
-            yield node.lineno, repr(value)
-        elif isinstance(value, str) and (
+        magic = isinstance(value, bytes) and _is_magic(value, magics)
+        named = isinstance(value, str) and (
             value.lower() in suffixes or value in FOLDER_FILES or value.endswith("/metadata.yaml")
-        ):
+        )
+        if magic or named:
             yield node.lineno, repr(value)
 
 

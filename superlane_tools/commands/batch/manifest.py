@@ -14,7 +14,6 @@ from pathlib import Path
 from typing import Any, NamedTuple
 
 from superlane_tools.errors import ConfigError, UsageError
-from superlane_tools.recording.open import discovered, discovery_hint, is_recording_folder
 
 MANIFEST_COLUMNS = ("path", "category", "vehicle", "date", "sequence", "start_s", "end_s")
 """Manifest columns; only ``path`` is required."""
@@ -49,6 +48,8 @@ def find_recordings(folder: Path) -> Iterator[Path]:
     ROS 1 bags, CAN logs, ROS 2 bag folders. Hidden entries (``.tmp``, ``.git``) are not
     searched; a recording folder is yielded whole and not searched further.
     """
+    from superlane_tools.recording.open import discovered, is_recording_folder
+
     entries = sorted(folder.iterdir())
     for entry in entries:
         if entry.name.startswith("."):
@@ -68,6 +69,8 @@ def expand_inputs(inputs: Sequence[Path]) -> list[BatchEntry]:
     Raises:
         UsageError: If an input does not exist or a folder holds no recordings.
     """
+    from superlane_tools.recording.open import discovery_hint, is_recording_folder
+
     entries: list[BatchEntry] = []
     for item in inputs:
         path = Path(item)
