@@ -144,15 +144,14 @@ def info(
     ] = False,
 ) -> None:
     """Show topics, types, counts, median rates, largest gaps and header-stamp offsets."""
-    from superlane_tools.recording import open_recording, summarize
+    from superlane_tools.recording import fast_info, open_recording, summarize
     from superlane_tools.recording.inspect import (
         CAN_MSGTYPES,
         can_id_stats,
-        mcap_file_info,
         summary_from_mcap,
     )
 
-    file_info = mcap_file_info(recording)
+    file_info = fast_info(recording)
     if file_info is not None and file_info.has_statistics and not scan:
         summary = summary_from_mcap(recording, file_info)
         _emit(summary, file_info, "summary section", [], as_json)

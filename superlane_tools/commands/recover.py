@@ -4,14 +4,15 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal, cast
 
 from superlane_tools.errors import UsageError
 from superlane_tools.recording.errors import RecordingError
 
+if TYPE_CHECKING:
+    from superlane_tools.recording.open import ReaderPlugin
+
 RecoverFormat = Literal["mcap", "ros1", "ros2"]
-_OUT_FORM = {"mcap": "OUT.mcap", "ros1": "OUT.bag", "ros2": "a folder name OUT (no suffix)"}
-_NAMES = {"mcap": "MCAP file", "ros1": "ROS 1 bag", "ros2": "ROS 2 bag"}
 
 
 @dataclass(frozen=True)
@@ -46,83 +47,54 @@ class RecoverResult:
         }
 
 
-def input_format(src: Path) -> RecoverFormat:
-    """Return the format of ``src`` from its content: MCAP, ROS 1 bag or ROS 2 bag.
+def _plugin(src: Path) -> ReaderPlugin:
+    """Return the reader plug-in that recovers ``src``, chosen by its content.
 
     Raises:
-        RecordingError: If ``src`` is missing or none of these.
+        RecordingError: If ``src`` is missing or no plug-in recovers it.
     """
-    from superlane_tools.recording.open import ROS1_MAGIC, SQLITE_MAGIC
+    from superlane_tools.recording.open import recovering_plugin
 
+    plugin = recovering_plugin(src)
+    if plugin is not None:
+        return plugin
     if src.is_dir():
-        if (src / "metadata.yaml").is_file():
-            return "ros2"
-        raise RecordingError(f"{src} is not a recording: a folder without metadata.yaml")
-    try:
-        with src.open("rb") as handle:
-            head = handle.read(16)
-    except OSError as err:
-        raise RecordingError(f"cannot read {src}: {err.strerror}") from err
-    if head.startswith(b"\x89MCAP"):
-        return "mcap"
-    if head.startswith(ROS1_MAGIC):
-        return "ros1"
-    if src.suffix == ".db3" and head.startswith(SQLITE_MAGIC):
-        return "ros2"
+        from superlane_tools.recording.formats.ros2 import NOT_A_BAG_FOLDER
+
+        raise RecordingError(f"{src} is not a recording: {NOT_A_BAG_FOLDER}")
     raise RecordingError(
         f"{src}: slt recover reads MCAP files, ROS 1 bags and ROS 2 bags (folder or .db3)"
     )
 
 
-def _check_out(fmt: RecoverFormat, src: Path, out: Path) -> None:
+def _check_out(plugin: ReaderPlugin, src: Path, out: Path) -> None:
     if out.exists():
         raise UsageError(f"{out} exists already; not overwriting a recording")
     if out.resolve() == src.resolve():
         raise UsageError("-o must differ from the input")
-    suffix = {"mcap": ".mcap", "ros1": ".bag", "ros2": ""}[fmt]
+    suffix = plugin.output_suffix
     if out.suffix != suffix:
-        raise UsageError(f"a recovered {_NAMES[fmt]} is written to {_OUT_FORM[fmt]}")
+        form = f"OUT{suffix}" if suffix else "a folder name OUT (no suffix)"
+        raise UsageError(f"a recovered {plugin.label} is written to {form}")
 
 
 def recover(src: Path, out: Path) -> RecoverResult:
     """Write every readable message of ``src`` into ``out``, in the same format, atomically.
 
-    MCAP files are scanned record by record (``recording.scan``); bags are read by the same
-    sources ``slt cat`` uses (ROS 1 reindexed by scanning when its index is unusable, ROS 2
-    sqlite3 files salvaged row by row) and copied with their connections.
+    The reader plug-in of ``src`` (``recording.open.READERS``) recovers it: MCAP files are
+    scanned record by record (``recording.scan``); bags are read by the same sources
+    ``slt cat`` uses (ROS 1 reindexed by scanning when its index is unusable, ROS 2 sqlite3
+    files salvaged row by row) and copied with their connections.
 
     Raises:
         UsageError: For an existing or wrongly named ``out``.
         RecordingError: If nothing in ``src`` is readable, or ``out`` cannot be written.
     """
-    fmt = input_format(src)
-    _check_out(fmt, src, out)
-    if fmt == "mcap":
-        from superlane_tools.recording.recover import recover_mcap
-
-        written, scan = recover_mcap(src, out)
-        lost = tuple(
-            {
-                "what": loss.what,
-                "detail": loss.detail,
-                "messages": loss.n_messages,
-                "start_ns": loss.start_ns,
-                "stop_ns": loss.stop_ns,
-                "topics": [part._asdict() for part in loss.topics],
-            }
-            for loss in scan.losses
-        )
-    else:
-        from superlane_tools.recording.bag_filter import filter_bag
-
-        try:
-            written, skipped = filter_bag(src, out, lambda _topic: True, lambda _t: (None, None))
-        except UsageError as err:  # no topic or no message: nothing was readable
-            raise RecordingError(f"{src}: no readable message; nothing written") from err
-        lost = tuple(
-            {"what": s.what, "detail": s.detail, "messages": s.n_items or None} for s in skipped
-        )
+    plugin = _plugin(src)
+    _check_out(plugin, src, out)
+    assert plugin.recover is not None
+    written, lost = plugin.recover(src, out)
     if not written:
         out.unlink(missing_ok=True)
         raise RecordingError(f"{src}: no readable message; nothing written")
-    return RecoverResult(src, out, fmt, written, lost)
+    return RecoverResult(src, out, cast("RecoverFormat", plugin.name), written, lost)

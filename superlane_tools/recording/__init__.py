@@ -5,7 +5,13 @@ from superlane_tools.recording.base import Recording, SkipLog, SupportsStampPeek
 from superlane_tools.recording.convert import ConvertConfig, ConvertInput, convert
 from superlane_tools.recording.errors import RecordingError
 from superlane_tools.recording.images import decode_frame, decode_reduced
-from superlane_tools.recording.open import READERS, ReaderPlugin, find_reader, open_recording
+from superlane_tools.recording.open import (
+    READERS,
+    ReaderPlugin,
+    fast_info,
+    find_reader,
+    open_recording,
+)
 from superlane_tools.recording.scan import (
     Loss,
     RecordingScan,
@@ -76,6 +82,7 @@ __all__ = [
     "decode_reduced",
     "decode_video",
     "default_typestore",
+    "fast_info",
     "find_reader",
     "format_utc",
     "load_stream_config",

@@ -24,14 +24,13 @@ from superlane_tools.recording._scan_types import (
     chunk_loss,
 )
 from superlane_tools.recording.errors import RecordingError
+from superlane_tools.recording.formats.mcap import MAGIC as MCAP_MAGIC
 
 if TYPE_CHECKING:
     from mcap.records import Channel, Chunk, ChunkIndex, Schema
     from mcap.records import Message as McapMessage
     from mcap.summary import Summary
 
-MCAP_MAGIC = b"\x89MCAP0\r\n"
-"""The 8 bytes every MCAP file starts (and, when complete, ends) with."""
 
 RECORD_PREFIX = 9  # opcode (1 byte) + record length (8 bytes)
 _FOOTER_SIZE = RECORD_PREFIX + 8 + 8 + 4  # summary start, summary offset start, summary CRC

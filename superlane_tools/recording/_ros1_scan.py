@@ -36,8 +36,8 @@ from superlane_tools.recording._scan_types import (
 )
 from superlane_tools.recording.base import SkipLog, in_range, ros2_msgtype
 from superlane_tools.recording.errors import RecordingError
+from superlane_tools.recording.formats.ros1 import MAGIC
 
-MAGIC = b"#ROSBAG V2.0\n"
 _U32 = struct.Struct("<I")
 _OP_MSG, _OP_BAG_HEADER, _OP_INDEX, _OP_CHUNK, _OP_CONNECTION = 0x02, 0x03, 0x04, 0x05, 0x07
 _INDEX_ENTRY = struct.Struct("<III")  # time sec, time nsec, offset in the chunk

@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import shutil
-from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
 from superlane_tools.errors import UsageError
+from superlane_tools.recording._filter_types import FilterResult, TimeResolve, TopicMatch
 from superlane_tools.recording.errors import RecordingError
-from superlane_tools.recording.rosbag_source import RosbagRecording
+from superlane_tools.recording.formats import mcap, ros1, ros2
+from superlane_tools.recording.rosbag_source import BagKind, RosbagRecording
 from superlane_tools.recording.writers import LIBRARY
 from superlane_tools.records import Skipped
 
@@ -21,27 +22,35 @@ OutFormat = Literal["ros1", "ros2", "mcap"]
 IDL_SEPARATOR = "=" * 80 + "\nIDL: "
 
 
-def is_bag(path: Path) -> bool:
-    """Return True for a ROS 1 ``.bag``, a ROS 2 ``.db3`` file or a ROS 2 bag folder."""
-    return path.suffix in {".bag", ".db3"} or (path.is_dir() and (path / "metadata.yaml").exists())
-
-
 def output_format(bag_kind: str, out: Path) -> OutFormat:
     """Choose the output format from ``-o``: ``.mcap`` MCAP, ``.bag`` ROS 1, else a ROS 2 folder.
 
     Raises:
         UsageError: When the payloads would have to be re-serialized (ROS 1 <-> ROS 2).
     """
-    if out.suffix == ".mcap":
+    if out.suffix == mcap.SUFFIX:
         return "mcap"
-    wanted: OutFormat = "ros1" if out.suffix == ".bag" else "ros2"
+    wanted: OutFormat = "ros1" if out.suffix == ros1.SUFFIX else "ros2"
     if wanted != bag_kind:
-        have = "ROS 1 bag" if bag_kind == "ros1" else "ROS 2 bag"
+        have = ros1.LABEL if bag_kind == "ros1" else ros2.LABEL
         keep = "OUT.bag" if bag_kind == "ros1" else "a folder name (no suffix)"
         raise UsageError(
             f"a {have} filters to {keep} or OUT.mcap (payloads are copied, not re-serialized)"
         )
     return wanted
+
+
+def filter_bag_file(
+    src: Path, out: Path, match: TopicMatch, resolve: TimeResolve, kind: BagKind
+) -> FilterResult:
+    """Filter a ROS 1 (``ros1``) or ROS 2 (``ros2``) bag: the bag plug-ins' ``filter``.
+
+    Raises:
+        RecordingError: If the bag cannot be read or written.
+        UsageError: For an impossible output format or when nothing matches.
+    """
+    counts, skipped = filter_bag(src, out, match, resolve, kind)
+    return FilterResult(out, counts, 0, 0, output_format(kind, out), tuple(skipped))
 
 
 class _BagCopier:
@@ -168,8 +177,9 @@ class _BagCopier:
 def filter_bag(
     src: Path,
     out: Path,
-    match: Callable[[str], bool],
-    resolve: Callable[[int | None], tuple[int | None, int | None]],
+    match: TopicMatch,
+    resolve: TimeResolve,
+    kind: BagKind | None = None,
 ) -> tuple[dict[str, int], list[Skipped]]:
     """Copy a bag's matching messages into ``out`` (format from its suffix), atomically.
 
@@ -179,6 +189,7 @@ def filter_bag(
             ``OUT.mcap``; must not exist.
         match: ``f(topic) -> bool`` of the topics to keep.
         resolve: Turns the bag's first log time into the ``[start, end)`` range (ns).
+        kind: ``ros1`` or ``ros2`` (the reader plug-in's); None: ROS 1 for a ``.bag``.
 
     Returns:
         Messages written per topic, and what was skipped while reading (one line each).
@@ -187,7 +198,7 @@ def filter_bag(
         RecordingError: If the bag cannot be read or written.
         UsageError: For an impossible output format or when nothing matches.
     """
-    with RosbagRecording(src) as rec:
+    with RosbagRecording(src, kind=kind) as rec:
         fmt = output_format(rec.kind, out)
         start_ns, end_ns = resolve(rec.start_ns())
         names = [t.topic for t in rec.topics() if match(t.topic)]

@@ -14,10 +14,17 @@ from typing import Any, NamedTuple
 from superlane_tools.recording.base import SkipLog, in_range, storable_time
 from superlane_tools.recording.decoding import Decode, RawSource
 from superlane_tools.recording.errors import RecordingError
+from superlane_tools.recording.formats.canlog import (
+    ASC_SUFFIX,
+    BLF_MAGIC,
+    BLF_SUFFIX,
+    CANDUMP_SUFFIX,
+    SUFFIXES,
+)
 from superlane_tools.records import RawMessage, Skipped, TopicInfo
 
 CAN_FRAME_TYPE = "can_msgs/msg/Frame"
-CANLOG_SUFFIXES = (".log", ".asc", ".blf")
+CANLOG_SUFFIXES = SUFFIXES
 DEFAULT_TOPIC = "can"
 
 _RAW_HEADER = struct.Struct(">IB")
@@ -100,9 +107,9 @@ def looks_like_canlog(path: str | os.PathLike[str]) -> bool:
             head = handle.read(SNIFF_BYTES)
     except OSError:
         return False
-    if suffix == ".blf":
-        return head.startswith(b"LOGG")
-    if suffix == ".asc":
+    if suffix == BLF_SUFFIX:
+        return head.startswith(BLF_MAGIC)
+    if suffix == ASC_SUFFIX:
         return any(_ASC_START.match(line) for line in head.splitlines()[:20])
     return candump_lines(path) > 0
 
@@ -343,9 +350,9 @@ class CanLogRecording(RawSource):
         lines: _CheckedLines | None = None
         suffix = self.path.suffix.lower()
         try:
-            if suffix in {".log", ".asc"}:
-                lines = _CheckedLines(self.path, self._skips, candump=suffix == ".log")
-                cls = can.CanutilsLogReader if suffix == ".log" else can.ASCReader
+            if suffix in {CANDUMP_SUFFIX, ASC_SUFFIX}:
+                lines = _CheckedLines(self.path, self._skips, candump=suffix == CANDUMP_SUFFIX)
+                cls = can.CanutilsLogReader if suffix == CANDUMP_SUFFIX else can.ASCReader
                 reader: Any = cls(file=lines)  # type: ignore[arg-type]
             else:
                 reader = robust_blf_reader(self.path, self._skips)

@@ -34,13 +34,14 @@ from superlane_tools.errors import UsageError
 from superlane_tools.recording import messages as msgs
 from superlane_tools.recording.base import SkipLog
 from superlane_tools.recording.errors import RecordingError
+from superlane_tools.recording.formats import canlog, nmea, video
 from superlane_tools.recording.times import format_utc, parse_time
 from superlane_tools.recording.typestore import COMPRESSED_VIDEO_MSGTYPE
 from superlane_tools.records import Skipped
 
 InputKind = Literal["video", "nmea", "gpx", "can", "csv"]
-VIDEO_SUFFIXES = frozenset({".mp4", ".mkv", ".mov", ".avi", ".webm", ".m4v", ".h264", ".h265"})
-CAN_SUFFIXES = frozenset({".asc", ".blf", ".trc", ".candump"})
+VIDEO_SUFFIXES = video.SUFFIXES | video.RAW_SUFFIXES
+CAN_SUFFIXES = frozenset({*canlog.VECTOR_SUFFIXES, *canlog.CONVERT_SUFFIXES})
 METADATA_NAME = "slt_convert"
 VIDEO_TOPIC = "/camera/video"
 CAMERA_INFO_TOPIC = "/camera/camera_info"
@@ -116,7 +117,7 @@ def input_kind(path: Path) -> InputKind:
         return "csv"
     if suffix in CAN_SUFFIXES:
         return "can"
-    if suffix in {".nmea", ".log", ".txt", ""}:
+    if suffix in nmea.TEXT_LOG_SUFFIXES or not suffix:  # .csv and .trc are taken above
         from superlane_tools.recording.canlog_source import looks_like_canlog
         from superlane_tools.recording.nmea_source import looks_like_nmea
 

@@ -15,6 +15,7 @@ from typing import Any
 
 from superlane_tools.recording._mcap_decode import msgtype_name
 from superlane_tools.recording.base import Recording, field_value
+from superlane_tools.recording.formats.mcap import MAGIC
 from superlane_tools.recording.summary import RecordingSummary, TopicSummary, rate_hz
 
 _NS = 1e9
@@ -69,7 +70,7 @@ def mcap_file_info(path: Path) -> McapFileInfo | None:
         return None
     try:
         with path.open("rb") as handle:
-            if handle.read(8) != b"\x89MCAP0\r\n":
+            if handle.read(len(MAGIC)) != MAGIC:
                 return None
             handle.seek(0)
             reader = make_reader(handle)

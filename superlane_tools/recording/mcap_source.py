@@ -13,7 +13,6 @@ from typing import TYPE_CHECKING, Any, BinaryIO, cast
 
 from superlane_tools.recording._mcap_decode import McapDecoders, header_first, msgtype_name
 from superlane_tools.recording._mcap_scan import (
-    MCAP_MAGIC,
     RECORD_PREFIX,
     ChunkRef,
     file_order_messages,
@@ -30,6 +29,7 @@ from superlane_tools.recording.base import (
 )
 from superlane_tools.recording.decoding import Decode, RawSource
 from superlane_tools.recording.errors import RecordingError
+from superlane_tools.recording.formats.mcap import MAGIC as MCAP_MAGIC
 from superlane_tools.records import RawMessage, Skipped, TopicInfo
 
 if TYPE_CHECKING:

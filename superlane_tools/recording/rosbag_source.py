@@ -14,6 +14,8 @@ from superlane_tools.errors import ConfigError
 from superlane_tools.recording.base import SkipLog, raw_header_stamp_ns, storable_time
 from superlane_tools.recording.decoding import Decode, DecodeFailureError, RawSource
 from superlane_tools.recording.errors import RecordingError
+from superlane_tools.recording.formats import mcap, ros1
+from superlane_tools.recording.formats.ros2 import METADATA, is_db3
 from superlane_tools.records import RawMessage, Skipped, TopicInfo
 
 if TYPE_CHECKING:
@@ -27,14 +29,12 @@ _ORPHANS = "SELECT COUNT(*) FROM messages WHERE topic_id NOT IN (SELECT id FROM 
 def _read_ros2_metadata(folder: Path) -> dict[str, Any]:
     """Return the ``rosbag2_bagfile_information`` mapping of a ROS 2 bag folder."""
     try:
-        doc = load_document(folder / "metadata.yaml", "ROS 2 bag metadata", ".yaml")
+        doc = load_document(folder / METADATA, "ROS 2 bag metadata", ".yaml")
         info = doc["rosbag2_bagfile_information"]
         if not isinstance(info, dict):
             raise TypeError("not a mapping")
     except (ConfigError, KeyError, TypeError) as err:
-        raise RecordingError(
-            f"{folder} is not a recording: unreadable metadata.yaml ({err})"
-        ) from err
+        raise RecordingError(f"{folder} is not a recording: unreadable {METADATA} ({err})") from err
     return info
 
 
@@ -61,7 +61,7 @@ class RosbagRecording(RawSource):
         self._skips = SkipLog()
         self._iter_skips = SkipLog()
         self._stack = ExitStack()
-        self.kind: BagKind = kind or ("ros1" if self.path.suffix == ".bag" else "ros2")
+        self.kind: BagKind = kind or ("ros1" if self.path.suffix == ros1.SUFFIX else "ros2")
         self._declared: dict[str, tuple[str, int]] = {}
         readers: list[Any]
         try:
@@ -163,7 +163,7 @@ class RosbagRecording(RawSource):
 
         from superlane_tools.recording.sqlite_salvage import Ros2SqliteReader
 
-        if path.suffix == ".db3":
+        if is_db3(path):
             return Ros2SqliteReader(path, self._skips, self._iter_skips, info)
         return Reader2(path)
 
@@ -295,7 +295,7 @@ class RosbagRecording(RawSource):
         if self.kind == "ros1":
             return "ros1"
         files = [self.path] if self.path.is_file() else list(self.path.iterdir())
-        return "mcap" if any(f.suffix == ".mcap" for f in files) else "sqlite3"
+        return "mcap" if any(f.suffix == mcap.SUFFIX for f in files) else "sqlite3"
 
     def start_ns(self) -> int | None:
         """Return the earliest log time of the bag (ns) from its index, None when empty."""

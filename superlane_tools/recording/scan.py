@@ -77,22 +77,15 @@ def scan_ros1(path: str | Path) -> RecordingScan:
 
 
 def scan_recording(path: str | Path) -> RecordingScan:
-    """Scan an MCAP file or ROS 1 bag, chosen by its first bytes (see :func:`scan_mcap`).
+    """Scan an MCAP file or ROS 1 bag: the reader plug-in whose magic it starts with scans it.
 
     Raises:
         RecordingError: If the path is not a readable MCAP file or ROS 1 bag.
     """
-    from superlane_tools.recording._mcap_scan import MCAP_MAGIC
-    from superlane_tools.recording._ros1_scan import MAGIC as ROS1_MAGIC
+    from superlane_tools.recording.open import read_head, scanning_plugin
 
     p = Path(path)
-    try:
-        with p.open("rb") as handle:
-            head = handle.read(len(ROS1_MAGIC))
-    except OSError as err:
-        raise RecordingError(f"cannot read {p}: {err.strerror}") from err
-    if head.startswith(MCAP_MAGIC):
-        return scan_mcap(p)
-    if head.startswith(ROS1_MAGIC):
-        return scan_ros1(p)
-    raise RecordingError(f"{p} cannot be scanned: not an MCAP file or a ROS 1 bag")
+    plugin = scanning_plugin(read_head(p))
+    if plugin is None or plugin.scan is None:
+        raise RecordingError(f"{p} cannot be scanned: not an MCAP file or a ROS 1 bag")
+    return plugin.scan(p)

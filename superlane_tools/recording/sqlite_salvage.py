@@ -32,6 +32,7 @@ import numpy as np
 
 from superlane_tools.recording.base import SkipLog
 from superlane_tools.recording.errors import RecordingError
+from superlane_tools.recording.formats.ros2 import is_db3
 from superlane_tools.recording.times import format_utc
 
 if TYPE_CHECKING:
@@ -523,7 +524,7 @@ def _declared_counts(
         return None, None
     names = [Path(str(p)).name for p in bag_info.get("relative_file_paths", []) or []]
     for other in (path.with_name(name) for name in names if name != path.name):
-        if other.suffix != ".db3":
+        if not is_db3(other):
             return None, None
         try:
             with contextlib.closing(connect_read_only(other)) as db:

@@ -1,22 +1,25 @@
-"""``slt cat`` and ``slt filter``: decoded messages as JSON lines, and trimmed copies."""
+"""``slt cat`` and ``slt filter``: decoded messages as JSON lines, and trimmed copies.
+
+The filter itself is the reader plug-in's (:data:`~superlane_tools.recording.open.READERS`).
+"""
 
 from __future__ import annotations
 
 import base64
 import re
-from collections.abc import Callable, Iterator
-from dataclasses import dataclass, fields, is_dataclass
+from collections.abc import Iterator
+from dataclasses import fields, is_dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from superlane_tools.errors import UsageError
+from superlane_tools.recording._filter_types import FilterResult
 from superlane_tools.recording.base import Recording
 from superlane_tools.recording.errors import RecordingError
-from superlane_tools.recording.mcap_copy import McapCopier
 from superlane_tools.recording.times import parse_time
-from superlane_tools.records import Message, Skipped
+from superlane_tools.records import Message
 
 MAX_INLINE_BYTES = 64
 """Byte arrays longer than this are shown as their length (``--full-bytes`` shows them)."""
@@ -149,27 +152,6 @@ def cat_messages(
     return rec.messages(topics=names, start_ns=start_ns, stop_ns=end_ns)
 
 
-@dataclass(frozen=True)
-class FilterResult:
-    """What ``filter_recording`` wrote: messages per topic, metadata and attachments kept.
-
-    Attributes:
-        path: The output written.
-        counts: Messages written per topic.
-        metadata: MCAP metadata records copied (0 for bags).
-        attachments: MCAP attachments copied (0 for bags).
-        output_format: ``mcap``, ``ros1`` (a ``.bag``) or ``ros2`` (a bag folder).
-        skipped: What could not be read from the source (damaged bag data).
-    """
-
-    path: Path
-    counts: dict[str, int]
-    metadata: int
-    attachments: int
-    output_format: str = "mcap"
-    skipped: tuple[Skipped, ...] = ()
-
-
 def filter_recording(
     src: Path,
     out: Path,
@@ -189,7 +171,7 @@ def filter_recording(
         RecordingError: If ``src`` is unreadable or ``out`` exists.
         UsageError: For bad regular expressions, times or output formats, or when nothing matches.
     """
-    from superlane_tools.recording.bag_filter import filter_bag, is_bag, output_format
+    from superlane_tools.recording.open import filtering_plugin
 
     if out.exists():
         raise RecordingError(f"{out} exists already; not overwriting a recording")
@@ -200,137 +182,6 @@ def filter_recording(
     def resolve(first: int | None) -> tuple[int | None, int | None]:
         return time_range(first, start, end)
 
-    if not is_bag(src):
-        _check_mcap(src)
-        if out.suffix != ".mcap":
-            raise UsageError("an MCAP filters to OUT.mcap")
-        return filter_mcap(src, out, match, resolve)
-    counts, skipped = filter_bag(src, out, match, resolve)
-    kind = "ros1" if src.suffix == ".bag" else "ros2"
-    return FilterResult(out, counts, 0, 0, output_format(kind, out), tuple(skipped))
-
-
-def filter_mcap(
-    src: Path,
-    out: Path,
-    match: Callable[[str], bool],
-    resolve: Callable[[int | None], tuple[int | None, int | None]],
-) -> FilterResult:
-    """Copy an MCAP's matching messages in ``[start, end)`` into a new MCAP, atomically.
-
-    Schemas, channels (with their metadata), metadata records and attachments are kept; payloads
-    are copied byte for byte; chunks use the source's compression.
-
-    Args:
-        src: MCAP file.
-        out: Output MCAP (not existing).
-        match: ``f(topic) -> bool`` of the topics to keep.
-        resolve: Turns the first log time into the ``[start, end)`` range (ns).
-
-    Raises:
-        RecordingError: If ``src`` is not a readable MCAP.
-        UsageError: When nothing matches.
-    """
-    from mcap.exceptions import McapError
-    from mcap.reader import make_reader
-    from mcap.writer import CompressionType, Writer
-
-    work = out.with_name(f".{out.name}.partial")
-    counts: dict[str, int] = {}
-    try:
-        with src.open("rb") as fin:
-            reader = make_reader(fin)
-            header = reader.get_header()
-            summary = reader.get_summary()
-            first = (
-                summary.statistics.message_start_time
-                if summary is not None and summary.statistics is not None
-                else None
-            )
-            if first is None:
-                first = next((m.log_time for _, _, m in reader.iter_messages()), None)
-            start_ns, end_ns = resolve(first)
-            compression = "zstd"
-            if summary is not None and summary.chunk_indexes:
-                compression = summary.chunk_indexes[0].compression or "none"
-            fin.seek(0)
-            reader = make_reader(fin)
-            with work.open("wb") as fout:
-                writer = Writer(fout, compression=CompressionType[compression.upper()])
-                writer.start(profile=header.profile, library=header.library)
-                copier = McapCopier(writer)
-                for schema, channel, message in reader.iter_messages(
-                    starting_at=start_ns, ending_before=end_ns, log_time_order=True
-                ):
-                    if not match(channel.topic):
-                        continue
-                    copier.add(schema, channel, message)
-                    counts[channel.topic] = counts.get(channel.topic, 0) + 1
-                fin.seek(0)
-                meta = list(make_reader(fin).iter_metadata())
-                for record in meta:
-                    writer.add_metadata(record.name, dict(record.metadata))
-                fin.seek(0)
-                attachments = list(make_reader(fin).iter_attachments())
-                for a in attachments:
-                    writer.add_attachment(a.create_time, a.log_time, a.name, a.media_type, a.data)
-                writer.finish()  # type: ignore[no-untyped-call]
-        if not counts:
-            raise UsageError(NOTHING_MATCHES)
-        work.replace(out)
-    except (ValueError, KeyError, McapError):  # damaged: copy what a record-by-record scan reads
-        work.unlink(missing_ok=True)
-        return _filter_scanned(src, out, match, resolve)
-    except OSError as err:
-        raise RecordingError(f"cannot filter {src.name}: {err}") from err
-    finally:
-        if work.exists():
-            work.unlink()
-    return FilterResult(out, counts, len(meta), len(attachments))
-
-
-NOTHING_MATCHES = "no message matches the topics and time range; nothing written"
-
-
-def _check_mcap(src: Path) -> None:
-    """Raise a clear error unless ``src`` starts with the MCAP magic (filter's only other input)."""
-    try:
-        with src.open("rb") as fin:
-            magic = fin.read(8)
-    except OSError as err:
-        raise RecordingError(f"cannot read {src}: {err.strerror or err}") from err
-    if magic != b"\x89MCAP0\r\n":
-        raise RecordingError(
-            f"{src.name}: slt filter reads MCAP files and ROS bags (ROS 1 .bag, ROS 2 bag "
-            "folder or .db3); convert other logs with slt convert first"
-        )
-
-
-def _filter_scanned(
-    src: Path,
-    out: Path,
-    match: Callable[[str], bool],
-    resolve: Callable[[int | None], tuple[int | None, int | None]],
-) -> FilterResult:
-    """Filter a damaged MCAP: copy the matching messages a scan reads, report what was lost.
-
-    Like ``slt recover``, messages come in the order of the file; metadata records and
-    attachments are not copied (the scan reads messages only).
-    """
-    from superlane_tools.recording.recover import write_scanned
-    from superlane_tools.recording.scan import ScannedMessage, scan_mcap
-
-    scan = scan_mcap(src)
-    first = min((m.log_time_ns for m in scan.messages()), default=None)
-    start_ns, end_ns = resolve(first)
-
-    def keep(msg: ScannedMessage) -> bool:
-        t = msg.log_time_ns
-        inside = (start_ns is None or t >= start_ns) and (end_ns is None or t < end_ns)
-        return inside and match(msg.channel.topic)
-
-    counts = write_scanned(scan, out, keep)
-    if not counts:
-        out.unlink()
-        raise UsageError(NOTHING_MATCHES)
-    return FilterResult(out, counts, 0, 0, "mcap", tuple(scan.skipped()))
+    plugin = filtering_plugin(src)
+    assert plugin.filter is not None
+    return plugin.filter(src, out, match, resolve)

@@ -20,22 +20,11 @@ from pathlib import Path
 
 from superlane_tools.recording.base import ClosingRecording
 from superlane_tools.recording.errors import RecordingError
+from superlane_tools.recording.formats import mcap
 from superlane_tools.records import Message, RawMessage, Skipped, TopicInfo
-
-VIDEO_FILE_SUFFIXES = frozenset({".mp4", ".mkv", ".mov", ".avi", ".webm", ".m4v"})
-"""Container suffixes opened as a video recording (raw ``.h264`` streams: ``slt convert``)."""
 
 _converted: dict[tuple[str, int, int], tuple[Path, list[str], list[Skipped]]] = {}
 _folders: list[Path] = []
-
-
-def looks_like_video(head: bytes) -> bool:
-    """Return True when a file's first bytes are an MP4/MOV, Matroska/WebM or AVI header."""
-    return (
-        head[4:8] == b"ftyp"
-        or head.startswith(b"\x1a\x45\xdf\xa3")
-        or (head.startswith(b"RIFF") and head[8:12] == b"AVI ")
-    )
 
 
 def _remove_folders() -> None:
@@ -55,7 +44,7 @@ def _convert_once(path: Path) -> tuple[Path, list[str], list[Skipped]]:
         atexit.register(_remove_folders)
     folder = Path(tempfile.mkdtemp(prefix="slt-video-"))
     _folders.append(folder)
-    out = folder / f"{path.stem}.mcap"
+    out = folder / f"{path.stem}{mcap.SUFFIX}"
     command = f"slt opened the video {path.name} as a recording (slt convert {path.name})"
     try:
         result = convert([ConvertInput(path, "video")], out, ConvertConfig(), command=command)

@@ -15,10 +15,6 @@ from typing import Any, NamedTuple
 
 from superlane_tools.errors import ConfigError, UsageError
 
-RECORDING_SUFFIXES = frozenset({".mcap", ".bag", ".asc", ".blf"})
-"""File suffixes always taken as recordings when found in a folder."""
-CANDUMP_SUFFIXES = frozenset({".log"})
-"""Suffixes taken only when the content looks like a CAN log (candump)."""
 MANIFEST_COLUMNS = ("path", "category", "vehicle", "date", "sequence", "start_s", "end_s")
 """Manifest columns; only ``path`` is required."""
 
@@ -45,38 +41,25 @@ class BatchEntry(NamedTuple):
     end_s: float | None = None
 
 
-def is_ros2_bag(path: Path) -> bool:
-    """Return True when ``path`` is a ROS 2 bag folder (has ``metadata.yaml``)."""
-    return path.is_dir() and (path / "metadata.yaml").is_file()
-
-
-def _looks_like_recording(path: Path) -> bool:
-    suffix = path.suffix.lower()
-    if suffix in RECORDING_SUFFIXES:
-        return True
-    if suffix in CANDUMP_SUFFIXES:
-        from superlane_tools.recording.canlog_source import looks_like_canlog
-
-        return looks_like_canlog(path)
-    return False
-
-
 def find_recordings(folder: Path) -> Iterator[Path]:
     """Yield recordings under ``folder`` recursively, sorted: files and ROS 2 bag folders.
 
-    Hidden entries (``.tmp``, ``.git``) are not searched; a ROS 2 bag folder is yielded whole
-    and not searched further.
+    What is a recording the reader plug-ins say (``recording.open.discovered``): MCAP files,
+    ROS 1 bags, CAN logs, ROS 2 bag folders. Hidden entries (``.tmp``, ``.git``) are not
+    searched; a recording folder is yielded whole and not searched further.
     """
+    from superlane_tools.recording.open import discovered, is_recording_folder
+
     entries = sorted(folder.iterdir())
     for entry in entries:
         if entry.name.startswith("."):
             continue
         if entry.is_dir():
-            if is_ros2_bag(entry):
+            if is_recording_folder(entry):
                 yield entry
             else:
                 yield from find_recordings(entry)
-        elif entry.is_file() and _looks_like_recording(entry):
+        elif entry.is_file() and discovered(entry):
             yield entry
 
 
@@ -86,17 +69,17 @@ def expand_inputs(inputs: Sequence[Path]) -> list[BatchEntry]:
     Raises:
         UsageError: If an input does not exist or a folder holds no recordings.
     """
+    from superlane_tools.recording.open import discovery_hint, is_recording_folder
+
     entries: list[BatchEntry] = []
     for item in inputs:
         path = Path(item)
         if not path.exists():
             raise UsageError(f"{path} does not exist")
-        if path.is_dir() and not is_ros2_bag(path):
+        if path.is_dir() and not is_recording_folder(path):
             found = list(find_recordings(path))
             if not found:
-                raise UsageError(
-                    f"{path}: no recordings found (*.mcap, *.bag, ROS 2 bags, CAN logs)"
-                )
+                raise UsageError(f"{path}: no recordings found ({discovery_hint()})")
             entries.extend(BatchEntry(p) for p in found)
         else:
             entries.append(BatchEntry(path))
