@@ -70,7 +70,7 @@ from superlane_tools.reporting.drive_sections import (
     SectionTables,
     drive_sections,
 )
-from superlane_tools.reporting.gnss_sink import GnssFixes
+from superlane_tools.reporting.gnss_fixes import GnssFixes
 from superlane_tools.reporting.report import Section
 
 
