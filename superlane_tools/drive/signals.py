@@ -162,7 +162,7 @@ def rtk_truth(
     config: RtkConfig,
     speed: Series | None = None,
 ) -> RtkTruth:
-    """Turn collected fixes (``GnssCollector.fixes()``) into the flagged trajectory and frame curvature.
+    """Turn collected fixes (``GnssCollector.fixes``) into the flagged trajectory and curvature.
 
     Fixes that are not RTK fixed (``status < min_status``), have a horizontal variance above
     ``max_horizontal_var_m2`` or an invalid position are flagged and excluded; a drive without
