@@ -200,7 +200,7 @@ class _Loop:
         """Finish the pending frames (``ok``), stop the pool and close the frame sinks.
 
         Returns:
-            Nothing: each frame sink's files are kept in :attr:`files`, in the sinks' order.
+            Every frame sink's files (per sink, in the sinks' order, in :attr:`files`).
         """
         try:
             if ok:
