@@ -27,12 +27,8 @@ GENERIC_SUFFIXES = frozenset({".txt", ".csv"})
 """Suffixes a plug-in reads by content but that name many other files (manifests, lists)."""
 FOLDER_FILES = frozenset({"metadata.yaml"})
 """Files whose presence makes a folder a recording (the ROS 2 bag folder rule)."""
-EXEMPT: dict[str, str] = {
-    # Owned by the "stream" helper (issue 34 item 3): it should call
-    # recording.open.is_recording_folder instead of spelling the folder rule.
-    "scene/recording_frames.py": "metadata.yaml",
-}
-"""Known leftovers outside this change's files, each with the literal it may still hold."""
+EXEMPT: dict[str, str] = {}
+"""Known leftovers (module -> the literal it may still hold); none today."""
 
 
 def _suffixes() -> frozenset[str]:

@@ -16,7 +16,7 @@ from superlane_tools.drive.config import (
     load_config,
     load_manifest,
 )
-from superlane_tools.drive.finalize import DriveTables, drive_tables
+from superlane_tools.drive.finalize import DerivedTables, drive_tables
 from superlane_tools.drive.loop import (
     DrivePass,
     DriveTopics,
@@ -36,10 +36,10 @@ __all__ = [
     "CanConfig",
     "CorridorConfig",
     "Corridors",
+    "DerivedTables",
     "DriveFrames",
     "DriveFramesBuilder",
     "DrivePass",
-    "DriveTables",
     "DriveTopics",
     "ExampleSink",
     "Finished",

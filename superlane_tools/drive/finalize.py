@@ -70,12 +70,12 @@ from superlane_tools.reporting.drive_sections import (
     SectionTables,
     drive_sections,
 )
-from superlane_tools.reporting.gnss_sink import GnssFixes
+from superlane_tools.reporting.gnss_fixes import GnssFixes
 from superlane_tools.reporting.report import Section
 
 
 @dataclass(frozen=True)
-class DriveTables:
+class DerivedTables:
     """The tables derived from a drive after the streaming pass, and what the report states.
 
     Attributes:
@@ -129,7 +129,7 @@ def drive_tables(
     camera: bool = True,
     length_cap_m: float = math.inf,
     camera_facts: CameraFacts | None = None,
-) -> DriveTables:
+) -> DerivedTables:
     """Turn a drive's per-frame record plus its CAN frames and GNSS fixes into its tables.
 
     The steps: the vehicle's signals and the truth at the frames, Mobileye's lanes, the
@@ -178,7 +178,7 @@ def drive_tables(
         length_cap_m=length_cap_m,
         n_capped=capped,
     )
-    return DriveTables(
+    return DerivedTables(
         vehicle.signals,
         me,
         vehicle.rtk.fixes,
@@ -559,7 +559,7 @@ def _add_track(curv: pd.DataFrame, frames: DriveFrames, config: ReprocessConfig)
 
 
 def report_sections(
-    config: ReprocessConfig, facts: ReportFacts, result: DriveTables, images: Sequence[str]
+    config: ReprocessConfig, facts: ReportFacts, result: DerivedTables, images: Sequence[str]
 ) -> list[Section]:
     """Return the report's sections (:func:`~superlane_tools.reporting.drive_sections`)."""
     tables_in = SectionTables(

@@ -1,12 +1,13 @@
 """The frame loop: one pass over a recording, every camera frame through the stages into sinks.
 
-:func:`run_frames` reads the recording once, in log-time order. Each image message goes to a
-worker thread (:meth:`FrameStages.prepare`: decode, segmentation, points, corridor network,
-Hough), then in frame order through :meth:`FrameStages.finish` (the warm-started fit and the
-corridor mean); the finished frame goes to the drive's typed record and to every
-:class:`FrameSink` (the per-frame tables, annotations, overlay video, example plots). CAN frames,
-IMU samples and GNSS fixes are collected on the way. A new per-frame output is a new sink, never
-a copy of this loop.
+:func:`run_frames` reads the recording once, in log-time order, through the one streaming pass
+(:func:`~superlane_tools.reporting.message_pass.stream_messages`, which ``slt extract`` uses
+too). The camera topic is routed to the stage pipeline: each image message goes to a worker
+thread (:meth:`FrameStages.prepare`: decode, segmentation, points, corridor network, Hough), then
+in frame order through :meth:`FrameStages.finish` (the warm-started fit and the corridor mean);
+the finished frame goes to the drive's typed record and to every :class:`FrameSink` (the
+per-frame tables, annotations, overlay video, example plots). The CAN, IMU and GNSS topics are
+routed to their collectors. A new per-frame output is a new sink, never a copy of this loop.
 """
 
 from __future__ import annotations
@@ -23,8 +24,10 @@ from superlane_tools.drive.config import TopicsConfig
 from superlane_tools.drive.record import DriveFrames, DriveFramesBuilder
 from superlane_tools.drive.signals import ImuSamples
 from superlane_tools.drive.stages import Finished, FrameStages, Prepared
-from superlane_tools.recording import Streams, decode_video, select_one_each, topics_of_type
-from superlane_tools.reporting.gnss_sink import GnssFixes, GnssSink
+from superlane_tools.recording import Streams, read_with_video, select_one_each, topics_of_type
+from superlane_tools.records import Message
+from superlane_tools.reporting.gnss_fixes import GnssCollector, GnssFixes
+from superlane_tools.reporting.message_pass import MessageTaker, stream_messages
 
 CAN_TYPE, IMU_TYPE = "can_msgs/msg/Frame", "sensor_msgs/msg/Imu"
 """Every topic of these types is read unless ``topics.can`` / ``topics.imu`` names one."""
@@ -38,8 +41,8 @@ class FrameSink(Protocol):
 
     ``run_frames`` calls :meth:`add` once per frame and :meth:`close` once at the end: with
     ``ok=True`` after the last frame, with ``ok=False`` when the pass failed (discard partial
-    output). ``close`` returns the files written (none when discarded). Not to be confused with
-    ``reporting.frame_sink.FrameSink``, which writes ``slt extract``'s image files.
+    output). ``close`` returns the files written (none when discarded). The messages
+    themselves go to ``reporting.message_pass.MessageSink`` s (``slt extract``'s tables).
     """
 
     def add(self, done: Finished) -> None:
@@ -135,23 +138,22 @@ def run_frames(
         The drive's record, its signals, the sinks' files, the failed frames and the time span.
     """
     loop = _Loop(topics, stages, sinks, workers, progress)
-    try:
-        if stages is None or not topics.frames:
-            loop.collect(recording.messages(topics=topics.wanted()))
-        else:
-            loop.total = frame_total(recording, topics.frames)
-            with ThreadPoolExecutor(workers, "slt-reprocess") as pool:
-                loop.stream(decode_video(recording.messages(topics=topics.wanted())), pool)
-    except BaseException:
-        for sink in sinks:
-            sink.close(False)
-        raise
-    files = tuple(tuple(sink.close(True)) for sink in sinks)
-    return loop.result(files)
+    camera = stages is not None and bool(topics.frames)
+    if camera:  # video decoded in the pass; signals only: messages as read
+        loop.total = frame_total(recording, topics.frames)
+        messages = read_with_video(recording, topics.wanted())
+    else:
+        messages = recording.messages(topics=topics.wanted())
+    read = stream_messages(messages, loop.route(camera), [loop])
+    return loop.result(None if camera else read.span_ns)
 
 
 class _Loop:
-    """The state of one pass: pending frames, the record, the collected signals."""
+    """The stage pipeline of one pass (the camera topic's taker) and the collected signals.
+
+    Frames go to the pool as they are read, a bounded backlog is finished in frame order;
+    :meth:`close` finishes the rest, then closes the frame sinks.
+    """
 
     def __init__(
         self,
@@ -165,45 +167,58 @@ class _Loop:
         self.workers, self.progress = workers, progress
         self.total: int | None = None
         self.record = DriveFramesBuilder(stages.max_slope if stages is not None else 0.0)
-        self.can, self.imu, self.gnss = CanFrames(), ImuSamples(), GnssSink(None, None, None)
+        self.can, self.imu, self.gnss = CanFrames(), ImuSamples(), GnssCollector()
         self.failed: list[str] = []
         self.done = 0
-        self.first: int | None = None
-        self.last: int | None = None
+        self.index = 0
+        self.pending: deque[Future[Prepared]] = deque()
+        self.pool: ThreadPoolExecutor | None = None
+        self.files: tuple[tuple[Path, ...], ...] = ()
 
-    def collect(self, messages: Any) -> None:
-        """Collect the signal messages (no camera frames) and their time span."""
-        for msg in messages:
-            t = msg.log_time_ns
-            self.first = t if self.first is None else min(self.first, t)
-            self.last = t if self.last is None else max(self.last, t)
-            self.signal(msg)
+    def route(self, camera: bool) -> dict[str, MessageTaker]:
+        """Return topic -> taker: the camera to the stages (with ``camera``), signals collected."""
+        route: dict[str, MessageTaker] = {self.topics.streams.gnss: self.gnss}
+        route.update(dict.fromkeys(self.topics.imu, self.imu))
+        route.update(dict.fromkeys(self.topics.can, self.can))  # a topic in two: CAN first
+        route.pop("", None)
+        if camera:
+            route[self.topics.frames] = self
+        return route
 
-    def signal(self, msg: Any) -> None:
-        """Collect one CAN, IMU or GNSS message."""
-        if msg.topic in self.topics.can:
-            self.can.add(msg)
-        elif msg.topic in self.topics.imu:
-            self.imu.add(msg)
-        elif msg.topic == self.topics.streams.gnss:
-            self.gnss.add(msg)
-
-    def stream(self, messages: Any, pool: ThreadPoolExecutor) -> None:
-        """Send frames through the stages (a bounded backlog on the pool); collect the rest."""
+    def add(self, msg: Message) -> None:
+        """Send one frame through the stages (a bounded backlog on the pool)."""
         stages = self.stages
         assert stages is not None
-        pending: deque[Future[Prepared]] = deque()
-        index = 0
-        for msg in messages:
-            if msg.topic == self.topics.frames:
-                pending.append(pool.submit(stages.prepare, index, msg))
-                index += 1
-                for prep in stages.due(pending, self.workers):
-                    self.finish(prep)
-            else:
-                self.signal(msg)
-        while pending:
-            self.finish(pending.popleft().result())
+        if self.pool is None:
+            self.pool = ThreadPoolExecutor(self.workers, "slt-reprocess")
+        self.pending.append(self.pool.submit(stages.prepare, self.index, msg))
+        self.index += 1
+        for prep in stages.due(self.pending, self.workers):
+            self.finish(prep)
+
+    def close(self, ok: bool) -> list[Path]:
+        """Finish the pending frames (``ok``), stop the pool and close the frame sinks.
+
+        Returns:
+            Every frame sink's files (per sink, in the sinks' order, in :attr:`files`).
+        """
+        try:
+            if ok:
+                while self.pending:
+                    self.finish(self.pending.popleft().result())
+        except BaseException:
+            ok = False
+            raise
+        finally:
+            if self.pool is not None:
+                self.pool.shutdown(wait=True)
+            if not ok:
+                for sink in self.sinks:
+                    sink.close(False)
+        if not ok:
+            return []
+        self.files = tuple(tuple(sink.close(True)) for sink in self.sinks)
+        return [path for files in self.files for path in files]
 
     def finish(self, prep: Prepared) -> None:
         """Run the sequential stages on one frame and hand it to the record and the sinks."""
@@ -218,9 +233,8 @@ class _Loop:
         if self.progress is not None:
             self.progress(self.done, self.total)
 
-    def result(self, files: tuple[tuple[Path, ...], ...]) -> DrivePass:
-        """Return what the pass gathered, with the sinks' files."""
-        span = None if self.first is None or self.last is None else (self.first, self.last)
+    def result(self, span: tuple[int, int] | None) -> DrivePass:
+        """Return what the pass gathered, with the sinks' files and the messages' span."""
         frames = self.record.frames()
         fixes = self.gnss.fixes()
-        return DrivePass(frames, self.can, self.imu, fixes, files, tuple(self.failed), span)
+        return DrivePass(frames, self.can, self.imu, fixes, self.files, tuple(self.failed), span)

@@ -16,7 +16,8 @@ same frames). Candidates run in order (``auto_candidates``: fastest model first,
 backend last); one whose lanes are plausible and available on every sample frame ends the check
 early (a slower candidate could at best tie on what the drive needs, and a tie keeps the faster).
 
-Cost: the sample is read by seeking to each run (video from the keyframe before it), and each
+Cost: the sample is read from the drive's open recording through the one frame reader
+(``recording.camera_frames``), seeking to each run (video from the keyframe before it); each
 frame is decoded once for every candidate.
 """
 
@@ -35,6 +36,7 @@ from superlane_tools.camera.model import CameraModel
 from superlane_tools.drive.config import ReprocessConfig
 from superlane_tools.errors import SltError
 from superlane_tools.lanes.plausibility import Plausibility, Reach, plausibility
+from superlane_tools.recording.base import Recording
 from superlane_tools.records import Message
 
 SAMPLE_CLIPS = 6
@@ -317,16 +319,19 @@ def _since(t0: float) -> float:
 
 
 def drive_self_check(
-    path: Path, topic: str, config: ReprocessConfig, camera: CameraModel
+    recording: Recording, topic: str, config: ReprocessConfig, camera: CameraModel
 ) -> SelfCheck | str:
     """Run the self-check on a drive when its backend is ``auto``; else say why it is skipped.
 
-    The sample is read through its own handle on the recording, so that what the drive's one
-    pass skips (corrupt messages) is counted once: the frames' log times first (undecoded), then
-    each run by seeking to it (video from the keyframe before it); each frame is decoded once.
+    The sample is read from the open recording before the drive's one pass: the frames' log
+    times first (undecoded), then each run through the one frame reader
+    (:func:`~superlane_tools.recording.camera_frames.camera_frames`: video from the keyframe
+    before it); each frame is decoded once. What the sample's reading skips (corrupt messages)
+    is not counted: a recording reports what its latest pass skipped, and the drive's pass
+    reads every sampled frame again.
 
     Args:
-        path: The recording.
+        recording: The open recording.
         topic: Its camera topic.
         config: The run's configuration.
         camera: The drive's camera.
@@ -334,7 +339,6 @@ def drive_self_check(
     Returns:
         The self-check, or the line saying it was skipped (an explicit backend or model).
     """
-    from superlane_tools.recording.open import open_recording
     from superlane_tools.scene.backends import auto_candidates
 
     seg = config.segmentation
@@ -342,9 +346,8 @@ def drive_self_check(
         chosen = f"--model {seg.model}" if seg.model else f"--backend {seg.backend}"
         return f"segmentation self-check skipped: backend chosen explicitly ({chosen})"
     c0 = time.process_time()
-    with open_recording(path) as recording:
-        times = [raw.log_time_ns for raw in recording.raw_messages(topics=[topic])]
-        runs = _read_sample(recording, topic, times, seg.process_width)
+    times = [raw.log_time_ns for raw in recording.raw_messages(topics=[topic])]
+    runs = _read_sample(recording, topic, times, seg.process_width)
     if not runs:
         return "segmentation self-check skipped: no camera frames to sample"
     check = self_check(config, camera, runs, auto_candidates(), _card_pick)
@@ -352,33 +355,20 @@ def drive_self_check(
 
 
 def _read_sample(
-    recording: Any, topic: str, times: Sequence[int], process_width: int
+    recording: Recording, topic: str, times: Sequence[int], process_width: int
 ) -> list[list[tuple[int, Any]]]:
-    """Seek to each sampled run and decode its frames once: ``(index, (size, image))``."""
-    from superlane_tools.recording.images import decode_frame, decode_reduced
-    from superlane_tools.recording.video import message_codec, read_with_video
+    """Read each sampled run and decode its frames once: ``(index, (size, image))``."""
+    from superlane_tools.recording.camera_frames import camera_frames
 
-    first = (
-        next(iter(recording.messages(topics=[topic], start_ns=times[0])), None) if times else None
-    )
-    video = first is not None and message_codec(first) is not None
     runs = []
     for start in sample_starts(len(times)):
         stop = min(start + CLIP_FRAMES, len(times))
-        window = {"start_ns": times[start], "stop_ns": times[stop - 1] + 1}
-        if video:  # from the keyframe before the run
-            messages = read_with_video(recording, [topic], **window)
-        else:  # images: each frame stands alone
-            messages = recording.messages(topics=[topic], **window)
-        run = []
-        for index, msg in zip(range(start, stop), messages, strict=False):
-            reduced = decode_reduced(msg, process_width)
-            try:
-                image = reduced[0] if reduced is not None else decode_frame(msg)
-            except ValueError:
-                continue  # a corrupt frame: the pass counts it
-            size = reduced[1] if reduced is not None else (image.shape[1], image.shape[0])
-            run.append((index, (size, image)))
+        frames = camera_frames(recording, topic, times[start:stop], process_width)
+        run = [
+            (index, (frame.size, frame.image))
+            for index, frame in zip(range(start, stop), frames, strict=False)
+            if frame.image is not None  # a corrupt frame: the pass counts it
+        ]
         if run:
             runs.append(run)
     return runs

@@ -25,7 +25,7 @@ from superlane_tools.geo.curvature import CurvatureParams, trajectory_curvature
 from superlane_tools.geo.dynamics import DynamicsCurvature, DynamicsParams
 from superlane_tools.recording.align import align
 from superlane_tools.records import Message
-from superlane_tools.reporting.gnss_sink import GnssFixes
+from superlane_tools.reporting.gnss_fixes import GnssFixes
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -162,7 +162,7 @@ def rtk_truth(
     config: RtkConfig,
     speed: Series | None = None,
 ) -> RtkTruth:
-    """Turn collected fixes (``GnssSink.fixes()``) into the flagged trajectory and frame curvature.
+    """Turn collected fixes (``GnssCollector.fixes``) into the flagged trajectory and curvature.
 
     Fixes that are not RTK fixed (``status < min_status``), have a horizontal variance above
     ``max_horizontal_var_m2`` or an invalid position are flagged and excluded; a drive without

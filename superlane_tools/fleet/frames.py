@@ -1,7 +1,7 @@
 """Camera frames of a recording, for ``slt mine``, read through the video-aware reader.
 
-Frames come from :func:`~superlane_tools.recording.read_with_video` (the reader ``extract``
-uses: JPEG, PNG, raw and H.264 / H.265 / AV1 / VP9 ``CompressedVideo`` topics alike), so a
+Frames come from :func:`~superlane_tools.recording.camera_frames.camera_frames`, the one frame
+reader (JPEG, PNG, raw and H.264 / H.265 / AV1 / VP9 ``CompressedVideo`` topics alike), so a
 video camera yields the same picks as a JPEG one. :func:`frame_jpegs` gives the frames at chosen
 log times as JPEGs at their recorded (source) size, the mined label set;
 :func:`gray_frames` every frame reduced to grayscale, for the ``low_light`` criterion.
@@ -17,10 +17,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from superlane_tools.fleet.errors import FleetError
-from superlane_tools.recording import open_recording, read_with_video
+from superlane_tools.recording import open_recording
 from superlane_tools.recording.base import field_value
+from superlane_tools.recording.camera_frames import camera_frames
 from superlane_tools.recording.errors import RecordingError
-from superlane_tools.recording.images import decode_frame, sniff_format
+from superlane_tools.recording.images import sniff_format
 from superlane_tools.recording.streams import RAW_IMAGE_TYPES
 from superlane_tools.recording.video import DECODED_MSGTYPE
 from superlane_tools.records import Message
@@ -69,20 +70,18 @@ def frame_jpegs(recording: Path, topic: str, times_ns: Collection[int]) -> dict[
         return out
     try:
         with open_recording(recording) as rec:
-            for msg in read_with_video(rec, [topic], min(wanted), max(wanted) + 1):
-                if msg.topic != topic or msg.log_time_ns not in wanted:
+            for frame in camera_frames(rec, topic, wanted):
+                if frame.image is None:
                     continue
-                try:
-                    image = decode_frame(msg)
-                except ValueError:
-                    continue
-                data = _recorded_jpeg(msg)
+                data = _recorded_jpeg(frame.message)
                 if data is None:
-                    ok, encoded = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, 95])
+                    params = [cv2.IMWRITE_JPEG_QUALITY, 95]
+                    ok, encoded = cv2.imencode(".jpg", frame.image, params)
                     if not ok:
                         continue
                     data = encoded.tobytes()
-                out[msg.log_time_ns] = FrameJpeg(data, int(image.shape[1]), int(image.shape[0]))
+                width, height = frame.image.shape[1], frame.image.shape[0]
+                out[frame.log_time_ns] = FrameJpeg(data, int(width), int(height))
     except RecordingError as err:
         raise FleetError(f"{recording}: {err}") from err
     return out
@@ -106,22 +105,15 @@ def gray_frames(
     """
     import cv2  # late: heavy import
 
-    from superlane_tools.recording.images import decode_reduced
-
     try:
         with open_recording(recording) as rec:
-            for msg in read_with_video(rec, [topic]):
-                if msg.topic != topic:
+            for frame in camera_frames(rec, topic, width=width):
+                if frame.image is None:
                     continue
-                try:
-                    reduced = decode_reduced(msg, width)
-                    bgr = reduced[0] if reduced is not None else decode_frame(msg)
-                except ValueError:
-                    continue
-                gray = cv2.cvtColor(bgr, cv2.COLOR_BGR2GRAY)
+                gray = cv2.cvtColor(frame.image, cv2.COLOR_BGR2GRAY)
                 if gray.shape[1] > width:
                     height = max(1, round(gray.shape[0] * width / gray.shape[1]))
                     gray = cv2.resize(gray, (width, height), interpolation=cv2.INTER_AREA)
-                yield msg.log_time_ns, np.asarray(gray, np.uint8)
+                yield frame.log_time_ns, np.asarray(gray, np.uint8)
     except RecordingError as err:
         raise FleetError(f"{recording}: {err}") from err

@@ -11,20 +11,16 @@ from collections.abc import Iterator
 from pathlib import Path
 
 from superlane_tools.errors import UsageError
-from superlane_tools.recording import (
-    FRAME_TYPES,
-    check_topic_kinds,
-    decode_frame,
-    decode_video,
-    open_recording,
-)
+from superlane_tools.recording import FRAME_TYPES, check_topic_kinds, open_recording
+from superlane_tools.recording.camera_frames import camera_frames
+from superlane_tools.recording.open import is_recording_folder
 from superlane_tools.records import Skipped
 from superlane_tools.scene.image_folder import InputFrame, folder_frames, list_images
 
 
 def is_image_folder(path: Path) -> bool:
-    """Return True for a plain folder of images (a ROS 2 bag folder has ``metadata.yaml``)."""
-    return path.is_dir() and not (path / "metadata.yaml").is_file()
+    """Return True for a plain folder of images (not a folder a reader plug-in reads)."""
+    return path.is_dir() and not is_recording_folder(path)
 
 
 class RecordingFrames:
@@ -59,15 +55,13 @@ class RecordingFrames:
 
     def __iter__(self) -> Iterator[InputFrame]:
         with open_recording(self.path) as rec:
-            for index, msg in enumerate(decode_video(rec.messages([self.topic]))):
+            for index, frame in enumerate(camera_frames(rec, self.topic)):
                 name = f"{self._folder}/{index:06d}"
-                try:
-                    image = decode_frame(msg)
-                except ValueError as err:
-                    problem = f"{self.topic} frame {index}: {err}"
-                    yield InputFrame(name, None, problem, msg.log_time_ns)
+                if frame.image is None:
+                    problem = f"{self.topic} frame {index}: {frame.error}"
+                    yield InputFrame(name, None, problem, frame.log_time_ns)
                     continue
-                yield InputFrame(name, image, "", msg.log_time_ns)
+                yield InputFrame(name, frame.image, "", frame.log_time_ns)
             self.skipped.extend(rec.skipped)
 
 

@@ -15,7 +15,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from superlane_tools.reporting.gnss_sink import GnssFixes
+from superlane_tools.reporting.gnss_fixes import GnssFixes
 from superlane_tools.simulation.errors import ScenarioError
 from superlane_tools.simulation.groundtruth import LaneTruth
 from superlane_tools.simulation.world import World

@@ -15,7 +15,7 @@ from superlane_tools.commands.reprocess import ReprocessConfig, load_config
 from superlane_tools.drive.config import RtkConfig
 from superlane_tools.drive.signals import rtk_truth
 from superlane_tools.errors import ConfigError
-from superlane_tools.reporting.gnss_sink import GnssFixes
+from superlane_tools.reporting.gnss_fixes import GnssFixes
 
 
 def test_toml_and_yaml_load_the_same(tmp_path: Path) -> None:

@@ -156,3 +156,30 @@ def test_a_real_tusimple_clip_gets_a_plausible_backend(realdata: Path, tmp_path:
     widths = [t["scores"]["width_m"] for t in check["trials"] if t["scores"]]
     assert np.nanmax(widths) < 4.5
     assert "most plausible lanes" in (run / "report.md").read_text(encoding="utf-8")
+
+
+def test_the_self_check_reads_the_open_recording_and_counts_no_loss_twice(
+    tmp_path: Path,
+) -> None:
+    from superlane_tools.drive.config import ReprocessConfig
+    from superlane_tools.drive.loop import drive_topics
+    from superlane_tools.drive.selfcheck import SelfCheck, drive_self_check
+    from superlane_tools.recording import open_recording
+    from superlane_tools.recording.calibration import resolve_camera
+
+    cut = tmp_path / "cut.mcap"  # the first chunks of the 240 frames: a truncated file
+    cut.write_bytes((REPO / "fixtures" / "sample_drive.mcap").read_bytes()[:2_000_000])
+    cfg = ReprocessConfig()
+    with open_recording(cut) as fresh:
+        topics = drive_topics(fresh, cfg.topics)
+        n_frames = sum(1 for _ in fresh.messages(topics=[topics.frames]))
+        alone = fresh.skipped
+    with open_recording(cut) as rec:
+        camera, _ = resolve_camera(rec, topics.streams, cfg.camera)
+        check = drive_self_check(rec, topics.frames, cfg, camera)
+        assert sum(1 for _ in rec.messages(topics=[topics.frames])) == n_frames
+        after_check = rec.skipped
+    assert isinstance(check, SelfCheck)
+    assert check.n_frames == 12
+    assert any("truncated" in s.what for s in alone)
+    assert after_check == alone  # the sample's reading is not counted on top of the pass

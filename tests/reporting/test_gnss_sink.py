@@ -14,7 +14,7 @@ from superlane_tools.recording.messages import navsatfix
 from superlane_tools.recording.writers import open_writer
 from superlane_tools.records import Message
 from superlane_tools.reporting import Provenance
-from superlane_tools.reporting.gnss_sink import RTK_SCHEMA, GnssSink
+from superlane_tools.reporting.gnss_sink import RTK_SCHEMA, RtkSink
 
 T0 = 1_700_000_000_000_000_000
 N = 20_000  # about 17 minutes at 20 Hz
@@ -45,7 +45,7 @@ def _messages(path: Path) -> list[Message]:
 def test_sink_holds_tens_of_bytes_per_fix(tmp_path: Path, varying: bool, bound: int) -> None:
     messages = _messages(_write_fixes(tmp_path / "fixes.mcap", varying))
     assert len(messages) == N
-    sink = GnssSink(tmp_path / "rtk.parquet", None, Provenance(command="test"))
+    sink = RtkSink(tmp_path / "rtk.parquet", None, Provenance(command="test"))
     tracemalloc.start()  # numpy reports its buffers to tracemalloc
     try:
         before = tracemalloc.get_traced_memory()[0]

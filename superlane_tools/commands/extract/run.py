@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import asdict
 from pathlib import Path
-from typing import Any
+from typing import NamedTuple
 
 from superlane_tools.can import LoadedDbc, load_dbcs
 from superlane_tools.commands.errors import PipelineError
@@ -21,11 +21,13 @@ from superlane_tools.recording import (
 )
 from superlane_tools.records import Skipped
 from superlane_tools.reporting.atomic import remove_stale_temps
+from superlane_tools.reporting.camera_info_sink import CameraInfoSink
 from superlane_tools.reporting.can_sink import CanSink
-from superlane_tools.reporting.frame_sink import FrameSink
-from superlane_tools.reporting.gnss_sink import GnssSink
+from superlane_tools.reporting.gnss_sink import RtkSink
+from superlane_tools.reporting.image_file_sink import ImageFileSink
+from superlane_tools.reporting.message_pass import MessageSink, stream_messages
 from superlane_tools.reporting.provenance import HashedProvenance, PendingIdentities
-from superlane_tools.reporting.run_layout import CAMERA_INFO_FILE, FRAMES_FILE, ExtractLayout
+from superlane_tools.reporting.run_layout import FRAMES_FILE, ExtractLayout
 
 
 def extract(
@@ -89,60 +91,32 @@ def extract(
         )
         whole = start_ns is None and stop_ns is None
         total = message_total(rec.topics(), set(kind_of)) if whole else None
-        layout = ExtractLayout(out)
-        frame_sink = (
-            FrameSink(
-                out,
-                config.frame_format,
-                config.every,
-                provenance,
-                skips,
-                index_name=FRAMES_FILE,
-                images_name="frames",
-                camera_info_name=CAMERA_INFO_FILE,
-            )
-            if selected["frames"] or selected["camera_info"]
-            else None
-        )
-        can_sink = (
-            CanSink(layout.can_raw, layout.can_signals, dbcs, provenance)
-            if selected["can"]
-            else None
-        )
-        gnss_sink = GnssSink(layout.rtk, config.origin, provenance) if selected["gnss"] else None
-        sinks: list[Any] = [s for s in (frame_sink, can_sink, gnss_sink) if s is not None]
-        done = 0
-        ok = False
+        opened = _sinks(out, config, selected, dbcs, provenance, skips)
+        by_kind = opened.by_kind()
+        sinks = [s for s in by_kind.values() if s is not None]
+        route = {t: sink for t, kind in kind_of.items() if (sink := by_kind[kind]) is not None}
+        messages = read_with_video(rec, list(kind_of), start_ns, stop_ns)
+
+        def tick(done: int) -> None:
+            if progress is not None:
+                progress(done, total)
+
         try:
-            for msg in read_with_video(rec, list(kind_of), start_ns, stop_ns):
-                kind = kind_of[msg.topic]
-                if kind == "can" and can_sink is not None:
-                    can_sink.add(msg)
-                elif kind == "frames" and frame_sink is not None:
-                    frame_sink.add(msg)
-                elif kind == "gnss" and gnss_sink is not None:
-                    gnss_sink.add(msg)
-                elif kind == "camera_info" and frame_sink is not None:
-                    frame_sink.add_camera_info(msg)
-                done += 1
-                if progress is not None and done % 256 == 0:
-                    progress(done, total)
-            ok = True
-        finally:
-            if not ok:
-                provenance.cancel()
-            outputs: list[Path] = []
-            for sink in sinks:
-                outputs.extend(sink.close(ok))
+            read = stream_messages(messages, route, sinks, tick)
+        except BaseException:
+            provenance.cancel()
+            raise
+        outputs = [path for files in read.files for path in files]
         if progress is not None:
-            progress(done, done)
+            progress(read.messages, read.messages)
         read_skips = list(rec.skipped)
+    image_sink, can_sink, gnss_sink = opened.frames, opened.can, opened.gnss
     coverage = can_sink.coverage() if can_sink is not None and dbcs else None
     if coverage is not None and coverage.none_matched:
         detail = f"no CAN id matched by any DBC: 0 of {coverage.seen} ids (wrong DBC?)"
         read_skips.append(Skipped("CAN signals", detail, coverage.seen))
     counts = {
-        "frames": frame_sink.kept if frame_sink else 0,
+        "frames": image_sink.kept if image_sink else 0,
         "can_frames": can_sink.frames if can_sink else 0,
         "can_signals": can_sink.signal_rows if can_sink else 0,
         "gnss_fixes": len(gnss_sink) if gnss_sink else 0,
@@ -155,4 +129,52 @@ def extract(
         skipped=(*read_skips, *skips.items()),
         origin=gnss_sink.used_origin if gnss_sink else None,
         can_coverage=coverage,
+    )
+
+
+class _Sinks(NamedTuple):
+    """The sink of each stream kind (None: the kind is not extracted)."""
+
+    frames: ImageFileSink | None
+    camera_info: CameraInfoSink | None
+    can: CanSink | None
+    gnss: RtkSink | None
+
+    def by_kind(self) -> dict[str, MessageSink | None]:
+        """Return stream kind -> its sink, in the order the sinks are closed."""
+        kinds = ("frames", "camera_info", "can", "gnss")
+        sinks: tuple[MessageSink | None, ...] = (self.frames, self.camera_info, self.can, self.gnss)
+        return dict(zip(kinds, sinks, strict=True))
+
+
+def _sinks(
+    out: Path,
+    config: ExtractConfig,
+    selected: Mapping[str, tuple[str, ...]],
+    dbcs: dict[str, LoadedDbc],
+    provenance: HashedProvenance,
+    skips: SkipLog,
+) -> _Sinks:
+    """Open the sink of each selected stream kind, writing under ``out``."""
+    layout = ExtractLayout(out)
+    frames = selected["frames"] or selected["camera_info"]  # frames.parquet, empty or not
+    return _Sinks(
+        frames=ImageFileSink(
+            out,
+            config.frame_format,
+            config.every,
+            provenance,
+            skips,
+            index_name=FRAMES_FILE,
+            images_name="frames",
+        )
+        if frames
+        else None,
+        camera_info=CameraInfoSink(layout.camera_info, provenance)
+        if selected["camera_info"]
+        else None,
+        can=CanSink(layout.can_raw, layout.can_signals, dbcs, provenance)
+        if selected["can"]
+        else None,
+        gnss=RtkSink(layout.rtk, config.origin, provenance) if selected["gnss"] else None,
     )

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, NamedTuple
 
 from superlane_tools.drive.config import ReprocessConfig
 from superlane_tools.drive.examples import example_indices
-from superlane_tools.drive.finalize import DriveTables, report_sections
+from superlane_tools.drive.finalize import DerivedTables, report_sections
 from superlane_tools.drive.loop import DrivePass, DriveTopics, FrameSink
 from superlane_tools.drive.run_facts import run_header
 from superlane_tools.drive.selfcheck import SelfCheck
@@ -126,7 +126,7 @@ def open_sinks(
         raise
 
 
-def table_files(out: Path, result: DriveTables) -> dict[Path, pa.Table]:
+def table_files(out: Path, result: DerivedTables) -> dict[Path, pa.Table]:
     """Return output path -> table of the derived tables (named by :class:`RunLayout`).
 
     Each table is checked against its schema (:data:`~.run_layout.DERIVED_SCHEMAS`).
@@ -143,7 +143,7 @@ def table_files(out: Path, result: DriveTables) -> dict[Path, pa.Table]:
 
 def write_outputs(
     out: Path,
-    result: DriveTables,
+    result: DerivedTables,
     provenance: Provenance,
     config: ReprocessConfig,
     examples: Sequence[ExampleFrame],
@@ -179,7 +179,7 @@ def write_outputs(
     return written
 
 
-def add_signal_channels(out: Path, result: DriveTables) -> dict[str, int] | None:
+def add_signal_channels(out: Path, result: DerivedTables) -> dict[str, int] | None:
     """Add the decoded CAN signals and truth curves to the run's annotations (None: no file)."""
     from superlane_tools.reporting.annotations import add_signals
 

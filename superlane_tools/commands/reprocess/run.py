@@ -89,7 +89,7 @@ def reprocess(
         camera, camera_source = resolve_camera(rec, topics.streams, cfg.camera)
         total = frame_total(rec, topics.frames)
         say(self_check_label(cfg, total))
-        check = drive_self_check(src, topics.frames, cfg, camera)
+        check = drive_self_check(rec, topics.frames, cfg, camera)
         stages = FrameStages(check.config(cfg) if isinstance(check, SelfCheck) else cfg, camera)
         resolved = (topics, camera, stages)
         provenance = run_provenance(src, dbc_paths, cfg, resolved, segments, command, check)

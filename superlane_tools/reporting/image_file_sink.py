@@ -10,8 +10,6 @@ from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
-import pyarrow as pa
-
 from superlane_tools.recording.base import SkipLog, field_value
 from superlane_tools.recording.images import (
     header_size,
@@ -25,7 +23,7 @@ from superlane_tools.records import Message
 from superlane_tools.reporting import OutputError, ParquetStreamWriter
 from superlane_tools.reporting.atomic import temp_prefix
 from superlane_tools.reporting.provenance import ProvenanceSource, resolve_provenance
-from superlane_tools.reporting.run_layout import CAMERA_INFO_SCHEMA, EXTRACT_FRAMES_SCHEMA
+from superlane_tools.reporting.run_layout import EXTRACT_FRAMES_SCHEMA
 
 RAW_TYPES = {"sensor_msgs/msg/Image", "foxglove.RawImage"}
 _EXT = {"jpg": ("jpeg", ".jpg"), "png": ("png", ".png")}
@@ -37,7 +35,7 @@ MAX_PENDING_WRITES = 32
 _OPEN_FLAGS = os.O_WRONLY | os.O_CREAT | os.O_TRUNC | getattr(os, "O_CLOEXEC", 0)
 
 
-class FrameSink:
+class ImageFileSink:
     """Writes frames of image topics as files and indexes them; memory stays flat.
 
     Each topic's files are written into a hidden staging folder beside their final folder
@@ -50,7 +48,6 @@ class FrameSink:
         out_dir: Output folder.
         index_name: File name of the frame index (``frames.parquet`` for ``slt extract``).
         images_name: Folder of the image files (``<images_name>/<topic>/``).
-        camera_info_name: File name of the camera calibration table.
         frame_format: ``jpg``, ``png`` or ``none`` (index only, no image files).
         every: Keep every Nth frame of each topic (N >= 1).
         provenance: Provenance for ``frames.parquet`` (or a function returning it, called when
@@ -68,12 +65,10 @@ class FrameSink:
         *,
         index_name: str,
         images_name: str,
-        camera_info_name: str,
     ) -> None:
         self.out_dir = out_dir
         self.index_path = out_dir / index_name
         self.images_dir = out_dir / images_name
-        self.camera_info_path = out_dir / camera_info_name
         self.frame_format = frame_format
         self.every = every
         self.skips = skips
@@ -82,8 +77,6 @@ class FrameSink:
         self.failed = 0
         self._rows: dict[str, list[Any]] = {name: [] for name in EXTRACT_FRAMES_SCHEMA.names}
         self._writer: ParquetStreamWriter | None = None
-        self._info_rows: list[dict[str, Any]] = []
-        self._last_info: dict[str, tuple[Any, ...]] = {}
         self._provenance = provenance
         self._folders: dict[str, tuple[str, str]] = {}  # topic -> (relative folder, staging)
         self._pool: ThreadPoolExecutor | None = None
@@ -177,34 +170,6 @@ class FrameSink:
             self._pending.popleft().result()  # re-raises OutputError from the thread
         self._pending.append(self._pool.submit(_write_file, path, payload))
 
-    def add_camera_info(self, msg: Message) -> None:
-        """Keep a camera calibration (one row per topic whenever it changes)."""
-        data = msg.data
-        d, k = _floats(field_value(data, "d", "D")), _floats(field_value(data, "k", "K"))
-        r, p = _floats(field_value(data, "r", "R")), _floats(field_value(data, "p", "P"))
-        width, height = int(field_value(data, "width") or 0), int(field_value(data, "height") or 0)
-        model = str(field_value(data, "distortion_model") or "")
-        key = (width, height, model, tuple(d), tuple(k), tuple(r), tuple(p))
-        if self._last_info.get(msg.topic) == key:
-            return
-        self._last_info[msg.topic] = key
-        header = field_value(data, "header")
-        frame_id = str(field_value(header, "frame_id") or field_value(data, "frame_id") or "")
-        self._info_rows.append(
-            {
-                "topic": msg.topic,
-                "log_time_ns": msg.log_time_ns,
-                "frame_id": frame_id,
-                "width": width,
-                "height": height,
-                "distortion_model": model,
-                "d": d,
-                "k": k,
-                "r": r,
-                "p": p,
-            }
-        )
-
     def _flush(self) -> None:
         if not self._rows["topic"]:
             return
@@ -217,9 +182,6 @@ class FrameSink:
 
     def close(self, ok: bool) -> list[Path]:
         """Finish the outputs (discard them all when ``ok`` is False); return the files."""
-        from superlane_tools.reporting import write_table
-
-        written = []
         try:
             while self._pending:
                 self._pending.popleft().result()
@@ -239,15 +201,9 @@ class FrameSink:
             if self._writer is not None:
                 self._writer.__exit__(None if ok else RuntimeError, None, None)
             self._finish_folders(ok)
-        if not ok:
+        if not ok or self._writer is None:
             return []
-        if self._writer is not None:
-            written.append(self._writer.path)
-        if self._info_rows:
-            table = pa.Table.from_pylist(self._info_rows, schema=CAMERA_INFO_SCHEMA)
-            provenance = resolve_provenance(self._provenance)
-            written.append(write_table(table, self.camera_info_path, provenance))
-        return written
+        return [self._writer.path]
 
     def _finish_folders(self, ok: bool) -> None:
         """Rename each staging folder to its topic folder (``ok``) or remove it."""
@@ -311,10 +267,6 @@ def _write_file(path: str, payload: bytes) -> None:
             os.close(fd)
     except OSError as err:
         raise OutputError(f"cannot write {path}: {err.strerror}") from err
-
-
-def _floats(value: Any) -> list[float]:
-    return [] if value is None else [float(v) for v in value]
 
 
 def _decode(payload: bytes) -> Any:
