@@ -66,7 +66,7 @@ def _uptime() -> str:
 
 def _budget(med: dict[str, float], n: int) -> dict[str, float]:
     """CPU ms per frame per stage, adding up to the whole process CPU time per frame."""
-    from superlane_tools.reporting.run_layout import STAGES
+    from superlane_tools.reporting.layout import STAGES
 
     stages = {s: 1e3 * med[f"cpu_{s}"] / n for s in STAGES if f"cpu_{s}" in med}
     # Reading and deserialising messages, the frame-order hand-off, row building, Parquet and

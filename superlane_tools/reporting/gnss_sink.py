@@ -14,8 +14,8 @@ from numpy.typing import NDArray
 from superlane_tools.geo import GeodeticOrigin, geodetic_to_enu, speed_heading, valid_fixes
 from superlane_tools.records import Message
 from superlane_tools.reporting import write_table
+from superlane_tools.reporting.layout import RTK_SCHEMA
 from superlane_tools.reporting.provenance import ProvenanceSource, resolve_provenance
-from superlane_tools.reporting.run_layout import RTK_SCHEMA
 
 CHUNK = 4096
 """Fixes per storage chunk of :class:`GnssSink` (a full chunk is never copied again)."""

@@ -39,7 +39,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from superlane_tools.reporting.run_layout import TUSIMPLE_LABELS_FILE
+from superlane_tools.reporting.layout import TUSIMPLE_LABELS_FILE
 from superlane_tools.training.checkpoint import save_checkpoint
 from superlane_tools.training.errors import TrainingError
 

@@ -24,8 +24,8 @@ from superlane_tools.reporting.atomic import remove_stale_temps
 from superlane_tools.reporting.can_sink import CanSink
 from superlane_tools.reporting.frame_sink import FrameSink
 from superlane_tools.reporting.gnss_sink import GnssSink
+from superlane_tools.reporting.layout import CAMERA_INFO_TABLE, EXTRACT_FRAMES_TABLE, ExtractLayout
 from superlane_tools.reporting.provenance import HashedProvenance, PendingIdentities
-from superlane_tools.reporting.run_layout import CAMERA_INFO_FILE, FRAMES_FILE, ExtractLayout
 
 
 def extract(
@@ -97,9 +97,9 @@ def extract(
                 config.every,
                 provenance,
                 skips,
-                index_name=FRAMES_FILE,
+                index_name=EXTRACT_FRAMES_TABLE.file,
                 images_name="frames",
-                camera_info_name=CAMERA_INFO_FILE,
+                camera_info_name=CAMERA_INFO_TABLE.file,
             )
             if selected["frames"] or selected["camera_info"]
             else None
