@@ -18,9 +18,12 @@ from superlane_tools.commands.batch.status import read_status
 from superlane_tools.evaluation import curvature_errors
 from superlane_tools.reporting import Provenance, write_table
 from superlane_tools.reporting.layout import (
+    AVAILABILITY_BY_CATEGORY_TABLE,
     AVAILABILITY_SEQUENCES_TABLE,
+    CURVATURE_BY_RECORDING_TABLE,
     CURVATURE_SUMMARY_TABLE,
     CURVATURE_TABLE,
+    FLEET_STATUS_TABLE,
     SUMMARY_DIR,
     SummaryLayout,
 )
@@ -48,8 +51,7 @@ def fleet_status(status: pd.DataFrame) -> pd.DataFrame:
                 "processing_s": float(group["total_s"].sum()),
             }
         )
-    columns = ["category", "recordings", "ok", "partial", "failed", "frames", "processing_s"]
-    return pd.DataFrame(rows, columns=columns)
+    return pd.DataFrame(rows, columns=list(FLEET_STATUS_TABLE.columns))
 
 
 def _done(root: Path, status: pd.DataFrame) -> pd.DataFrame:
@@ -76,19 +78,7 @@ def availability_by_category(root: Path, status: pd.DataFrame) -> pd.DataFrame:
         seqs = seqs.assign(category=own.where(own != "", fallback))
         seqs["recording_id"] = str(row.recording_id)
         parts.append(seqs)
-    columns = [
-        "category",
-        "method",
-        "recordings",
-        "sequences",
-        "n",
-        "N",
-        "frame_ratio",
-        "k",
-        "K",
-        "sequence_ratio",
-        "method_available",
-    ]
+    columns = list(AVAILABILITY_BY_CATEGORY_TABLE.columns)
     if not parts:
         return pd.DataFrame(columns=columns)
     seqs = pd.concat(parts, ignore_index=True)
@@ -138,18 +128,7 @@ def curvature_by_recording(root: Path, status: pd.DataFrame) -> pd.DataFrame:
                     **err._asdict(),
                 }
             )
-    columns = [
-        "recording_id",
-        "category",
-        "source",
-        "n",
-        "coverage",
-        "rmse",
-        "mae",
-        "bias",
-        "correlation",
-    ]
-    return pd.DataFrame(rows, columns=columns)
+    return pd.DataFrame(rows, columns=list(CURVATURE_BY_RECORDING_TABLE.columns))
 
 
 def _sections(

@@ -416,6 +416,43 @@ CORRIDOR_MASKS_SCHEMA = DerivedSchema(
 )
 """``corridor.parquet`` of ``slt corridor``: one row per image (its mask's path under the output
 folder), the corridor's share of the image and its geometry (NaN without a camera)."""
+FLEET_STATUS_SCHEMA = DerivedSchema(
+    pa.schema(
+        [
+            ("category", _STR),
+            *[(name, _I64) for name in ("recordings", "ok", "partial", "failed", "frames")],
+            ("processing_s", _F64),
+        ]
+    )
+)
+"""``summary/fleet_status.parquet`` of ``slt batch``: recordings per category and outcome."""
+AVAILABILITY_BY_CATEGORY_SCHEMA = DerivedSchema(
+    pa.schema(
+        [
+            ("category", _STR),
+            ("method", _STR),
+            *[(name, _I64) for name in ("recordings", "sequences", "n", "N")],
+            ("frame_ratio", _F64),
+            ("k", _I64),
+            ("K", _I64),
+            ("sequence_ratio", _F64),
+            ("method_available", _BOOL),
+        ]
+    )
+)
+"""``summary/availability_by_category.parquet``: available frames ``n`` of ``N`` and sequences
+``k`` of ``K`` per category and method (corridor paper Table II)."""
+CURVATURE_BY_RECORDING_SCHEMA = DerivedSchema(
+    pa.schema(
+        [
+            *[(name, _STR) for name in ("recording_id", "category", "source")],
+            ("n", _I64),
+            *_floats("coverage", "rmse", "mae", "bias", "correlation"),
+        ]
+    )
+)
+"""``summary/curvature_by_recording.parquet``: each estimate's errors (1/m) against RTK, per
+finished recording."""
 BATCH_STATUS_SCHEMA = pa.schema(
     [
         *[(name, _STR) for name in ("recording_id", "recording", "category", "vehicle")],

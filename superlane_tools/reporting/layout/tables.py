@@ -129,12 +129,20 @@ RTK_TABLE = _table("extract", "rtk", RTK_TRUTH_TABLE.file, s.RTK_SCHEMA)
 
 # ---- slt batch: the status at the output root, the fleet summary under ROOT/summary --------
 BATCH_STATUS_TABLE = _table("batch", "batch_status", "batch_status.parquet", s.BATCH_STATUS_SCHEMA)
-FLEET_STATUS_TABLE = _table("summary", "fleet_status", "fleet_status.parquet", None)
+FLEET_STATUS_TABLE = _table(
+    "summary", "fleet_status", "fleet_status.parquet", s.FLEET_STATUS_SCHEMA
+)
 AVAILABILITY_BY_CATEGORY_TABLE = _table(
-    "summary", "availability_by_category", "availability_by_category.parquet", None
+    "summary",
+    "availability_by_category",
+    "availability_by_category.parquet",
+    s.AVAILABILITY_BY_CATEGORY_SCHEMA,
 )
 CURVATURE_BY_RECORDING_TABLE = _table(
-    "summary", "curvature_by_recording", "curvature_by_recording.parquet", None
+    "summary",
+    "curvature_by_recording",
+    "curvature_by_recording.parquet",
+    s.CURVATURE_BY_RECORDING_SCHEMA,
 )
 
 # ---- slt compare, mine, history, corridor and simulate dataset -------------------------------
