@@ -453,6 +453,19 @@ CURVATURE_BY_RECORDING_SCHEMA = DerivedSchema(
 )
 """``summary/curvature_by_recording.parquet``: each estimate's errors (1/m) against RTK, per
 finished recording."""
+HISTORY_DRIFTS_SCHEMA = DerivedSchema(
+    pa.schema(
+        [
+            *[(name, _STR) for name in ("kpi", "rule", "first_night", "last_night")],
+            ("nights", _I64),
+            *_floats("first_value", "last_value", "change", "margin"),
+            ("caught_by", _STR),
+            ("caught", _BOOL),
+        ]
+    )
+)
+"""``history_drifts.parquet`` of ``slt history``: one row per drift alarm of a KPI over the
+nights (no columns without one), and the nights whose gate caught it."""
 BATCH_STATUS_SCHEMA = pa.schema(
     [
         *[(name, _STR) for name in ("recording_id", "recording", "category", "vehicle")],

@@ -46,19 +46,16 @@ class TableSpec:
             and its key in the stage's table lists.
         file: The file name inside the output folder.
         schema: An exact Arrow schema (written with it), or a :class:`DerivedSchema` (checked).
-            ``None`` for a table whose columns are the input's own (``slt batch``'s summary).
         stage: What writes it (see the module docstring).
     """
 
     name: str
     file: str
-    schema: pa.Schema | DerivedSchema | None
+    schema: pa.Schema | DerivedSchema
     stage: Stage
 
     def declared(self) -> DerivedSchema:
         """Return the schema as a :class:`DerivedSchema` (an exact schema: all required)."""
-        if self.schema is None:
-            raise KeyError(f"{self.file}: no declared schema")
         if isinstance(self.schema, DerivedSchema):
             return self.schema
         return DerivedSchema(self.schema)
@@ -84,9 +81,7 @@ TABLES: list[TableSpec] = []
 """Every output table, in declaration order."""
 
 
-def _table(
-    stage: Stage, name: str, file: str, schema: pa.Schema | DerivedSchema | None
-) -> TableSpec:
+def _table(stage: Stage, name: str, file: str, schema: pa.Schema | DerivedSchema) -> TableSpec:
     spec = TableSpec(name, file, schema, stage)
     if any(t.stage == stage and t.name == name for t in TABLES):
         raise ValueError(f"table {name!r} declared twice in stage {stage!r}")
@@ -152,7 +147,9 @@ COMPARE_DRIVES_TABLE = _table(
     "compare", "drives", "compare_drives.parquet", s.COMPARE_DRIVES_SCHEMA
 )
 MINE_MANIFEST_TABLE = _table("mine", "manifest", "manifest.parquet", s.MINE_MANIFEST_SCHEMA)
-HISTORY_DRIFTS_TABLE = _table("history", "drifts", "history_drifts.parquet", None)
+HISTORY_DRIFTS_TABLE = _table(
+    "history", "drifts", "history_drifts.parquet", s.HISTORY_DRIFTS_SCHEMA
+)
 CORRIDOR_MASKS_TABLE = _table("corridor", "corridor", CORRIDOR_TABLE.file, s.CORRIDOR_MASKS_SCHEMA)
 DATASET_INDEX_TABLE = _table("dataset", "index", "index.parquet", s.DATASET_INDEX_SCHEMA)
 
