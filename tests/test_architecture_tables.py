@@ -3,7 +3,8 @@
 Two-sided: the layout package writes each output file name once (and every table's name is a
 :class:`~superlane_tools.reporting.layout.TableSpec`), and no string shaped like an output
 name (``lanes.parquet``, ``report.md``) appears anywhere else in the package or the pipelines,
-whether the layout knows the name or not: a new output file gets its name in the layout first.
+whether the layout knows the name or not: a new output file gets its name in the layout first
+(benchmarks, which write result files of their own, may not write the layout's names).
 Schemas are defined only in the layout too, and the readers' column lists are the specs'.
 """
 
@@ -75,6 +76,18 @@ def test_no_output_file_name_outside_the_layout() -> None:
     bad = sorted(found - ELSEWHERE)
     assert not bad, f"output file names outside reporting/layout/ (name them there): {bad}"
     assert found >= ELSEWHERE, f"stale exceptions: {sorted(ELSEWHERE - found)}"
+
+
+def test_benchmarks_name_slt_outputs_through_the_layout() -> None:
+    """Benchmarks keep their own result files, but name what slt writes through the layout."""
+    known = {s for path in LAYOUT.glob("*.py") for s in _output_names(path)}
+    bad = sorted(
+        f"{path.relative_to(ROOT).as_posix()}: {name!r}"
+        for path in (ROOT / "benchmarks").rglob("*.py")
+        for name in _output_names(path)
+        if name in known
+    )
+    assert not bad, f"slt output file names written in benchmarks/: {bad}"
 
 
 def _schema_assignments(path: Path) -> set[str]:
