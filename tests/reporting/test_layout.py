@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import copy
+import pickle
 from pathlib import Path
 
 import pandas as pd
@@ -54,6 +56,10 @@ def test_every_table_is_an_attribute_of_its_folder_by_name(tmp_path: Path) -> No
         _ = RunLayout(tmp_path).camera_info  # extract's table, not a run's
     files = [(t.stage, t.file) for t in TABLES]
     assert len(set(files)) == len(files)
+    layout = RunLayout(tmp_path)
+    for same in (copy.copy(layout), copy.deepcopy(layout), pickle.loads(pickle.dumps(layout))):
+        assert same == layout
+        assert same.lanes == layout.lanes  # generated attributes survive copies (batch workers)
 
 
 def test_a_table_is_declared_once_per_stage() -> None:
