@@ -235,6 +235,7 @@ def core_contention(jpeg: bytes, seconds: float = 5.0) -> dict[str, object]:
 
 def kill_and_resume(tmp: Path) -> dict[str, object]:
     from superlane_tools.commands.batch import MARKER, read_status
+    from superlane_tools.reporting.layout import BATCH_STATUS_TABLE
 
     recs = tmp / "kill_recs"
     recs.mkdir()
@@ -286,7 +287,7 @@ def kill_and_resume(tmp: Path) -> dict[str, object]:
         if p.is_file()
         and not p.name.startswith(".")
         and "summary" not in p.parts
-        and p.name != "batch_status.parquet"
+        and p.name != BATCH_STATUS_TABLE.file
     )
     ref_files = sorted(
         str(p.relative_to(tmp / "ref"))
@@ -294,7 +295,7 @@ def kill_and_resume(tmp: Path) -> dict[str, object]:
         if p.is_file()
         and not p.name.startswith(".")
         and "summary" not in p.parts
-        and p.name != "batch_status.parquet"
+        and p.name != BATCH_STATUS_TABLE.file
     )
     failed = status[status["result"] == "failed"]
     return {

@@ -25,6 +25,7 @@ from superlane_tools.camera.profiles import load_camera
 from superlane_tools.corridor import detect_ego_lane
 from superlane_tools.hierarchy import leaf_ids_under
 from superlane_tools.reporting import write_text_atomic
+from superlane_tools.reporting.layout import TUSIMPLE_LABELS_FILE
 from superlane_tools.scene import ClassicalExtractor
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -48,7 +49,7 @@ def _trivial(frame: np.ndarray) -> object:
 
 def _scores(folder: Path, extractor: ClassicalExtractor) -> dict[str, float]:
     hits = points = near_px = pred_px = 0
-    for line in (folder / "labels.json").read_text().splitlines():
+    for line in (folder / TUSIMPLE_LABELS_FILE).read_text().splitlines():
         lab = json.loads(line)
         seg = extractor.segment(cv2.imread(str(folder / lab["raw_file"])))
         marks = np.isin(seg, MARKING_IDS)

@@ -36,8 +36,8 @@ from superlane_tools.commands.compare import CompareParams, compare_runs
 from superlane_tools.commands.reprocess import reprocess
 from superlane_tools.drive.config import ReprocessConfig
 from superlane_tools.reporting import Provenance, write_table
+from superlane_tools.reporting.layout import BATCH_STATUS_TABLE
 from superlane_tools.reporting.run_folder import staged_run
-from superlane_tools.reporting.run_layout import BATCH_STATUS_FILE
 from superlane_tools.simulation.drive import simulate_drive
 
 SCENARIOS = (("highway_curves", 1), ("urban", 2))
@@ -100,7 +100,7 @@ def _root(root: Path, runs: list[Path], n: int) -> None:
         )
         rows.append(row)
     status = pd.DataFrame(rows).astype(COLUMNS)
-    write_table(status, root / BATCH_STATUS_FILE, Provenance(command="bench_compare"))
+    write_table(status, root / BATCH_STATUS_TABLE.file, Provenance(command="bench_compare"))
 
 
 def main() -> None:

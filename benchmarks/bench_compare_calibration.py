@@ -274,6 +274,7 @@ def real_aa(n_drives: int) -> dict[str, Any]:
     from superlane_tools.commands.reprocess import reprocess
     from superlane_tools.drive.config import ReprocessConfig
     from superlane_tools.fleet import parse_rule
+    from superlane_tools.reporting.layout import CompareLayout
     from superlane_tools.reporting.run_folder import staged_run
     from superlane_tools.simulation import SCENARIOS
     from superlane_tools.simulation.drive import simulate_drive
@@ -302,7 +303,7 @@ def real_aa(n_drives: int) -> dict[str, Any]:
             work / "base", work / "width608", work / "cmp", CompareParams(gate=gate, plots=False)
         )
         fleet = result.comparison.fleet_rows()
-        report = (work / "cmp" / "compare.md").read_text(encoding="utf-8")
+        report = CompareLayout(work / "cmp").report.read_text(encoding="utf-8")
     return {
         "drives": n_drives,
         "change": "segmentation.process_width 640 -> 608",

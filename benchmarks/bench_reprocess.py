@@ -66,7 +66,7 @@ def _uptime() -> str:
 
 def _budget(med: dict[str, float], n: int) -> dict[str, float]:
     """CPU ms per frame per stage, adding up to the whole process CPU time per frame."""
-    from superlane_tools.reporting.run_layout import STAGES
+    from superlane_tools.reporting.layout import STAGES
 
     stages = {s: 1e3 * med[f"cpu_{s}"] / n for s in STAGES if f"cpu_{s}" in med}
     # Reading and deserialising messages, the frame-order hand-off, row building, Parquet and
@@ -96,6 +96,7 @@ def main() -> None:
     args = parser.parse_args()
     from superlane_tools.commands.reprocess import ReprocessConfig, reprocess
     from superlane_tools.reporting import read_provenance
+    from superlane_tools.reporting.layout import RunLayout
     from superlane_tools.simulation.drive import simulate_drive
 
     config = ReprocessConfig()
@@ -122,7 +123,7 @@ def main() -> None:
             base.append(n / secs)
             cpu_base.append(cpu / n)
             result = reprocess(rec, Path(tmp) / f"run{k}", config)
-            resolved = read_provenance(Path(tmp) / f"run{k}" / "frames.parquet")
+            resolved = read_provenance(RunLayout(Path(tmp) / f"run{k}").frames)
             backend = resolved["config"]["resolved"]["segmentation_backend"]
             models = resolved.get("models", {})
             cpu_full.append(result.timings["cpu_total"] / max(result.frames, 1))

@@ -27,11 +27,12 @@ import numpy as np
 import pandas as pd
 
 from superlane_tools.commands.reprocess import ReprocessConfig, reprocess
+from superlane_tools.reporting.layout import RunLayout
 from superlane_tools.simulation.drive import simulate_drive
 
 
 def _lane_errors(run: Path, truth: pd.DataFrame) -> dict[str, float]:
-    lanes = pd.read_parquet(run / "lanes.parquet")
+    lanes = pd.read_parquet(RunLayout(run).lanes)
     m = lanes.merge(truth[["frame_index", "lane_curvature"]], on="frame_index")
     fitted = m[np.isfinite(m["curvature"])]
     return {
@@ -44,8 +45,8 @@ def _lane_errors(run: Path, truth: pd.DataFrame) -> dict[str, float]:
 
 
 def _compare(a: Path, b: Path) -> dict[str, float]:
-    x = pd.read_parquet(a / "lanes.parquet")
-    y = pd.read_parquet(b / "lanes.parquet")
+    x = pd.read_parquet(RunLayout(a).lanes)
+    y = pd.read_parquet(RunLayout(b).lanes)
     m = x.merge(y, on="frame_index", suffixes=("_jpeg", "_h264"))
     out: dict[str, float] = {}
     for col in ("lane_width", "curvature", "a1", "b"):

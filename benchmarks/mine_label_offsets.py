@@ -24,6 +24,7 @@ from superlane_tools.camera.model import CameraModel
 from superlane_tools.evaluation.tusimple import load_jsonl
 from superlane_tools.fleet import find_drives
 from superlane_tools.fleet.label_export import pre_annotation
+from superlane_tools.reporting.layout import RunLayout
 
 
 def offsets(
@@ -55,7 +56,7 @@ def main() -> None:
     camera = CameraModel.from_dict(drive.provenance["config"]["resolved"]["camera"])
     records = {int(Path(r.raw_file).stem): r for r in load_jsonl(args.truth)}
     source = (camera.width, camera.height)
-    fits = pd.read_parquet(args.run / "lanes.parquet")
+    fits = pd.read_parquet(RunLayout(args.run).lanes)
     found: dict[str, list[float]] = {"source": [], "processing": []}
     frames = 0
     for row in fits.to_dict("records"):

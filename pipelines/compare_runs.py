@@ -27,7 +27,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from superlane_tools.reporting.run_layout import ANNOTATIONS_FILE, REPORT_FILE, RunLayout
+from superlane_tools.reporting.layout import ANNOTATIONS_FILE, REPORT_FILE, RunLayout
 
 TIMING_COLUMN = re.compile(r"_ms$")
 """Measured-time columns (stage times, fit time): never reproducible."""

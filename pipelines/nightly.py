@@ -55,8 +55,9 @@ from superlane_tools.commands.batch.manifest import fingerprint
 from superlane_tools.errors import SltError, UsageError
 from superlane_tools.fleet import verdict_table
 from superlane_tools.reporting import write_text_atomic
+from superlane_tools.reporting.layout import NIGHTLY_STATE_FILE
 
-STATE_FILE = "nightly_state.json"
+STATE_FILE = NIGHTLY_STATE_FILE
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
@@ -117,8 +118,8 @@ def compare_with_baseline(args: argparse.Namespace) -> int:
     from superlane_tools.fleet import parse_rule
     from superlane_tools.fleet.history import record_night
     from superlane_tools.fleet.mining import MineParams
+    from superlane_tools.reporting.layout import SUMMARY_DIR, CompareLayout, SummaryLayout
     from superlane_tools.reporting.report import Section
-    from superlane_tools.reporting.run_layout import SUMMARY_DIR, CompareLayout, SummaryLayout
 
     layout = SummaryLayout(args.out / SUMMARY_DIR)
     command = " ".join(["nightly.py", *sys.argv[1:]])

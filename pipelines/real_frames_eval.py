@@ -68,7 +68,7 @@ from superlane_tools.hierarchy import leaf_ids_under
 from superlane_tools.lanes.project import columns_at_rows
 from superlane_tools.lanes.table import lanes_from_row
 from superlane_tools.reporting.atomic import write_text_atomic
-from superlane_tools.reporting.run_layout import TUSIMPLE_LABELS_FILE
+from superlane_tools.reporting.layout import TUSIMPLE_LABELS_FILE
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from culane_night import DAY_DEV_FOLDER, culane_chain, estimate_camera

@@ -116,11 +116,13 @@ def _size(size: tuple[int, int]) -> str:
 
 def make_dataset(folder: Path, frames: int, seed: int, size: tuple[int, int]) -> str:
     """Write a simulator dataset into ``folder`` (reused if indexed); return the command."""
+    from superlane_tools.reporting.layout import DatasetLayout
+
     command = [
         "simulate", "dataset", "--out", str(folder), "--frames", str(frames), "--seed", str(seed),
         "--width", str(size[0]), "--height", str(size[1]), "--overwrite",
     ]  # fmt: skip
-    if not (folder / "index.parquet").is_file():
+    if not DatasetLayout(folder).index.is_file():
         subprocess.run([SLT, *command], check=True, capture_output=True, text=True)
     return shlex.join(["slt", *command])
 

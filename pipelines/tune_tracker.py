@@ -36,7 +36,7 @@ from superlane_tools.drive.config import RtkConfig, TrackingConfig
 from superlane_tools.evaluation.curvature import curvature_errors
 from superlane_tools.lanes.lookahead import smooth_like_truth
 from superlane_tools.lanes.tracker import COV_INDEX, COV_KEYS, TrackerParams, track_lanes
-from superlane_tools.reporting.run_layout import CURVATURE_FILE, CURVATURE_SUMMARY_FILE
+from superlane_tools.reporting.layout import CURVATURE_SUMMARY_TABLE, CURVATURE_TABLE
 
 
 def path_rmse(curv: pd.DataFrame, params: TrackerParams, rtk: RtkConfig) -> float:
@@ -94,8 +94,8 @@ def main(argv: list[str] | None = None) -> int:
     rtk = RtkConfig()
     rows = []
     for run in args.runs:
-        curv = pd.read_parquet(run / CURVATURE_FILE)
-        table = pd.read_parquet(run / CURVATURE_SUMMARY_FILE)
+        curv = pd.read_parquet(run / CURVATURE_TABLE.file)
+        table = pd.read_parquet(run / CURVATURE_SUMMARY_TABLE.file)
         pick = (table["scope"] == "overall") & (table["source"] == "super_path")
         reported = float(table.loc[pick, "rmse"].iloc[0])
         rmse = {label: path_rmse(curv, params, rtk) for label, params in candidates}

@@ -3,8 +3,8 @@
 First level: every top-level unit of the package has a rank; nothing imports a higher rank and
 there is no cycle. Second level: inside every package, its modules and subpackages import each
 other without cycles (function-local imports count); the commands rank among themselves (peers
-never import each other); every output file name and schema is written once, in
-``reporting/run_layout.py``; the frame loop lives in ``drive/``; ``cli/`` runs no pipeline.
+never import each other); the frame loop lives in ``drive/``; ``cli/`` runs no pipeline. Output
+tables and file names (declared once in ``reporting/layout/``): ``test_architecture_tables.py``.
 ``docs/architecture.md`` lists the same layers (checked here too).
 """
 
@@ -68,9 +68,6 @@ COMMAND_RANKS = {
 }
 """Second level of ``commands``: the commands are peers (rank 1) and never import each other;
 ``batch`` runs the others as jobs, so it ranks above them."""
-
-OUTPUT_NAME = re.compile(r"^[a-z_]+\.(parquet|mcap|md|html|mp4|json|png)$")
-"""An output file name (``lanes.parquet``): written only in the run layout."""
 
 
 def _unit(path: Path, base: Path = PACKAGE) -> str:
@@ -167,64 +164,6 @@ def test_commands_are_peers() -> None:
         if COMMAND_RANKS[dep] >= COMMAND_RANKS[unit] and dep != "errors"
     ]
     assert not bad, bad
-
-
-def _string_constants(path: Path) -> set[str]:
-    tree = ast.parse(path.read_text(encoding="utf-8"))
-    return {
-        node.value
-        for node in ast.walk(tree)
-        if isinstance(node, ast.Constant) and isinstance(node.value, str)
-    }
-
-
-LAYOUT = PACKAGE / "reporting" / "run_layout.py"
-"""The one module that names every output file and defines every output schema."""
-OTHER_SCHEMAS = {
-    "lanes/table.py": {"FIT_COLUMNS"},  # the lane fit's columns, composed by the run layout
-    "simulation/groundtruth.py": {"GT_SCHEMA"},  # the simulator's truth, beside its recording
-    "simulation/dataset.py": {"INDEX_SCHEMA"},  # a training set's index
-}
-"""Schemas defined outside the run layout: the lane layer's columns and the simulator's files."""
-
-
-def _layout_names() -> set[str]:
-    return {s for s in _string_constants(LAYOUT) if OUTPUT_NAME.match(s)}
-
-
-def test_output_file_names_are_written_once_in_the_run_layout() -> None:
-    names = _layout_names()
-    assert {"lanes.parquet", "curvature_summary.parquet", "annotations.mcap"} <= names
-    assert {"run_manifest.json", "curvature_time.png", "batch_status.parquet"} <= names
-    sources = [*PACKAGE.rglob("*.py"), *(ROOT / "pipelines").glob("*.py")]
-    bad = sorted(
-        f"{path.relative_to(ROOT)}: {s!r}"
-        for path in sources
-        if path != LAYOUT
-        for s in _string_constants(path) & names
-    )
-    assert not bad, f"output file names outside reporting/run_layout.py: {bad}"
-
-
-def _schema_assignments(path: Path) -> set[str]:
-    """Return the module-level names assigned a ``pa.schema(...)`` call in a file."""
-    found = set()
-    for node in ast.parse(path.read_text(encoding="utf-8")).body:
-        if isinstance(node, ast.Assign) and isinstance(node.value, ast.Call):
-            func = node.value.func
-            if isinstance(func, ast.Attribute) and func.attr == "schema":
-                found |= {t.id for t in node.targets if isinstance(t, ast.Name)}
-    return found
-
-
-def test_output_schemas_are_defined_once_in_the_run_layout() -> None:
-    assert {"LANES_SCHEMA", "FRAMES_SCHEMA", "RTK_SCHEMA"} <= _schema_assignments(LAYOUT)
-    found = {
-        path.relative_to(PACKAGE).as_posix(): names
-        for path in PACKAGE.rglob("*.py")
-        if path != LAYOUT and (names := _schema_assignments(path))
-    }
-    assert found == OTHER_SCHEMAS, f"schemas outside reporting/run_layout.py: {found}"
 
 
 def _names_used(path: Path) -> tuple[set[str], set[str]]:

@@ -61,8 +61,8 @@ def times_line(timings: dict[str, float], frames_per_s: float) -> str:
 
 def report_line(target: Path, availability: Any) -> str:
     """Return the last line: where report.html is and one availability number per method."""
+    from superlane_tools.reporting.layout import REPORT_HTML_FILE
     from superlane_tools.reporting.names import AVAILABILITY_NAMES
-    from superlane_tools.reporting.run_layout import REPORT_HTML_FILE
 
     parts, unknown = [], []
     for method, n_frames, n_available, n_unknown in availability:
@@ -230,7 +230,7 @@ def reprocess_cmd(
                 compiler.wait()
         added = result.signal_channels
         if added is not None:
-            from superlane_tools.reporting.run_layout import ANNOTATIONS_FILE
+            from superlane_tools.reporting.layout import ANNOTATIONS_FILE
 
             console.print(
                 f"{ANNOTATIONS_FILE}: added {len(added)} signal channels "

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from superlane_tools.records import Skipped
-from superlane_tools.reporting.run_layout import CORRIDOR_FILE
+from superlane_tools.reporting.layout import CORRIDOR_MASKS_TABLE
 
 Progress = Callable[[int, int | None], None]
 """Progress callback ``(images done, images total or None)``."""
@@ -117,5 +117,5 @@ def predict_corridors(
         },
         models={runtime.card.name: runtime.sha256},
     )
-    table = write_table(pd.DataFrame(rows), dst / CORRIDOR_FILE, provenance)
+    table = write_table(pd.DataFrame(rows), dst / CORRIDOR_MASKS_TABLE.file, provenance)
     return CorridorResult(table, len(rows), runtime.name, tuple(skipped))

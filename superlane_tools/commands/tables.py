@@ -1,7 +1,7 @@
 """Paper-style tables over many reprocess runs: availability (corridor paper Table II), curvature.
 
 Inputs are run folders written by ``slt reprocess`` (their ``availability_sequences`` and
-``curvature_summary`` tables, named in ``reporting.run_layout``). Outputs are Markdown, LaTeX
+``curvature_summary`` tables, named in ``reporting.layout``). Outputs are Markdown, LaTeX
 or Parquet (with provenance).
 """
 
@@ -17,12 +17,12 @@ import pandas as pd
 
 from superlane_tools.reporting.atomic import write_text_atomic
 from superlane_tools.reporting.errors import OutputError
+from superlane_tools.reporting.layout import AVAILABILITY_SEQUENCES_TABLE, CURVATURE_SUMMARY_TABLE
 from superlane_tools.reporting.names import AVAILABILITY_NAMES, UNCATEGORISED, curvature_name
 from superlane_tools.reporting.parquet import read_provenance, write_table
 from superlane_tools.reporting.provenance import Provenance, input_identity
 from superlane_tools.reporting.report import latex_table, markdown_table
 from superlane_tools.reporting.run_folder import require_complete_run
-from superlane_tools.reporting.run_layout import AVAILABILITY_SEQUENCES_FILE, CURVATURE_SUMMARY_FILE
 
 METHOD_NAMES = AVAILABILITY_NAMES
 TABLE_FORMATS = (".md", ".tex", ".parquet")
@@ -70,7 +70,7 @@ def availability_table(
     """
     parts = []
     for run in run_dirs:
-        seqs = _read(Path(run), AVAILABILITY_SEQUENCES_FILE)
+        seqs = _read(Path(run), AVAILABILITY_SEQUENCES_TABLE.file)
         group = _category(Path(run), seqs, by, categories or {})
         seqs = seqs.assign(group=group, run=Path(run).name)
         parts.append(seqs)
@@ -122,7 +122,7 @@ def curvature_table(run_dirs: Sequence[Path]) -> pd.DataFrame:
     """One row per run and source (SUPER, Mobileye): n, coverage, RMSE, MAE, bias, correlation."""
     rows: list[dict[str, object]] = []
     for run in run_dirs:
-        summ = _read(Path(run), CURVATURE_SUMMARY_FILE)
+        summ = _read(Path(run), CURVATURE_SUMMARY_TABLE.file)
         overall = summ[summ["scope"] == "overall"]
         rows.extend(_curvature_row(Path(run).name, rec) for rec in overall.itertuples(index=False))
     if not rows:
@@ -151,7 +151,7 @@ def write_summary_table(
         inputs = tuple(
             input_identity(Path(r) / n)
             for r in run_dirs
-            for n in (AVAILABILITY_SEQUENCES_FILE, CURVATURE_SUMMARY_FILE)
+            for n in (AVAILABILITY_SEQUENCES_TABLE.file, CURVATURE_SUMMARY_TABLE.file)
             if (Path(r) / n).is_file()
         )
         return write_table(

@@ -16,7 +16,7 @@ from numpy.typing import NDArray
 
 from superlane_tools.drive.stages import Finished
 from superlane_tools.lanes.tracker import COV_INDEX
-from superlane_tools.reporting.run_layout import STAGES
+from superlane_tools.reporting.layout import STAGES
 
 FloatArray = NDArray[np.float64]
 BLOCK_ROWS = 256
@@ -122,7 +122,7 @@ class DriveFrames:
         decoded: Whether each frame's image could be decoded.
         corridors: Corridor geometry of each method.
         fit: The SUPER fit series.
-        stage_s: ``(n, len(STAGES))`` wall seconds per stage (``run_layout.STAGES``).
+        stage_s: ``(n, len(STAGES))`` wall seconds per stage (``reporting.layout.STAGES``).
         stage_cpu_s: The same in thread CPU seconds.
     """
 

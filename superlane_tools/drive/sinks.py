@@ -2,7 +2,7 @@
 
 Each takes the finished frames in order (:class:`~superlane_tools.drive.loop.FrameSink`) and
 writes its file atomically when closed with ``ok=True`` (discards it otherwise). The paths come
-from the caller (the command names them through :mod:`superlane_tools.reporting.run_layout`).
+from the caller (the command names them through :mod:`superlane_tools.reporting.layout`).
 """
 
 from __future__ import annotations
@@ -21,8 +21,8 @@ from superlane_tools.drive.examples import example_frame, lane_drawings, lane_pa
 from superlane_tools.drive.stages import Finished
 from superlane_tools.lanes.table import fit_row
 from superlane_tools.reporting import ParquetStreamWriter, Provenance
+from superlane_tools.reporting.layout import STAGES, STREAMED_SCHEMAS
 from superlane_tools.reporting.plots import example_plot
-from superlane_tools.reporting.run_layout import STAGES, STREAMED_SCHEMAS
 
 FLUSH_ROWS = 256
 """Frames buffered before the per-frame tables write a row group."""

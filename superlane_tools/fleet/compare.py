@@ -28,22 +28,13 @@ from superlane_tools.fleet.bootstrap import (
 )
 from superlane_tools.fleet.kpis import KPI_BY_NAME, KPIS, Kpi
 from superlane_tools.fleet.runs import DriveRun
+from superlane_tools.reporting.layout import COMPARE_TABLE
 
 SCOPES = ("fleet", "category", "drive", "sequence")
-COLUMNS = (
-    "scope",
-    "drive",
-    "sequence",
-    "category",
-    "start_ns",
-    "kpi",
-    "label",
-    "unit",
-    "higher_is_better",
-    *Delta._fields,
-)
-"""Columns of the comparison table (``compare.parquet``); ``sequence`` is -1 and ``drive`` ""
-above their scope; ``ci_low``/``ci_high``/``p_value`` NaN where no interval is drawn."""
+COLUMNS = COMPARE_TABLE.columns
+"""Columns of the comparison table (``compare.parquet``, declared by its spec; the last are
+:class:`Delta`'s fields); ``sequence`` is -1 and ``drive`` "" above their scope;
+``ci_low``/``ci_high``/``p_value`` NaN where no interval is drawn."""
 
 DriveKpis = tuple[DriveRun, pd.DataFrame]
 """A drive and its per-sequence KPI sums."""

@@ -33,6 +33,7 @@ import numpy as np
 import pandas as pd
 
 from superlane_tools.fleet.kpis import KPI_BY_NAME
+from superlane_tools.reporting.layout import HISTORY_DRIFTS_TABLE
 
 DECLINE_STEPS = 3
 """Consecutive worsening nights (changes) the decline rule needs."""
@@ -51,19 +52,8 @@ DEFAULT_MARGINS: Mapping[str, float] = {
     "fit_cost": 0.1,
 }
 """Drift margins by KPI family, in the KPI's unit (ratios 0-1: 0.02 is 2 pp)."""
-COLUMNS = [
-    "kpi",
-    "rule",
-    "first_night",
-    "last_night",
-    "nights",
-    "first_value",
-    "last_value",
-    "change",
-    "margin",
-    "caught_by",
-    "caught",
-]
+COLUMNS = list(HISTORY_DRIFTS_TABLE.columns)
+"""Columns of the drift table (``history_drifts.parquet``, declared by its spec)."""
 
 
 @dataclass(frozen=True)

@@ -1,9 +1,9 @@
 """The fleet's history: every night's fleet KPIs and comparison, one partitioned Parquet dataset.
 
-Layout (:class:`~superlane_tools.reporting.run_layout.HistoryLayout`): ``ROOT/history/`` is a
+Layout (:class:`~superlane_tools.reporting.layout.HistoryLayout`): ``ROOT/history/`` is a
 hive-partitioned dataset, one folder per night (``night=2026-12-03/``), each holding one file
 per append (``fleet-<ns>.parquet``, ``compare-<ns>.parquet``; schema
-:data:`~superlane_tools.reporting.run_layout.HISTORY_SCHEMA`). An append writes one new file
+:data:`~superlane_tools.reporting.layout.HISTORY_SCHEMA`). An append writes one new file
 atomically (a temporary ``.name.tmp`` beside it, renamed) and never touches the files already
 there, so a reader sees a night completely or not at all, and a crashed night leaves the
 history as it was. A night appended twice (a rerun) keeps both files; :func:`read_history`
@@ -38,8 +38,8 @@ from superlane_tools.fleet.errors import FleetError
 from superlane_tools.fleet.kpis import KPI_BY_NAME, sequence_kpis
 from superlane_tools.fleet.runs import DriveRun, find_drives, read_tables
 from superlane_tools.reporting import Provenance, write_table
-from superlane_tools.reporting.run_layout import (
-    COMPARE_FILE,
+from superlane_tools.reporting.layout import (
+    COMPARE_TABLE,
     HISTORY_PARTITION,
     HISTORY_SCHEMA,
     HistoryLayout,
@@ -161,11 +161,11 @@ def read_comparison(compare_dir: Path) -> pd.DataFrame:
     Raises:
         FleetError: If the folder has no readable ``compare.parquet``.
     """
-    path = compare_dir / COMPARE_FILE
+    path = compare_dir / COMPARE_TABLE.file
     try:
         table = pd.read_parquet(path)
     except (OSError, pa.ArrowException, ValueError) as err:
-        raise FleetError(f"{compare_dir}: no readable {COMPARE_FILE} ({err})") from err
+        raise FleetError(f"{compare_dir}: no readable {COMPARE_TABLE.file} ({err})") from err
     if "scope" not in table or "kpi" not in table:
         raise FleetError(f"{path}: not an slt compare table (no scope / kpi columns)")
     return table[table["scope"] == "fleet"].reset_index(drop=True)

@@ -1,9 +1,9 @@
 """Find the drives of a run folder, a folder of run folders or a batch root, and read their tables.
 
-File names come from :mod:`superlane_tools.reporting.run_layout`. A drive's match
-key is the content hash of its recording (the provenance's first input, or the batch status's
-``content_hash``) plus its batch window, so the same recording matches across run folders and
-batch roots wherever it was stored.
+File names and columns come from the tables' specs in :mod:`superlane_tools.reporting.layout`.
+A drive's match key is the content hash of its recording (the provenance's first input, or the
+batch status's ``content_hash``) plus its batch window, so the same recording matches across run
+folders and batch roots wherever it was stored.
 """
 
 from __future__ import annotations
@@ -21,14 +21,25 @@ from superlane_tools.fleet.errors import FleetError
 from superlane_tools.fleet.kpis import DriveTables
 from superlane_tools.records import Skipped
 from superlane_tools.reporting.errors import OutputError
+from superlane_tools.reporting.layout import (
+    AVAILABILITY_FRAMES_TABLE,
+    AVAILABILITY_SEQUENCES_TABLE,
+    BATCH_STATUS_TABLE,
+    CURVATURE_TABLE,
+    FRAMES_TABLE,
+    LANES_TABLE,
+    MANIFEST_FILE,
+    BatchLayout,
+    RunLayout,
+)
 from superlane_tools.reporting.parquet import read_provenance
 from superlane_tools.reporting.run_folder import require_complete_run
-from superlane_tools.reporting.run_layout import BATCH_STATUS_FILE, MANIFEST_FILE, RunLayout
 
 UNCATEGORISED = "uncategorised"
+_AF, _AS, _CURV = AVAILABILITY_FRAMES_TABLE, AVAILABILITY_SEQUENCES_TABLE, CURVATURE_TABLE
 REQUIRED_COLUMNS: Mapping[str, tuple[str, ...]] = {
-    "availability_frames": ("frame_index", "log_time_ns", "method", "width_m", "available"),
-    "availability_sequences": (
+    _AF.name: _AF.pick("frame_index", "log_time_ns", "method", "width_m", "available"),
+    _AS.name: _AS.pick(
         "sequence",
         "start",
         "stop",
@@ -38,15 +49,18 @@ REQUIRED_COLUMNS: Mapping[str, tuple[str, ...]] = {
         "n_available",
         "available",
     ),
-    "curvature": ("frame_index", "log_time_ns"),
-    "lanes": ("frame_index", "log_time_ns", "ego_left", "ego_right", "cost"),
-    "frames": ("frame_index", "log_time_ns"),
+    _CURV.name: _CURV.pick("frame_index", "log_time_ns"),
+    LANES_TABLE.name: LANES_TABLE.pick(
+        "frame_index", "log_time_ns", "ego_left", "ego_right", "cost"
+    ),
+    FRAMES_TABLE.name: FRAMES_TABLE.pick("frame_index", "log_time_ns"),
 }
-"""Columns each table must have for the KPIs (tables of other tool versions may lack some)."""
+"""Columns each table must have for the KPIs (tables of other tool versions may lack some),
+checked against the tables' specs when this module loads."""
 OPTIONAL_COLUMNS: Mapping[str, tuple[str, ...]] = {
-    "availability_frames": ("known",),
-    "availability_sequences": ("category", "method_available"),
-    "curvature": (
+    _AF.name: _AF.pick("known"),
+    _AS.name: _AS.pick("category", "method_available"),
+    _CURV.name: _CURV.pick(
         "rtk_curvature",
         "rtk_valid",
         "dynamics_curvature",
@@ -54,8 +68,8 @@ OPTIONAL_COLUMNS: Mapping[str, tuple[str, ...]] = {
         "super_path_curvature",
         "super_lateral_m",
     ),
-    "lanes": ("quality",),
-    "frames": (),
+    LANES_TABLE.name: LANES_TABLE.pick("quality"),
+    FRAMES_TABLE.name: (),
 }
 """Columns read where present; only these are read (a fleet's tables stay small in memory)."""
 CPU_MS_SUFFIX = "_cpu_ms"
@@ -138,9 +152,9 @@ def _is_run(folder: Path) -> bool:
 
 def _batch_root(root: Path) -> Fleet:
     try:
-        status = pd.read_parquet(root / BATCH_STATUS_FILE)
+        status = pd.read_parquet(BatchLayout(root).batch_status)
     except (OSError, pa.ArrowException, ValueError) as err:
-        raise FleetError(f"{root}: unreadable {BATCH_STATUS_FILE}: {err}") from err
+        raise FleetError(f"{root}: unreadable {BATCH_STATUS_TABLE.file}: {err}") from err
     drives, skipped = [], []
     for row in status.itertuples(index=False):
         rid = str(row.recording_id)
@@ -189,7 +203,7 @@ def find_drives(path: str | Path) -> Fleet:
                     "(not a reprocess run)"
                 )
             return Fleet(root, "run folder", (_run_drive(root, root.name),))
-        if (root / BATCH_STATUS_FILE).is_file():
+        if BatchLayout(root).batch_status.is_file():
             return _batch_root(root)
         runs = sorted(p for p in root.iterdir() if p.is_dir() and _is_run(p))
         for run in runs:
@@ -199,7 +213,7 @@ def find_drives(path: str | Path) -> Fleet:
     if not runs:
         raise FleetError(
             f"{root}: not a reprocess run folder: run slt reprocess first (no {MANIFEST_FILE}; "
-            f"nor a batch root with {BATCH_STATUS_FILE}, nor a folder of run folders)"
+            f"nor a batch root with {BATCH_STATUS_TABLE.file}, nor a folder of run folders)"
         )
     return Fleet(root, "folder of runs", tuple(_run_drive(r, r.name) for r in runs))
 
@@ -217,7 +231,7 @@ def read_tables(run: DriveRun) -> DriveTables:
         try:
             present = pq.read_schema(path).names
             wanted = [*columns, *OPTIONAL_COLUMNS[key]]
-            wanted += [c for c in present if key == "frames" and c.endswith(CPU_MS_SUFFIX)]
+            wanted += [c for c in present if key == FRAMES_TABLE.name and c.endswith(CPU_MS_SUFFIX)]
             missing = [c for c in columns if c not in present]
             if missing:
                 raise FleetError(

@@ -18,9 +18,10 @@ from numpy.typing import NDArray
 
 from superlane_tools.fleet.kpis import DriveTables
 from superlane_tools.reporting.drive_tables import METHODS
+from superlane_tools.reporting.layout import COMPARE_SPANS_TABLE
 
 FloatArray = NDArray[np.float64]
-SPAN_COLUMNS = (
+SPAN_COLUMNS = COMPARE_SPANS_TABLE.pick(
     "drive",
     "start_ns",
     "stop_ns",
@@ -32,6 +33,7 @@ SPAN_COLUMNS = (
     "peak_score",
     "main_difference",
 )
+"""A drive's span columns (``slt compare`` adds the recording and both runs' annotations)."""
 
 
 @dataclass(frozen=True)

@@ -2,7 +2,7 @@
 
 The columns (:data:`FIT_COLUMNS`) are the lane fit's part of the tables that
 ``slt lanes fit`` and ``slt reprocess`` write; their whole schemas (and file names) are in
-:mod:`superlane_tools.reporting.run_layout`.
+:mod:`superlane_tools.reporting.layout`.
 """
 
 from __future__ import annotations

@@ -11,7 +11,7 @@ from superlane_tools.recording.base import field_value
 from superlane_tools.records import Message
 from superlane_tools.reporting import write_table
 from superlane_tools.reporting.provenance import ProvenanceSource, resolve_provenance
-from superlane_tools.reporting.run_layout import CAMERA_INFO_SCHEMA
+from superlane_tools.reporting.layout import CAMERA_INFO_SCHEMA
 
 
 class CameraInfoSink:

@@ -11,8 +11,8 @@ import pyarrow as pa
 from superlane_tools.can import Coverage, LoadedDbc, bind_dbcs, dbc_coverage, decode_buses
 from superlane_tools.records import Message
 from superlane_tools.reporting import ParquetStreamWriter
+from superlane_tools.reporting.layout import CAN_RAW_SCHEMA, CAN_SIGNALS_SCHEMA
 from superlane_tools.reporting.provenance import ProvenanceSource, resolve_provenance
-from superlane_tools.reporting.run_layout import CAN_RAW_SCHEMA, CAN_SIGNALS_SCHEMA
 
 CHUNK_ROWS = 65_536
 """CAN frames buffered before a row group is written and decoded."""

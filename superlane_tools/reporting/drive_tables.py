@@ -1,6 +1,6 @@
 """The derived KPI tables of a reprocessed drive: availability and the curvature summary.
 
-Their file names and the streamed tables' schemas are in :mod:`.run_layout`.
+Their file names and the streamed tables' schemas are in :mod:`.layout`.
 """
 
 from __future__ import annotations

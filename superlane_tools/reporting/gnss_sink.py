@@ -12,8 +12,8 @@ from superlane_tools.geo import GeodeticOrigin, geodetic_to_enu, speed_heading, 
 from superlane_tools.records import Message
 from superlane_tools.reporting import write_table
 from superlane_tools.reporting.gnss_fixes import GnssCollector, GnssFixes
+from superlane_tools.reporting.layout import RTK_SCHEMA
 from superlane_tools.reporting.provenance import ProvenanceSource, resolve_provenance
-from superlane_tools.reporting.run_layout import RTK_SCHEMA
 
 
 class RtkSink:

@@ -10,13 +10,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from superlane_tools.reporting.atomic import atomic_path
-from superlane_tools.reporting.names import CURVATURE_NAMES, METHOD_NOT_RUN
-from superlane_tools.reporting.run_layout import (
+from superlane_tools.reporting.layout import (
     AVAILABILITY_PLOT,
     CURVATURE_DISTANCE_PLOT,
     CURVATURE_TIME_PLOT,
     example_plot_name,
 )
+from superlane_tools.reporting.names import CURVATURE_NAMES, METHOD_NOT_RUN
 
 if TYPE_CHECKING:
     import pandas as pd

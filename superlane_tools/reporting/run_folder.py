@@ -22,7 +22,7 @@ from pathlib import Path
 
 from superlane_tools.reporting.atomic import pid_alive, write_text_atomic
 from superlane_tools.reporting.errors import OutputError
-from superlane_tools.reporting.run_layout import MANIFEST_FILE as RUN_MANIFEST
+from superlane_tools.reporting.layout import MANIFEST_FILE as RUN_MANIFEST
 
 _STAGING = "slt-staging"
 _OLD = "slt-old"

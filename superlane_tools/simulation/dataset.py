@@ -5,7 +5,7 @@ Layout of the output folder::
     images/000000.jpg      camera image (or .png)
     labels/000000.png      uint8 leaf ids of superlane_tools.hierarchy (0 = void)
     corridor/000000.png    ego corridor, 0 / 255
-    index.parquet          one row per sample (columns: see INDEX_SCHEMA)
+    index.parquet          one row per sample (columns: see DATASET_INDEX_SCHEMA)
 """
 
 from __future__ import annotations
@@ -19,6 +19,7 @@ import pyarrow as pa
 
 from superlane_tools.camera.model import CameraModel, Extrinsics
 from superlane_tools.reporting import Provenance, write_bytes_atomic, write_table
+from superlane_tools.reporting.layout import DATASET_INDEX_SCHEMA, DatasetLayout
 from superlane_tools.simulation.drive import encode_jpeg, encode_png, sim_camera
 from superlane_tools.simulation.errors import ScenarioError, SimulationError
 from superlane_tools.simulation.groundtruth import h_samples, lane_truth, tusimple_lanes
@@ -28,37 +29,6 @@ from superlane_tools.simulation.world import build_world, frame_world
 
 WORLD_DURATION_S = 40.0
 """Length of each sampled world, seconds of driving."""
-
-INDEX_SCHEMA = pa.schema(
-    [
-        ("sample", pa.int32()),
-        ("image", pa.string()),
-        ("labels", pa.string()),
-        ("corridor", pa.string()),
-        ("scenario", pa.string()),
-        ("world_seed", pa.int64()),
-        ("t_s", pa.float64()),
-        ("fx", pa.float64()),
-        ("fy", pa.float64()),
-        ("cx", pa.float64()),
-        ("cy", pa.float64()),
-        ("camera_height_m", pa.float64()),
-        ("pitch_rad", pa.float64()),
-        ("roll_rad", pa.float64()),
-        ("yaw_rad", pa.float64()),
-        ("line_offset_m", pa.list_(pa.float64())),
-        ("line_color", pa.list_(pa.string())),
-        ("line_style", pa.list_(pa.string())),
-        ("lane_heading_rad", pa.float64()),
-        ("lane_curvature", pa.float64()),
-        ("road_slope", pa.float64()),
-        ("ego_left_line", pa.int32()),
-        ("ego_right_line", pa.int32()),
-        ("h_samples", pa.list_(pa.int32())),
-        ("tusimple_lanes", pa.list_(pa.list_(pa.int32()))),
-    ]
-)
-"""Schema of ``index.parquet``."""
 
 
 @dataclass(frozen=True)
@@ -211,7 +181,8 @@ def simulate_dataset(
         if progress is not None:
             progress(i + 1, frames)
     table = pa.Table.from_pydict(
-        {key: [r[key] for r in rows] for key in INDEX_SCHEMA.names}, schema=INDEX_SCHEMA
+        {key: [r[key] for r in rows] for key in DATASET_INDEX_SCHEMA.names},
+        schema=DATASET_INDEX_SCHEMA,
     )
     provenance = Provenance(
         command=command or "simulate_dataset",
@@ -225,5 +196,5 @@ def simulate_dataset(
             "randomize": randomize,
         },
     )
-    index = write_table(table, folder / "index.parquet", provenance)
+    index = write_table(table, DatasetLayout(folder).index, provenance)
     return DatasetResult(folder, frames, index)

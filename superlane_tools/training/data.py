@@ -18,10 +18,11 @@ import torch
 import torch.nn.functional as F  # noqa: N812  (torch convention)
 from numpy.typing import NDArray
 
+from superlane_tools.reporting.layout import DATASET_INDEX_TABLE
 from superlane_tools.scene.adapters.loader import DatasetAdapter
 from superlane_tools.training.errors import TrainingError
 
-INDEX_NAME = "index.parquet"
+INDEX_NAME = DATASET_INDEX_TABLE.file
 
 
 @dataclass(frozen=True)

@@ -33,7 +33,7 @@ from superlane_tools.camera.model import CameraModel
 from superlane_tools.config_files import load_document
 from superlane_tools.errors import ConfigError
 from superlane_tools.hierarchy import BY_NAME
-from superlane_tools.reporting.run_layout import TUSIMPLE_LABELS_FILE
+from superlane_tools.reporting.layout import TUSIMPLE_LABELS_FILE
 from superlane_tools.scene.adapters.heads import HEADS
 from superlane_tools.scene.adapters.loader import load_adapter
 from superlane_tools.training.errors import TrainingError

@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from superlane_tools.hierarchy import leaf_ids_under, level_lut
-from superlane_tools.reporting.run_layout import TUSIMPLE_LABELS_FILE
+from superlane_tools.reporting.layout import TUSIMPLE_LABELS_FILE
 from superlane_tools.scene.backend import SegmentationBackend
 from superlane_tools.scene.model_card import ModelCard, card_path_for, load_card, write_card
 from superlane_tools.training.errors import TrainingError

@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 
 from superlane_tools.hierarchy import LEAF_IDS
 from superlane_tools.reporting.atomic import write_bytes_atomic
+from superlane_tools.reporting.layout import DatasetLayout
 from superlane_tools.reporting.parquet import write_table
 from superlane_tools.reporting.provenance import Provenance
 
@@ -107,5 +108,5 @@ def write_toy_dataset(
             write_bytes_atomic(root / names[key], encoded.tobytes())
         rows.append(names)
     command = f"write_toy_dataset(frames={frames}, width={width}, height={height}, seed={seed})"
-    write_table(pd.DataFrame(rows), root / "index.parquet", Provenance(command=command))
+    write_table(pd.DataFrame(rows), DatasetLayout(root).index, Provenance(command=command))
     return root

@@ -44,7 +44,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from superlane_tools.camera.model import CameraModel
-from superlane_tools.reporting.run_layout import TUSIMPLE_LABELS_FILE
+from superlane_tools.reporting.layout import TUSIMPLE_LABELS_FILE
 from superlane_tools.training.checkpoint import save_checkpoint
 from superlane_tools.training.errors import TrainingError
 

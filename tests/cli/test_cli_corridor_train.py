@@ -14,6 +14,7 @@ from typer.testing import CliRunner
 from superlane_tools.cli import corridor as corridor_cli
 from superlane_tools.cli import train as train_cli
 from superlane_tools.reporting import read_provenance
+from superlane_tools.reporting.layout import CORRIDOR_MASKS_TABLE, checked_table
 from superlane_tools.training.toy_dataset import toy_frame, write_toy_dataset
 
 runner = CliRunner()
@@ -64,6 +65,7 @@ def test_corridor_cli_writes_maps_and_parquet(corridor_model: Path, tmp_path: Pa
     assert prob.shape == (90, 160)
     assert prob.dtype == np.uint8
     table = pd.read_parquet(out / "corridor.parquet")
+    checked_table(CORRIDOR_MASKS_TABLE, table)  # the declared schema
     assert list(table.columns) == ["name", "corridor_fraction", "width_m", "length_m"]
     assert len(table) == 3
     assert "cor" in read_provenance(out / "corridor.parquet")["models"]

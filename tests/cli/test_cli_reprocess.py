@@ -15,7 +15,7 @@ from typer.testing import CliRunner
 from superlane_tools.cli import reprocess, tables
 from superlane_tools.commands.reprocess import ReprocessConfig
 from superlane_tools.reporting import read_provenance
-from superlane_tools.reporting.run_layout import DERIVED_TABLES, RunLayout, checked_table
+from superlane_tools.reporting.layout import DERIVED_TABLES, RunLayout, checked_table
 from superlane_tools.simulation.drive import simulate_drive
 
 SAMPLE = Path(__file__).resolve().parents[2] / "fixtures" / "sample_drive.mcap"

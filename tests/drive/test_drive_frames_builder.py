@@ -11,7 +11,7 @@ from superlane_tools.corridor import CorridorGeometry, HoughResult
 from superlane_tools.drive import DriveFramesBuilder, Finished, Prepared
 from superlane_tools.drive.record import BLOCK_ROWS
 from superlane_tools.lanes import LaneFit
-from superlane_tools.reporting.run_layout import STAGES
+from superlane_tools.reporting.layout import STAGES
 
 
 def _frame(k: int, rng: np.random.Generator, camera: CameraModel) -> Finished:

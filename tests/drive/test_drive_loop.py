@@ -18,7 +18,7 @@ from superlane_tools.drive.stages import Finished
 from superlane_tools.recording import open_recording
 from superlane_tools.recording.calibration import resolve_camera
 from superlane_tools.reporting import Provenance
-from superlane_tools.reporting.run_layout import RunLayout
+from superlane_tools.reporting.layout import RunLayout
 from superlane_tools.simulation.drive import simulate_drive
 
 CFG = ReprocessConfig().with_overrides({"segmentation.backend": "classical"})

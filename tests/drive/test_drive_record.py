@@ -9,7 +9,7 @@ from superlane_tools.corridor import TimeSegment
 from superlane_tools.drive import ReprocessConfig
 from superlane_tools.drive.finalize import kpi_segments
 from superlane_tools.drive.record import no_camera_frames
-from superlane_tools.reporting import run_layout as tables
+from superlane_tools.reporting import layout as tables
 
 
 def test_frame_rate_ignores_shared_log_times() -> None:

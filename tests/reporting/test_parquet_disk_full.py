@@ -24,7 +24,7 @@ from pathlib import Path
 import pyarrow as pa
 from superlane_tools.drive.sinks import FrameTablesSink
 from superlane_tools.reporting import OutputError, Provenance, write_table
-from superlane_tools.reporting.run_layout import STREAMED_SCHEMAS
+from superlane_tools.reporting.layout import STREAMED_SCHEMAS
 
 prov = Provenance(command="slt test", config={})
 try:

@@ -93,7 +93,7 @@ def clean_stale_tmp(root: Path) -> list[Path]:
     is alive (a local worker of a killed run exits within a second of its driver, see
     :func:`~.worker.init_worker`); with the root lock held no other batch is writing here.
     """
-    from superlane_tools.reporting.run_layout import SUMMARY_DIR
+    from superlane_tools.reporting.layout import SUMMARY_DIR
 
     # the driver's own atomic writes (status table, summary) killed mid-write: with the lock
     # held, no process is writing them now

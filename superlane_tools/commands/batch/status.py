@@ -10,54 +10,23 @@ from pathlib import Path
 from typing import Any, NamedTuple
 
 import pandas as pd
+import pyarrow as pa
 
 from superlane_tools._version import __version__
 from superlane_tools.commands.batch.errors import BatchError
 from superlane_tools.commands.batch.manifest import BatchEntry
 from superlane_tools.reporting import Provenance, write_table
+from superlane_tools.reporting.layout import BATCH_STATUS_SCHEMA, BATCH_STATUS_TABLE
 from superlane_tools.reporting.provenance import CONTENT_HASH
-from superlane_tools.reporting.run_layout import BATCH_STATUS_FILE
 
-STATUS_FILE = BATCH_STATUS_FILE
+STATUS_FILE = BATCH_STATUS_TABLE.file
 STATUSES = ("ok", "partial", "failed", "skipped")
 """``skipped``: already finished with the same key by an earlier run (outputs kept)."""
 
-COLUMNS: dict[str, str] = {
-    "recording_id": "string",
-    "recording": "string",
-    "category": "string",
-    "vehicle": "string",
-    "date": "string",
-    "sequence": "string",
-    "start_s": "float64",
-    "end_s": "float64",
-    "content_hash": "string",
-    "size_bytes": "int64",
-    "mtime_ns": "int64",
-    "status": "string",
-    "result": "string",
-    "error": "string",
-    "attempts": "int64",
-    "total_s": "float64",
-    "timings_json": "string",
-    "outputs": "int64",
-    "frames": "int64",
-    "job": "string",
-    "tool_version": "string",
-    "models_json": "string",
-    "config_sha256": "string",
-    "key": "string",
-    "engine": "string",
-    "host": "string",
-    "ray_node": "string",
-    "finished_ns": "int64",
-}
-"""Status columns and dtypes. ``status`` is what this run did; ``result`` is the state of the
-outputs on disk (``ok``, ``partial`` or ``failed``), so a ``skipped`` row still tells whether
-its earlier run was ok or partial. ``timings_json`` maps stage -> seconds; ``models_json`` maps
-model or data file -> SHA-256. ``host`` is the worker's host name and ``ray_node`` its Ray node
-id (``""`` on the local engine, for skipped rows, and when a Ray worker died before it could
-tell)."""
+_PANDAS_DTYPES = {pa.string(): "string", pa.float64(): "float64", pa.int64(): "int64"}
+COLUMNS: dict[str, str] = {f.name: _PANDAS_DTYPES[f.type] for f in BATCH_STATUS_SCHEMA}
+"""Status columns and their pandas dtypes, from the table's declared schema (meanings: see
+:data:`~superlane_tools.reporting.layout.BATCH_STATUS_SCHEMA`)."""
 
 
 @dataclass(frozen=True)

@@ -17,15 +17,18 @@ import pandas as pd
 from superlane_tools.commands.batch.status import read_status
 from superlane_tools.evaluation import curvature_errors
 from superlane_tools.reporting import Provenance, write_table
-from superlane_tools.reporting.names import UNCATEGORISED
-from superlane_tools.reporting.report import Section, write_report
-from superlane_tools.reporting.run_layout import (
-    AVAILABILITY_SEQUENCES_FILE,
-    CURVATURE_FILE,
-    CURVATURE_SUMMARY_FILE,
+from superlane_tools.reporting.layout import (
+    AVAILABILITY_BY_CATEGORY_TABLE,
+    AVAILABILITY_SEQUENCES_TABLE,
+    CURVATURE_BY_RECORDING_TABLE,
+    CURVATURE_SUMMARY_TABLE,
+    CURVATURE_TABLE,
+    FLEET_STATUS_TABLE,
     SUMMARY_DIR,
     SummaryLayout,
 )
+from superlane_tools.reporting.names import UNCATEGORISED
+from superlane_tools.reporting.report import Section, write_report
 
 TRUTH_COLUMN = "rtk_curvature"
 
@@ -48,8 +51,7 @@ def fleet_status(status: pd.DataFrame) -> pd.DataFrame:
                 "processing_s": float(group["total_s"].sum()),
             }
         )
-    columns = ["category", "recordings", "ok", "partial", "failed", "frames", "processing_s"]
-    return pd.DataFrame(rows, columns=columns)
+    return pd.DataFrame(rows, columns=list(FLEET_STATUS_TABLE.columns))
 
 
 def _done(root: Path, status: pd.DataFrame) -> pd.DataFrame:
@@ -65,7 +67,7 @@ def availability_by_category(root: Path, status: pd.DataFrame) -> pd.DataFrame:
     """
     parts = []
     for row in _done(root, status).itertuples(index=False):
-        path = root / str(row.recording_id) / AVAILABILITY_SEQUENCES_FILE
+        path = root / str(row.recording_id) / AVAILABILITY_SEQUENCES_TABLE.file
         if not path.is_file():
             continue
         seqs = pd.read_parquet(path)
@@ -76,19 +78,7 @@ def availability_by_category(root: Path, status: pd.DataFrame) -> pd.DataFrame:
         seqs = seqs.assign(category=own.where(own != "", fallback))
         seqs["recording_id"] = str(row.recording_id)
         parts.append(seqs)
-    columns = [
-        "category",
-        "method",
-        "recordings",
-        "sequences",
-        "n",
-        "N",
-        "frame_ratio",
-        "k",
-        "K",
-        "sequence_ratio",
-        "method_available",
-    ]
+    columns = list(AVAILABILITY_BY_CATEGORY_TABLE.columns)
     if not parts:
         return pd.DataFrame(columns=columns)
     seqs = pd.concat(parts, ignore_index=True)
@@ -120,7 +110,7 @@ def curvature_by_recording(root: Path, status: pd.DataFrame) -> pd.DataFrame:
     """Curvature errors (1/m) against RTK of every estimate column, per finished recording."""
     rows = []
     for row in _done(root, status).itertuples(index=False):
-        path = root / str(row.recording_id) / CURVATURE_FILE
+        path = root / str(row.recording_id) / CURVATURE_TABLE.file
         if not path.is_file():
             continue
         curv = pd.read_parquet(path)
@@ -138,18 +128,7 @@ def curvature_by_recording(root: Path, status: pd.DataFrame) -> pd.DataFrame:
                     **err._asdict(),
                 }
             )
-    columns = [
-        "recording_id",
-        "category",
-        "source",
-        "n",
-        "coverage",
-        "rmse",
-        "mae",
-        "bias",
-        "correlation",
-    ]
-    return pd.DataFrame(rows, columns=columns)
+    return pd.DataFrame(rows, columns=list(CURVATURE_BY_RECORDING_TABLE.columns))
 
 
 def _sections(
@@ -179,8 +158,8 @@ def _paper_tables(root: Path, status: pd.DataFrame) -> list[tuple[str, pd.DataFr
         zip(done["recording_id"].astype(str), done["category"].astype(str), strict=True)
     )
     sections = []
-    with_avail = [r for r in runs if (r / AVAILABILITY_SEQUENCES_FILE).is_file()]
-    with_curv = [r for r in runs if (r / CURVATURE_SUMMARY_FILE).is_file()]
+    with_avail = [r for r in runs if (r / AVAILABILITY_SEQUENCES_TABLE.file).is_file()]
+    with_curv = [r for r in runs if (r / CURVATURE_SUMMARY_TABLE.file).is_file()]
     try:
         if with_avail:
             table = availability_table(with_avail, by="category", categories=categories)

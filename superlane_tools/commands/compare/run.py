@@ -29,8 +29,8 @@ from superlane_tools.fleet import (
 )
 from superlane_tools.records import Skipped
 from superlane_tools.reporting import Provenance, write_table
+from superlane_tools.reporting.layout import COMPARE_DRIVES_TABLE, CompareLayout
 from superlane_tools.reporting.report import write_report
-from superlane_tools.reporting.run_layout import CompareLayout
 
 DELTA_PLOT_KPIS = (
     "availability_frames.super",
@@ -160,7 +160,7 @@ def compare_runs(base: Path, candidate: Path, out: Path, params: CompareParams) 
     )
     layout = CompareLayout(out)
     written = [
-        write_table(comparison.table, layout.table, provenance),
+        write_table(comparison.table, layout.compare, provenance),
         write_table(result.spans, layout.spans, provenance),
         write_table(_drives(comparison), layout.drives, provenance),
     ]
@@ -191,7 +191,7 @@ def _drives(comparison: Comparison) -> pd.DataFrame:
     rows += [("only in the base", b, b.folder, None) for b in comparison.only_base]
     rows += [("only in the candidate", c, None, c.folder) for c in comparison.only_candidate]
     rows += [("sequences do not line up", b, b.folder, c.folder) for b, c in comparison.unaligned]
-    columns = ["drive", "status", "recording", "category", "base_folder", "candidate_folder"]
+    columns = list(COMPARE_DRIVES_TABLE.columns)
     return pd.DataFrame(
         [
             (d.drive, status, d.recording, d.category, str(fb or ""), str(fc or ""))

@@ -27,7 +27,7 @@ from superlane_tools.reporting.gnss_sink import RtkSink
 from superlane_tools.reporting.image_file_sink import ImageFileSink
 from superlane_tools.reporting.message_pass import MessageSink, stream_messages
 from superlane_tools.reporting.provenance import HashedProvenance, PendingIdentities
-from superlane_tools.reporting.run_layout import FRAMES_FILE, ExtractLayout
+from superlane_tools.reporting.layout import EXTRACT_FRAMES_TABLE, ExtractLayout
 
 
 def extract(
@@ -165,7 +165,7 @@ def _sinks(
             config.every,
             provenance,
             skips,
-            index_name=FRAMES_FILE,
+            index_name=EXTRACT_FRAMES_TABLE.file,
             images_name="frames",
         )
         if frames

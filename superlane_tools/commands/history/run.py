@@ -19,8 +19,8 @@ from superlane_tools.fleet.drift import drifts as find_drifts
 from superlane_tools.fleet.history import changes, history_dataset, nightly_series, read_history
 from superlane_tools.fleet.history_report import drift_line, history_sections
 from superlane_tools.reporting import Provenance, write_table
+from superlane_tools.reporting.layout import HistoryReportLayout
 from superlane_tools.reporting.report import write_report
-from superlane_tools.reporting.run_layout import HistoryReportLayout
 
 if TYPE_CHECKING:
     import pandas as pd

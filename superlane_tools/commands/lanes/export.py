@@ -29,7 +29,7 @@ from superlane_tools.evaluation.tusimple_export import (
     rows_by_raw_file,
 )
 from superlane_tools.reporting import read_provenance, write_bytes_atomic, write_text_atomic
-from superlane_tools.reporting.run_layout import LANES_FIT_SCHEMA
+from superlane_tools.reporting.layout import LANES_FIT_SCHEMA
 
 
 def parse_h_samples(spec: str) -> list[int]:

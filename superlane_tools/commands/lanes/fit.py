@@ -29,7 +29,7 @@ from superlane_tools.reporting import (
     input_identity,
     write_table,
 )
-from superlane_tools.reporting.run_layout import LANES_FIT_SCHEMA
+from superlane_tools.reporting.layout import LANES_FIT_SCHEMA
 from superlane_tools.scene.errors import SceneError
 from superlane_tools.scene.label_folder import (
     find_masks,
@@ -45,7 +45,7 @@ Progress = Callable[[int, int], None]
 def _fit_row(
     name: str, width: int, height: int, fit: LaneFit, seg_time_ms: float
 ) -> dict[str, Any]:
-    """Return one row of this command's table (see ``run_layout.LANES_FIT_SCHEMA``)."""
+    """Return one row of this command's table (see ``reporting.layout.LANES_FIT_SCHEMA``)."""
     return {**fit_row(name, width, height, fit), "seg_time_ms": seg_time_ms}
 
 

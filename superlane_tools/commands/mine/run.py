@@ -28,7 +28,7 @@ from superlane_tools.fleet.runs import read_lanes
 from superlane_tools.records import Skipped
 from superlane_tools.reporting import Provenance, write_bytes_atomic, write_table
 from superlane_tools.reporting.atomic import write_text_atomic
-from superlane_tools.reporting.run_layout import MineLayout
+from superlane_tools.reporting.layout import MineLayout
 
 LINES_SUFFIX = CULANE_SUFFIX
 

@@ -16,11 +16,11 @@ from pathlib import Path
 import pandas as pd
 
 from superlane_tools.fleet import DriveRun, FleetError, find_drives
-from superlane_tools.reporting.run_layout import CompareLayout
+from superlane_tools.reporting.layout import COMPARE_SPANS_TABLE, CompareLayout
 
 NO_HASH = "folder:"
 """Prefix of a drive key made from its folder name (no content hash in its provenance)."""
-SPAN_COLUMNS = ["recording", "content_hash", "start_ns", "stop_ns"]
+SPAN_COLUMNS = list(COMPARE_SPANS_TABLE.pick("recording", "content_hash", "start_ns", "stop_ns"))
 
 
 def drive_hash(drive: DriveRun) -> str:

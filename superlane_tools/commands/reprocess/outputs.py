@@ -17,9 +17,9 @@ from superlane_tools.drive.sinks import AnnotationSink, ExampleSink, FrameTables
 from superlane_tools.drive.stages import FrameStages
 from superlane_tools.reporting import Provenance, input_identity, write_table
 from superlane_tools.reporting.drive_sections import ReportFacts
+from superlane_tools.reporting.layout import RunLayout, checked_table, tables_of
 from superlane_tools.reporting.plots import ExampleFrame
 from superlane_tools.reporting.report import write_report
-from superlane_tools.reporting.run_layout import RunLayout, checked_table
 
 if TYPE_CHECKING:
     import pyarrow as pa
@@ -127,17 +127,17 @@ def open_sinks(
 
 
 def table_files(out: Path, result: DerivedTables) -> dict[Path, pa.Table]:
-    """Return output path -> table of the derived tables (named by :class:`RunLayout`).
+    """Return output path -> table of the derived tables (``result.<name>`` of each spec).
 
-    Each table is checked against its schema (:data:`~.run_layout.DERIVED_SCHEMAS`).
+    Each table is checked against its :class:`~superlane_tools.reporting.layout.TableSpec`.
 
     Raises:
-        ~superlane_tools.reporting.run_layout.SchemaMismatchError: If a builder's table
+        ~superlane_tools.reporting.layout.SchemaMismatchError: If a builder's table
             disagrees with its declared schema.
     """
     return {
-        path: checked_table(name, getattr(result, name))
-        for name, path in RunLayout(out).derived().items()
+        out / spec.file: checked_table(spec, getattr(result, spec.name))
+        for spec in tables_of("derived").values()
     }
 
 

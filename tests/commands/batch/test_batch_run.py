@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import pyarrow.parquet as pq
 import pytest
 
 from superlane_tools.commands.batch import (
@@ -29,6 +30,12 @@ from superlane_tools.commands.batch import (
 from superlane_tools.commands.batch.root import root_lock
 from superlane_tools.commands.batch.status import StatusRow, StatusTable
 from superlane_tools.reporting import Provenance, read_provenance, write_table
+from superlane_tools.reporting.layout import (
+    BATCH_STATUS_TABLE,
+    SummaryLayout,
+    checked_table,
+    tables_of,
+)
 from superlane_tools.reporting.run_folder import write_run_manifest
 
 EXTRACT = {"frame_format": "none"}
@@ -78,6 +85,7 @@ def test_batch_ok_failed_and_idempotent(
     fleet = pd.read_parquet(root / "summary" / "fleet_status.parquet")
     assert fleet.to_dict("records")[0]["ok"] == 3
     assert read_provenance(root / "batch_status.parquet")["config"]["job"] == "extract"
+    checked_table(BATCH_STATUS_TABLE, pq.read_table(root / "batch_status.parquet"))
 
     # same content, tool, config: skipped, outputs untouched
     stamp = {rid: (root / rid / MARKER).stat().st_mtime_ns for rid in ok["recording_id"]}
@@ -254,6 +262,8 @@ def test_summary_from_reprocess_tables(tmp_path: Path) -> None:
     assert np.allclose(sup["rmse"], 1e-4)
     assert (sup["n"] == 19).all()
     assert (curv[curv["source"] == "mobileye"]["n"] == 0).all()
+    for name, spec in tables_of("summary").items():  # the declared schemas
+        checked_table(spec, pq.read_table(SummaryLayout(root / "summary").table(name)))
     md = (root / "summary" / "report.md").read_text()
     assert "## Availability by category" in md
     assert "| highway | super | 2 | 4 | 28 | 40 |" in md

@@ -6,6 +6,7 @@ from pathlib import Path
 from typing import Any
 
 import pandas as pd
+import pyarrow.parquet as pq
 import pytest
 from typer.testing import CliRunner
 
@@ -21,9 +22,16 @@ from superlane_tools.fleet import (
     difference_lines,
     parse_rule,
 )
+from superlane_tools.reporting.layout import CompareLayout, checked_table, tables_of
 
 runner = CliRunner()
 QUICK = CompareParams(plots=False)
+
+
+def _check_tables(out: Path) -> None:
+    """Every table written matches its declared schema (compare_spans is what mine reads)."""
+    for name, spec in tables_of("compare").items():
+        checked_table(spec, pq.read_table(CompareLayout(out).table(name)))
 
 
 def test_one_drive_is_too_few_for_a_verdict(oracle_runs: Any, tmp_path: Path) -> None:
@@ -46,6 +54,7 @@ def test_one_drive_is_too_few_for_a_verdict(oracle_runs: Any, tmp_path: Path) ->
     assert text.index("What differs") < text.index("Fleet verdict")
     assert "matched: 1 of 1 base and 1 candidate drives" in text
     assert "too few drives (1)" in text
+    _check_tables(tmp_path)
 
 
 def test_identical_fleets_are_equivalent_without_a_fake_interval(
@@ -90,6 +99,7 @@ def test_a_blind_candidate_is_worse_and_its_span_is_found(
     assert "release gate: FAILED" in text
     assert "Holm" in text
     assert (tmp_path / "compare.html").is_file()
+    _check_tables(tmp_path)
 
 
 def _cli(*args: str) -> Any:

@@ -28,6 +28,7 @@ from superlane_tools.commands.reprocess import reprocess
 from superlane_tools.drive.config import ReprocessConfig
 from superlane_tools.fleet import parse_rule
 from superlane_tools.fleet.history import read_history, record_night
+from superlane_tools.reporting.layout import HISTORY_DRIFTS_TABLE, checked_table
 from superlane_tools.reporting.run_folder import staged_run
 
 runner = CliRunner()
@@ -153,7 +154,9 @@ def test_model_and_config_changes_are_marked(history: History, tmp_path: Path) -
     assert page.index("## Drifts no gate caught") < page.index("## Model and configuration")
     assert (tmp_path / "plots" / "history_availability_frames_super.png").stat().st_size > 5000
     assert (tmp_path / "history.html").is_file()
-    assert len(pd.read_parquet(tmp_path / "history_drifts.parquet")) == len(result.drifts)
+    drifts = pd.read_parquet(tmp_path / "history_drifts.parquet")
+    assert len(drifts) == len(result.drifts) > 0
+    checked_table(HISTORY_DRIFTS_TABLE, drifts)  # the declared schema
 
 
 def test_a_rerun_night_appends_a_file_and_the_latest_wins(history: History, tmp_path: Path) -> None:

@@ -12,6 +12,7 @@ from typer.testing import CliRunner
 from superlane_tools.cli.app import app
 from superlane_tools.evaluation.culane import read_lines_file
 from superlane_tools.evaluation.tusimple import load_jsonl
+from superlane_tools.reporting.layout import MINE_MANIFEST_TABLE, checked_table
 
 runner = CliRunner()
 
@@ -58,6 +59,7 @@ def test_mining_picks_the_frames_where_two_runs_disagree(oracle_runs: Any, tmp_p
     out = _mine_span(oracle_runs, tmp_path, "span", 3, "0.3")
     manifest = pd.read_parquet(out / "manifest.parquet")
     assert len(manifest) == 3
+    checked_table(MINE_MANIFEST_TABLE, manifest)  # the declared schema
     blind = oracle_runs.blind_frames
     assert manifest["frame_index"].between(blind.start - 3, blind.stop + 3).all(), manifest
     assert (np.diff(manifest["log_time_ns"]) >= 0.3e9).all()  # spread, no neighbours

@@ -14,7 +14,7 @@ from typer.testing import CliRunner
 from superlane_tools.cli.app import app
 from superlane_tools.recording import open_recording
 from superlane_tools.reporting import read_provenance
-from superlane_tools.reporting.run_layout import RunLayout
+from superlane_tools.reporting.layout import RunLayout
 from superlane_tools.simulation.drive import simulate_drive
 
 WIDTH, HEIGHT = 320, 180

@@ -15,7 +15,7 @@ import pytest
 from typer.testing import CliRunner
 
 from superlane_tools.cli.app import app
-from superlane_tools.reporting.run_layout import RunLayout
+from superlane_tools.reporting.layout import RunLayout
 
 FORMATS = {"mcap": "d.mcap", "ros1": "d.bag", "ros2": "d2"}
 RTOL = 1e-9

@@ -13,7 +13,7 @@ import pytest
 from superlane_tools.commands.reprocess import ReprocessConfig, reprocess
 from superlane_tools.recording import open_recording
 from superlane_tools.reporting import read_provenance
-from superlane_tools.reporting.run_layout import (
+from superlane_tools.reporting.layout import (
     CURVATURE_SCHEMA,
     DERIVED_TABLES,
     RunLayout,
@@ -285,7 +285,7 @@ def test_mcap_without_metadata_uses_tf_static(drive: Path, tmp_path: Path) -> No
 
 
 def test_derived_tables_match_their_schemas(run_dir: Path) -> None:
-    """Each derived table as built matches run_layout's schema; a drifted builder fails."""
+    """Each derived table as built matches its TableSpec's schema; a drifted builder fails."""
     layout = RunLayout(run_dir)
     tables = {name: pq.read_table(layout.table(name)) for name in DERIVED_TABLES}
     for name, table in tables.items():

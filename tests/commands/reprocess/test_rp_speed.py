@@ -20,7 +20,7 @@ from superlane_tools.corridor import CorridorParams, corridor_from_mask, measura
 from superlane_tools.errors import ConfigError
 from superlane_tools.recording.images import decode_frame, decode_reduced
 from superlane_tools.records import Message
-from superlane_tools.reporting.run_layout import STAGES
+from superlane_tools.reporting.layout import STAGES
 from superlane_tools.simulation.drive import simulate_drive
 
 
