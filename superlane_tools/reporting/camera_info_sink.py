@@ -10,8 +10,8 @@ import pyarrow as pa
 from superlane_tools.recording.base import field_value
 from superlane_tools.records import Message
 from superlane_tools.reporting import write_table
-from superlane_tools.reporting.provenance import ProvenanceSource, resolve_provenance
 from superlane_tools.reporting.layout import CAMERA_INFO_SCHEMA
+from superlane_tools.reporting.provenance import ProvenanceSource, resolve_provenance
 
 
 class CameraInfoSink:

@@ -22,9 +22,8 @@ from superlane_tools.recording.video import DECODED_MSGTYPE, decoded_image
 from superlane_tools.records import Message
 from superlane_tools.reporting import OutputError, ParquetStreamWriter
 from superlane_tools.reporting.atomic import temp_prefix
-from superlane_tools.reporting.layout import CAMERA_INFO_SCHEMA, EXTRACT_FRAMES_SCHEMA
-from superlane_tools.reporting.provenance import ProvenanceSource, resolve_provenance
 from superlane_tools.reporting.layout import EXTRACT_FRAMES_SCHEMA
+from superlane_tools.reporting.provenance import ProvenanceSource, resolve_provenance
 
 RAW_TYPES = {"sensor_msgs/msg/Image", "foxglove.RawImage"}
 _EXT = {"jpg": ("jpeg", ".jpg"), "png": ("png", ".png")}

@@ -25,9 +25,9 @@ from superlane_tools.reporting.camera_info_sink import CameraInfoSink
 from superlane_tools.reporting.can_sink import CanSink
 from superlane_tools.reporting.gnss_sink import RtkSink
 from superlane_tools.reporting.image_file_sink import ImageFileSink
+from superlane_tools.reporting.layout import EXTRACT_FRAMES_TABLE, ExtractLayout
 from superlane_tools.reporting.message_pass import MessageSink, stream_messages
 from superlane_tools.reporting.provenance import HashedProvenance, PendingIdentities
-from superlane_tools.reporting.layout import EXTRACT_FRAMES_TABLE, ExtractLayout
 
 
 def extract(
