@@ -50,7 +50,7 @@ RANKS = {
     "__main__": 6,
 }
 
-MOVED_FROM_CLI = {"dbc", "convert", "cat", "filter", "info"}
+MOVED_FROM_CLI = {"dbc", "convert", "cat", "filter", "info", "simulate"}
 """Commands whose work moved out of ``cli/`` (issue 34); tested through their CLI."""
 
 COMMAND_RANKS = {
@@ -73,6 +73,7 @@ COMMAND_RANKS = {
     "cat": 1,
     "filter": 1,
     "info": 1,
+    "simulate": 1,
     "batch": 2,
 }
 """Second level of ``commands``: the commands are peers (rank 1) and never import each other;

@@ -6,18 +6,13 @@ from collections.abc import Callable
 from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING
+
+from superlane_tools.commands.options import ProgressBar
 
 if TYPE_CHECKING:
     from superlane_tools.recording.inspect import CanIdStats, McapFileInfo
     from superlane_tools.recording.summary import RecordingSummary
-
-
-class ProgressBar(Protocol):
-    """What the summary pass reports to: the number of messages read so far."""
-
-    def update(self, done: int, /) -> None:
-        """Set the number of messages read."""
 
 
 @dataclass(frozen=True)

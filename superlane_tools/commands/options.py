@@ -6,11 +6,30 @@ message. Heavy modules are imported inside the functions, so ``slt --help`` stay
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Sequence
-from contextlib import contextmanager
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import AbstractContextManager, contextmanager
 from pathlib import Path
+from typing import Any, Protocol
 
 from superlane_tools.records import Skipped
+
+
+class ProgressBar(Protocol):
+    """The cli's progress display of one long step, as a command reports to it."""
+
+    def update(
+        self, done: int, total: int | None = None, note: str = "", label: str | None = None
+    ) -> None:
+        """Set the items done (and the total, a short note, the label)."""
+
+
+ProgressOpener = Callable[[], AbstractContextManager[ProgressBar]]
+"""Opens the progress display of a command's long step (the cli's ``progress(...)``)."""
+
+OutputGuard = AbstractContextManager[Any]
+"""Entered around the writing of a command's output, after its options are checked: the cli's
+one policy for an existing output (``cli/_outputs.py``: refuse, or replace with
+``--overwrite``)."""
 
 
 def check_camera(value: str) -> None:
