@@ -74,6 +74,7 @@ COMMAND_RANKS = {
     "filter": 1,
     "info": 1,
     "simulate": 1,
+    "train": 1,
     "batch": 2,
 }
 """Second level of ``commands``: the commands are peers (rank 1) and never import each other;
