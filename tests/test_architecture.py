@@ -50,7 +50,7 @@ RANKS = {
     "__main__": 6,
 }
 
-MOVED_FROM_CLI = {"dbc", "convert", "cat", "filter", "info", "train", "simulate"}
+MOVED_FROM_CLI = {"dbc", "convert", "cat", "filter", "info", "eval", "train", "simulate"}
 """Commands whose work moved out of ``cli/`` (issue 34); tested through their CLI."""
 
 COMMAND_RANKS = {
@@ -75,6 +75,7 @@ COMMAND_RANKS = {
     "info": 1,
     "simulate": 1,
     "train": 1,
+    "eval": 1,
     "batch": 2,
 }
 """Second level of ``commands``: the commands are peers (rank 1) and never import each other;
