@@ -76,6 +76,7 @@ COMMAND_RANKS = {
     "simulate": 1,
     "train": 1,
     "eval": 1,
+    "camera": 1,
     "batch": 2,
 }
 """Second level of ``commands``: the commands are peers (rank 1) and never import each other;
