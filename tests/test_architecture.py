@@ -278,7 +278,6 @@ def test_the_frame_loop_lives_in_drive() -> None:
     assert not bad, f"frame-loop work outside drive/: {bad}"
 
 
-CLI_BANNED_MODULES = ("cv2", "numpy", "pandas", "pyarrow")
 CLI_BANNED_NAMES = {
     "write_table",
     "ParquetStreamWriter",
@@ -290,7 +289,10 @@ CLI_BANNED_NAMES = {
     "OnnxCorridorModel",
     "corridor_from_mask",
 }
-"""What a pipeline is made of: writers, staging, stages. ``cli/`` calls one command instead."""
+"""What a pipeline is made of: writers, staging, stages. ``cli/`` calls one command instead.
+
+What ``cli/`` may import at all is an allow-list in ``tests/test_architecture_commands.py``;
+this keeps it from reaching a pipeline's parts through a command's module."""
 
 
 def test_the_cli_runs_no_pipeline() -> None:
@@ -300,9 +302,7 @@ def test_the_cli_runs_no_pipeline() -> None:
         bad += [
             f"{path.name}: imports {'.'.join(name)}"
             for name in imported
-            if name[0] in CLI_BANNED_MODULES
-            or name[:2] == ["superlane_tools", "drive"]
-            or name[-1] in CLI_BANNED_NAMES
+            if name[-1] in CLI_BANNED_NAMES
         ]
         used, _ = _names_used(path)
         bad += [f"{path.name}: uses {n}" for n in sorted(used & CLI_BANNED_NAMES)]

@@ -204,7 +204,7 @@ def estimate_cmd(
     overwrite: Annotated[bool, overwrite_option()] = False,
 ) -> None:
     """Estimate pitch, yaw, roll and height from the lane lines and the lane width."""
-    from superlane_tools.commands.camera_estimate import EstimateParams, profile_target, run
+    from superlane_tools.commands.camera_estimate.run import EstimateParams, profile_target, run
 
     target = profile_target(recording, out)
     check_new_output(target, overwrite, [recording])  # before the heavy imports and any work

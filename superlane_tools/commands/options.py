@@ -9,9 +9,13 @@ from __future__ import annotations
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import AbstractContextManager, contextmanager
 from pathlib import Path
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
+from superlane_tools.errors import UsageError
 from superlane_tools.records import Skipped
+
+if TYPE_CHECKING:
+    from superlane_tools.geo import GeodeticOrigin
 
 
 class ProgressBar(Protocol):
@@ -21,6 +25,9 @@ class ProgressBar(Protocol):
         self, done: int, total: int | None = None, note: str = "", label: str | None = None
     ) -> None:
         """Set the items done (and the total, a short note, the label)."""
+
+    def phase(self, label: str, note: str = "") -> None:
+        """Start a phase: show its label (and a note), no count until it reports one."""
 
 
 ProgressOpener = Callable[[], AbstractContextManager[ProgressBar]]
@@ -74,3 +81,26 @@ def replacing(out: Path) -> Iterator[None]:
 
     with replace(out):
         yield
+
+
+def parse_origin(text: str | None) -> GeodeticOrigin | None:
+    """Parse an ``--origin LAT,LON[,ALT]`` value; a malformed one is a ``UsageError``."""
+    from superlane_tools.geo import GeoError
+    from superlane_tools.geo import parse_origin as parse
+
+    if text is None:
+        return None
+    try:
+        return parse(text)
+    except GeoError as err:
+        raise UsageError(f"--origin: {err}") from err
+
+
+def parse_time_range(text: str | None, option: str) -> tuple[float | None, int | None]:
+    """Parse a ``--start``/``--end`` value: (seconds after the first message, absolute ns)."""
+    from superlane_tools.recording.times import parse_time
+
+    if text is None:
+        return None, None
+    spec = parse_time(text, option)
+    return (None, spec.ns) if spec.absolute else (spec.ns / 1e9, None)

@@ -6,9 +6,12 @@ import math
 from contextlib import nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from superlane_tools.commands.camera_estimate.estimate import CameraEstimate, estimate_camera
 from superlane_tools.commands.options import OutputGuard
+
+if TYPE_CHECKING:
+    from superlane_tools.commands.camera_estimate.estimate import CameraEstimate
 
 ROLL_RELIABLE_S = 60.0
 """Drive length, seconds, below which an estimated roll is flagged: docs/camera.md measures
@@ -68,6 +71,7 @@ def run(params: EstimateParams) -> EstimateOutput:
     import yaml
 
     from superlane_tools.camera import camera_to_yaml, load_camera
+    from superlane_tools.commands.camera_estimate.estimate import estimate_camera
 
     p = params
     known = load_camera(p.intrinsics).intrinsics if p.intrinsics is not None else None
