@@ -204,15 +204,12 @@ def estimate_cmd(
     overwrite: Annotated[bool, overwrite_option()] = False,
 ) -> None:
     """Estimate pitch, yaw, roll and height from the lane lines and the lane width."""
-    from superlane_tools.commands.camera_estimate.run import EstimateParams, profile_target, run
+    from superlane_tools.commands.camera_estimate.run import EstimateParams, run
 
-    target = profile_target(recording, out)
-    check_new_output(target, overwrite, [recording])  # before the heavy imports and any work
     with cli_errors():
         params = EstimateParams(
             recording,
-            target,
-            out is None,
+            out,
             lane_width,
             intrinsics,
             focal_px,
@@ -222,7 +219,7 @@ def estimate_cmd(
             topic,
             name,
             command_line(),
-            new_output(target, overwrite, replaces=True),
+            lambda target: new_output(target, overwrite, [recording], replaces=True),
         )
         output = run(params)
         _print_profile(ProfileOutput(output.text, output.written))

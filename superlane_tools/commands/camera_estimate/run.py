@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from contextlib import nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -34,12 +35,13 @@ def profile_target(recording: Path, out: Path | None) -> Path | None:
 class EstimateParams:
     """What ``slt camera estimate`` was asked (see its options).
 
-    ``target`` is :func:`profile_target`'s answer; ``default_target`` says it was not given.
+    ``out`` is ``-o`` as typed (None: the default sidecar, ``-``: print);
+    ``output_policy(target)`` is the cli's policy for the profile file, entered once to refuse
+    an existing one before any work and again around the writing.
     """
 
     recording: Path
-    target: Path | None
-    default_target: bool = True
+    out: Path | None = None
     lane_width_m: float = 3.7
     intrinsics: str | None = None
     focal_px: float | None = None
@@ -49,7 +51,9 @@ class EstimateParams:
     topic: str | None = None
     name: str = "estimated"
     command: str = ""
-    output_guard: OutputGuard = field(default_factory=nullcontext)
+    output_policy: Callable[[Path | None], OutputGuard] = field(
+        default=lambda _target: nullcontext()
+    )
 
 
 @dataclass(frozen=True)
@@ -70,10 +74,13 @@ def run(params: EstimateParams) -> EstimateOutput:
     """
     import yaml
 
+    p = params
+    target = profile_target(p.recording, p.out)
+    with p.output_policy(target):  # refuse an existing profile before the imports and any work
+        pass
     from superlane_tools.camera import camera_to_yaml, load_camera
     from superlane_tools.commands.camera_estimate.estimate import estimate_camera
 
-    p = params
     known = load_camera(p.intrinsics).intrinsics if p.intrinsics is not None else None
     result = estimate_camera(
         p.recording,
@@ -102,8 +109,8 @@ def run(params: EstimateParams) -> EstimateOutput:
         "assumptions": caveats,
     }
     text = camera_to_yaml(result.camera, comment=comment) + yaml.safe_dump(blocks, sort_keys=False)
-    _write(p, text)
-    return EstimateOutput(result, caveats, text, p.target)
+    _write(text, target, p.out is None, p.output_policy(target))
+    return EstimateOutput(result, caveats, text, target)
 
 
 def _calibration_block(intrinsics: str | None) -> dict[str, object]:
@@ -118,17 +125,17 @@ def _calibration_block(intrinsics: str | None) -> dict[str, object]:
     return {}
 
 
-def _write(params: EstimateParams, text: str) -> None:
+def _write(text: str, target: Path | None, default: bool, guard: OutputGuard) -> None:
     """Write the estimated profile; a default path in a read-only folder names ``-o``."""
     from superlane_tools.reporting import OutputError, write_text_atomic
 
-    if params.target is None:
+    if target is None:
         return
     try:
-        with params.output_guard:
-            write_text_atomic(params.target, text)
+        with guard:
+            write_text_atomic(target, text)
     except OutputError as err:
-        if not params.default_target:
+        if not default:
             raise
         raise OutputError(
             f"{err} (the recording's folder; pass -o PATH, then --camera PATH)"
