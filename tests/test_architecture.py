@@ -50,9 +50,13 @@ RANKS = {
     "__main__": 6,
 }
 
+MOVED_FROM_CLI = {"dbc", "convert", "cat", "filter", "info", "camera", "eval", "train", "simulate"}
+"""Commands whose work moved out of ``cli/`` (issue 34); tested through their CLI."""
+
 COMMAND_RANKS = {
     "__init__": 0,
     "errors": 0,
+    "options": 0,
     "extract": 1,
     "reprocess": 1,
     "lanes": 1,
@@ -64,6 +68,15 @@ COMMAND_RANKS = {
     "mine": 1,
     "history": 1,
     "recover": 1,
+    "dbc": 1,
+    "convert": 1,
+    "cat": 1,
+    "filter": 1,
+    "info": 1,
+    "simulate": 1,
+    "train": 1,
+    "eval": 1,
+    "camera": 1,
     "batch": 2,
 }
 """Second level of ``commands``: the commands are peers (rank 1) and never import each other;
@@ -204,7 +217,6 @@ def test_the_frame_loop_lives_in_drive() -> None:
     assert not bad, f"frame-loop work outside drive/: {bad}"
 
 
-CLI_BANNED_MODULES = ("cv2", "numpy", "pandas", "pyarrow")
 CLI_BANNED_NAMES = {
     "write_table",
     "ParquetStreamWriter",
@@ -216,7 +228,10 @@ CLI_BANNED_NAMES = {
     "OnnxCorridorModel",
     "corridor_from_mask",
 }
-"""What a pipeline is made of: writers, staging, stages. ``cli/`` calls one command instead."""
+"""What a pipeline is made of: writers, staging, stages. ``cli/`` calls one command instead.
+
+What ``cli/`` may import at all is an allow-list in ``tests/test_architecture_commands.py``;
+this keeps it from reaching a pipeline's parts through a command's module."""
 
 
 def test_the_cli_runs_no_pipeline() -> None:
@@ -226,9 +241,7 @@ def test_the_cli_runs_no_pipeline() -> None:
         bad += [
             f"{path.name}: imports {'.'.join(name)}"
             for name in imported
-            if name[0] in CLI_BANNED_MODULES
-            or name[:2] == ["superlane_tools", "drive"]
-            or name[-1] in CLI_BANNED_NAMES
+            if name[-1] in CLI_BANNED_NAMES
         ]
         used, _ = _names_used(path)
         bad += [f"{path.name}: uses {n}" for n in sorted(used & CLI_BANNED_NAMES)]
@@ -241,7 +254,9 @@ def test_architecture_page_lists_every_layer() -> None:
     units = {u: r for u, r in RANKS.items() if (PACKAGE / u).is_dir()}
     assert {u: int(r) for u, r in table.items()} == units
     commands = dict(re.findall(r"^\| `commands/(\w+)` \| (\d) \|", page, re.MULTILINE))
-    expected = {u: r for u, r in COMMAND_RANKS.items() if u not in {"__init__", "errors"}}
+    expected = {
+        u: r for u, r in COMMAND_RANKS.items() if u not in {"__init__", "errors", "options"}
+    }
     assert {u: int(r) for u, r in commands.items()} == expected
     for module in re.findall(r"`(superlane_tools/[\w/]+\.py)`", page):
         assert (ROOT / module).is_file(), f"docs/architecture.md names a missing {module}"
@@ -256,7 +271,7 @@ def test_each_command_reads_top_to_bottom_in_one_short_file() -> None:
     rows = re.findall(
         r"^\| `commands/(\w+)` \| \d \| `(superlane_tools/[\w/]+\.py)`", page, re.MULTILINE
     )
-    expected = {u for u in COMMAND_RANKS if u not in {"__init__", "errors"}}
+    expected = {u for u in COMMAND_RANKS if u not in {"__init__", "errors", "options"}}
     assert {unit for unit, _ in rows} == expected, rows
     sizes = {path: len((ROOT / path).read_text(encoding="utf-8").splitlines()) for _, path in rows}
     long = {path: n for path, n in sizes.items() if n > MAX_ORCHESTRATION_LINES}
@@ -319,7 +334,10 @@ def test_tests_mirror_the_package() -> None:
     # tests; `slt camera estimate` in tests/camera/test_cam_calibrate_estimate.py.
     # `slt tables` through its CLI too (tests/cli/test_cli_reprocess.py).
     # `slt corridor` through its CLI (tests/cli/test_cli_corridor_train.py).
-    untested_here = {"__init__", "errors", "lanes", "camera_estimate", "tables", "corridor"}
+    # The commands that moved out of cli/ (issue 34) are tested through their CLI as before:
+    # tests/cli/ and the tests of their layer (tests/recording/test_rec_tools_cli.py, ...).
+    untested_here = {"__init__", "errors", "options", "lanes", "camera_estimate", "tables"}
+    untested_here |= {"corridor", *MOVED_FROM_CLI}
     commands = [u for u in COMMAND_RANKS if u not in untested_here]
     missing = [c for c in commands if not list((ROOT / "tests" / "commands" / c).glob("test_*.py"))]
     assert not missing, f"no tests/commands/<command>/test_*.py for {missing}"

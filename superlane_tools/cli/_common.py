@@ -279,7 +279,7 @@ def report_lost(skipped: Sequence[Skipped], nothing_read: bool, where: object) -
         say("error", f"{where}: no message is readable (what was lost is above)")
         return ExitCode.ERROR
     if isinstance(where, Path):  # a damaged recording: name the command that salvages it
-        from superlane_tools.reporting.drive_notes import recover_hint
+        from superlane_tools.commands.options import recover_hint
 
         if hint := recover_hint(where, skipped):
             say("note", hint.replace("`", ""))
@@ -294,10 +294,10 @@ def check_camera(value: str | None) -> str | None:
     """
     if value is None or value == "auto":
         return value
-    from superlane_tools.camera import load_camera
+    from superlane_tools.commands.options import check_camera as load
 
     try:
-        load_camera(value)
+        load(value)
     except SltError as err:
         raise typer.BadParameter(str(err)) from err
     return value
@@ -307,10 +307,10 @@ def check_model(value: str | None) -> str | None:
     """Typer callback for ``--model``: a model that is neither a file nor bundled exits 2."""
     if value is None:
         return value
-    from superlane_tools.scene.onnx_backend import resolve_model
+    from superlane_tools.commands.options import check_model as resolve
 
     try:
-        resolve_model(value)
+        resolve(value)
     except SltError as err:
         raise typer.BadParameter(str(err)) from err
     return value
@@ -327,15 +327,15 @@ def check_dbc_specs(values: list[Path] | None) -> list[Path] | None:
     The file part of each value must be an existing file, so ``--dbc /missing.dbc`` exits 2
     before any work starts, with or without a ``BUS=`` prefix.
     """
-    from superlane_tools.can.buses import parse_dbc_spec
+    from superlane_tools.commands.options import dbc_spec_path
 
     for value in values or []:
         try:
-            spec = parse_dbc_spec(str(value))
+            path = dbc_spec_path(str(value))
         except SltError as err:
             raise typer.BadParameter(str(err)) from err
-        if not spec.path.exists():  # what exists but is no DBC, the loader refuses (exit 1)
-            raise typer.BadParameter(f"DBC file {str(spec.path)!r} does not exist.")
+        if not path.exists():  # what exists but is no DBC, the loader refuses (exit 1)
+            raise typer.BadParameter(f"DBC file {str(path)!r} does not exist.")
     return values
 
 

@@ -53,7 +53,7 @@ def check_new_output(out: Path | None, overwrite: bool, inputs: Sequence[Path] =
     """
     if out is None:
         return
-    from superlane_tools.reporting.atomic import settle_replaced
+    from superlane_tools.commands.options import settle_replaced
 
     settle_replaced(out)  # what a killed --overwrite left: the old output back, or gone
     if not output_exists(out):
@@ -94,7 +94,7 @@ def new_output(
     if out is None or replaces or not output_exists(out):
         yield
         return
-    from superlane_tools.reporting.atomic import replacing
+    from superlane_tools.commands.options import replacing
 
     with cli_errors(), replacing(out):
         yield

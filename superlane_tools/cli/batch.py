@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import inspect
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
@@ -18,8 +20,32 @@ from superlane_tools.cli._common import (
     progress,
     report_skipped,
 )
-from superlane_tools.errors import ExitCode, UsageError, message_line
+from superlane_tools.errors import ExitCode, message_line
 from superlane_tools.records import Skipped
+
+if TYPE_CHECKING:
+    from superlane_tools.commands.batch import BatchProgress
+
+
+@contextmanager
+def _ticker(total: int, kind: str, engine: str) -> Iterator[Callable[[BatchProgress], None]]:
+    """Show the batch's progress: recordings done, their counts, failed attempts above it."""
+    with progress("identify", total, "recordings") as bar:
+
+        def tick(p: BatchProgress) -> None:
+            counts = " ".join(f"{k} {v}" for k, v in p.counts.items() if v)
+            name = "identify" if p.phase == "hashing" else f"{kind} ({engine})"
+            bar.update(p.done, p.total, note=counts, label=name)
+            last = p.last
+            if last is not None and last.status == "failed":
+                bar.echo(
+                    message_line(
+                        "note",
+                        f"{last.recording_id}: attempt {last.attempt} failed: {last.error}",
+                    )
+                )
+
+        yield tick
 
 
 def batch_cmd(
@@ -85,47 +111,23 @@ def batch_cmd(
     holds the fleet tables and report.md / report.html. Exit 3 when some recordings failed
     or lost data, 1 when all failed.
     """
-    from superlane_tools.commands.batch import (
-        BatchParams,
-        BatchProgress,
-        default_kind,
-        expand_inputs,
-        load_config_file,
-        read_manifest,
-        run_batch,
+    from superlane_tools.commands.batch.entry import BatchOptions, run
+
+    options = BatchOptions(
+        inputs or [],
+        manifest,
+        out,
+        engine,
+        workers,
+        ray_address,
+        config,
+        retries,
+        force,
+        job,
+        command_line(),
     )
-
     with cli_errors():
-        if bool(inputs) == (manifest is not None):
-            raise UsageError("give recordings/folders or --manifest FILE (one of the two)")
-        entries = read_manifest(manifest) if manifest is not None else expand_inputs(inputs or [])
-        params = BatchParams(
-            root=out,
-            kind=job or default_kind(),
-            engine=engine.lower(),
-            workers=workers,
-            retries=retries,
-            force=force,
-            config=load_config_file(config) if config is not None else {},
-            ray_address=ray_address,
-            command=command_line(),
-        )
-        with progress("identify", len(entries), "recordings") as bar:
-
-            def tick(p: BatchProgress) -> None:
-                counts = " ".join(f"{k} {v}" for k, v in p.counts.items() if v)
-                name = "identify" if p.phase == "hashing" else f"{params.kind} ({engine})"
-                bar.update(p.done, p.total, note=counts, label=name)
-                last = p.last
-                if last is not None and last.status == "failed":
-                    bar.echo(
-                        message_line(
-                            "note",
-                            f"{last.recording_id}: attempt {last.attempt} failed: {last.error}",
-                        )
-                    )
-
-            report = run_batch(entries, params, progress=tick)
+        report = run(options, lambda total, kind: _ticker(total, kind, engine))
     counts = ", ".join(f"{k} {v}" for k, v in report.counts.items())
     console.print(
         f"batch: {counts} in {report.wall_s:.1f} s ({report.engine}, {report.workers} workers)",

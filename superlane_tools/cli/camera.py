@@ -17,8 +17,8 @@ from superlane_tools.cli._common import (
     report_skipped,
 )
 from superlane_tools.cli._outputs import check_new_output, new_output, overwrite_option
+from superlane_tools.commands.camera import ProfileOutput
 from superlane_tools.errors import SltError
-from superlane_tools.records import Skipped
 
 if TYPE_CHECKING:
     from superlane_tools.commands.camera_estimate import CameraEstimate
@@ -37,11 +37,10 @@ camera_app = typer.Typer(
 @camera_app.command("list")
 def list_cmd() -> None:
     """List the bundled camera profiles (usable wherever a camera NAME|YAML is asked for)."""
-    from superlane_tools.camera import list_profiles, load_camera
+    from superlane_tools.commands.camera import profiles
 
     with cli_errors():
-        for name in list_profiles():
-            cam = load_camera(name)
+        for name, cam in profiles():
             k, e = cam.intrinsics, cam.extrinsics
             typer.echo(
                 f"{name:<12} {k.width}x{k.height}  f={k.fx:.1f}px  height={e.height_m:.3f}m  "
@@ -57,18 +56,10 @@ def show_cmd(
     ],
 ) -> None:
     """Print a camera profile as YAML, with derived values (horizon, field of view) as comments."""
-    from superlane_tools.camera import camera_to_yaml, load_camera
+    from superlane_tools.commands.camera import show
 
     with cli_errors():
-        cam = load_camera(camera)
-        k = cam.intrinsics
-        hfov = math.degrees(2.0 * math.atan(k.width / (2.0 * k.fx)))
-        vfov = math.degrees(2.0 * math.atan(k.height / (2.0 * k.fy)))
-        comment = (
-            f"horizon row: {cam.horizon_row():.1f} px\n"
-            f"field of view: {hfov:.1f} x {vfov:.1f} deg (undistorted)"
-        )
-        typer.echo(camera_to_yaml(cam, comment=comment), nl=False)
+        typer.echo(show(camera), nl=False)
 
 
 @camera_app.command("from-kitti")
@@ -88,49 +79,30 @@ def from_kitti_cmd(
     overwrite: Annotated[bool, overwrite_option()] = False,
 ) -> None:
     """Convert a KITTI calibration file into a camera-2 profile (YAML)."""
-    from superlane_tools.camera import camera_to_yaml, kitti_camera
+    from superlane_tools.commands.camera import KittiParams, from_kitti
 
     with cli_errors():
         check_new_output(out, overwrite, [calib])
-        cam = kitti_camera(calib, width, height, camera_height_m, name)
-        comment = (
-            f"KITTI camera 2 from {calib.name}: intrinsics from P2, angles from "
-            f"R0_rect @ Tr_velo_to_cam,\nheight {camera_height_m:g} m (KITTI mount height). "
-            f"Written by: {command_line()}"
+        guard = new_output(out, overwrite, replaces=True)
+        params = KittiParams(
+            calib, width, height, camera_height_m, name, out, command_line(), guard
         )
-        text = camera_to_yaml(cam, comment=comment)
-        _write_profile(out, text, overwrite)
+        _print_profile(from_kitti(params))
 
 
-def _image_list(images: list[Path]) -> list[Path]:
-    out: list[Path] = []
-    for path in images:
-        if path.is_dir():
-            out.extend(
-                sorted(p for p in path.iterdir() if p.suffix.lower() in {".jpg", ".jpeg", ".png"})
-            )
-        else:
-            out.append(path)
-    return out
-
-
-def _write_profile(out: Path | None, text: str, overwrite: bool) -> None:
-    from superlane_tools.reporting import write_text_atomic
-
-    if out is None:
-        typer.echo(text, nl=False)
+def _print_profile(output: ProfileOutput) -> None:
+    if output.written is None:
+        typer.echo(output.text, nl=False)
         return
-    with new_output(out, overwrite, replaces=True):
-        write_text_atomic(out, text)
-    note(f"wrote {out}")
+    note(f"wrote {output.written}")
 
 
 def _check_board(value: str) -> str:
     """Typer callback for ``--board``: ``9by6`` is a bad value (exit 2), before any work."""
-    from superlane_tools.camera.calibration import parse_board
+    from superlane_tools.commands.camera import check_board
 
     try:
-        parse_board(value)
+        check_board(value)
     except SltError as err:
         raise typer.BadParameter(str(err)) from err
     return value
@@ -163,45 +135,18 @@ def calibrate_cmd(
     overwrite: Annotated[bool, overwrite_option()] = False,
 ) -> None:
     """Calibrate intrinsics and distortion from chessboard photos (OpenCV) into a profile."""
-    import yaml
-
-    from superlane_tools.camera import camera_to_yaml
-    from superlane_tools.camera.calibration import calibrate_chessboard, parse_board
-    from superlane_tools.camera.model import CameraModel, Extrinsics
-    from superlane_tools.errors import UsageError
+    from superlane_tools.commands.camera import CalibrateParams, calibrate
 
     with cli_errors():
         check_new_output(out, overwrite, images)
-        paths = _image_list(images)
-        if not paths:
-            raise UsageError("no images given (JPEG or PNG files, or folders of them)")
-        result = calibrate_chessboard(paths, parse_board(board), square)
-        cam = CameraModel(
-            result.intrinsics, Extrinsics(height_m, math.radians(pitch_deg)), name=name
+        guard = new_output(out, overwrite, replaces=True)
+        params = CalibrateParams(
+            images, board, square, height_m, pitch_deg, name, out, command_line(), guard
         )
-        comment = (
-            f"Calibrated from {len(result.used)} of {len(paths)} chessboard photos: "
-            f"RMS reprojection error {result.rms_px:.3f} px.\n"
-            f"Extrinsics are assumed (height {height_m:g} m, pitch {pitch_deg:g} deg): "
-            "run `slt camera estimate` on a recording to estimate them.\n"
-            f"Written by: {command_line()}"
-        )
-        text = camera_to_yaml(cam, comment=comment) + yaml.safe_dump(
-            {"calibration": result.summary()}, sort_keys=False
-        )
-        _write_profile(out, text, overwrite)
-    note(f"reprojection error {result.rms_px:.3f} px RMS over {len(result.used)} views")
-    names: dict[str, list[str]] = {}
-    for path, reason in result.rejected:
-        names.setdefault(f"photos, {reason}", []).append(path.name)
-    lost = [Skipped(kind, ", ".join(photos), len(photos)) for kind, photos in names.items()]
-    exit_with(report_skipped(lost))
-
-
-ROLL_RELIABLE_S = 60.0
-"""Drive length, seconds, below which an estimated roll is flagged: docs/camera.md measures
-lane wander over short drives as up to 3 degrees of roll, and the roll within 0.75 degrees on a
-60 s drive."""
+        result = calibrate(params)
+        _print_profile(result.profile)
+    note(f"reprojection error {result.rms_px:.3f} px RMS over {result.views} views")
+    exit_with(report_skipped(result.rejected))
 
 
 @camera_app.command("estimate")
@@ -259,69 +204,28 @@ def estimate_cmd(
     overwrite: Annotated[bool, overwrite_option()] = False,
 ) -> None:
     """Estimate pitch, yaw, roll and height from the lane lines and the lane width."""
-    from superlane_tools.recording.calibration import camera_sidecar
-
-    target = None if str(out) == "-" else out if out is not None else camera_sidecar(recording)
-    check_new_output(target, overwrite, [recording])  # before the heavy imports and any work
-    import yaml
-
-    from superlane_tools.camera import camera_to_yaml, load_camera
-    from superlane_tools.commands.camera_estimate import estimate_camera
-    from superlane_tools.config_files import load_document
+    from superlane_tools.commands.camera_estimate.run import EstimateParams, run
 
     with cli_errors():
-        known = load_camera(intrinsics).intrinsics if intrinsics is not None else None
-        result = estimate_camera(
+        params = EstimateParams(
             recording,
-            intrinsics=known,
-            focal_px=focal_px,
-            hfov_deg=hfov,
-            lane_width_m=lane_width,
-            max_frames=frames,
-            topic=topic,
-            name=name,
-            roll_rad=None if roll_deg is None else math.radians(roll_deg),
+            out,
+            lane_width,
+            intrinsics,
+            focal_px,
+            hfov,
+            frames,
+            roll_deg,
+            topic,
+            name,
+            command_line(),
+            lambda target: new_output(target, overwrite, [recording], replaces=True),
         )
-        est = result.estimate
-        caveats = _estimate_caveats(result, lane_width, roll_deg is None)
-        comment = (
-            f"Extrinsics estimated from {est.frames_used} of {est.frames_seen} frames of "
-            f"{recording.name}.\nIntrinsics: {result.intrinsics_source}.\n"
-            + "".join(f"{line}\n" for line in caveats)
-            + f"Written by: {command_line()}"
-        )
-        blocks: dict[str, object] = {}
-        if intrinsics is not None and Path(intrinsics).is_file():
-            source = load_document(intrinsics, "intrinsics file", ".yaml")
-            if isinstance(source, dict) and "calibration" in source:  # keep the chessboard report
-                blocks["calibration"] = source["calibration"]
-        blocks["estimate"] = {
-            **est.summary(),
-            "intrinsics": result.intrinsics_source,
-            "span_s": round(result.span_s, 2),
-            "assumptions": caveats,
-        }
-        text = camera_to_yaml(result.camera, comment=comment) + yaml.safe_dump(
-            blocks, sort_keys=False
-        )
-        _write_estimate(target, out is None, text, overwrite)
-    _print_estimate(result)
-    for line in caveats:
+        output = run(params)
+        _print_profile(ProfileOutput(output.text, output.written))
+    _print_estimate(output.result)
+    for line in output.caveats:
         note(line)
-
-
-def _write_estimate(target: Path | None, default: bool, text: str, overwrite: bool) -> None:
-    """Write the estimated profile; a default path in a read-only folder names ``-o``."""
-    from superlane_tools.reporting import OutputError
-
-    try:
-        _write_profile(target, text, overwrite)
-    except OutputError as err:
-        if not default:
-            raise
-        raise OutputError(
-            f"{err} (the recording's folder; pass -o PATH, then --camera PATH)"
-        ) from err
 
 
 def _print_estimate(result: CameraEstimate) -> None:
@@ -337,34 +241,6 @@ def _print_estimate(result: CameraEstimate) -> None:
         f"height {e.height_m:.3f} +- {est.height_sigma_m:.3f} m (per-frame spread; "
         f"{est.frames_used} frames); intrinsics: {result.intrinsics_source}"
     )
-
-
-def _estimate_caveats(
-    result: CameraEstimate, lane_width_m: float, roll_estimated: bool
-) -> list[str]:
-    """Return what the estimate assumed rather than measured, one sentence each."""
-    est = result.estimate
-    k = result.camera.intrinsics
-    lines = [
-        f"ASSUMED lane width: the height ({est.extrinsics.height_m:.3f} m) is scaled so that the "
-        f"lane fit measures the assumed {lane_width_m:g} m lanes; lane widths measured with "
-        "this profile are that assumption, not a measurement"
-    ]
-    if "ASSUMED" in result.intrinsics_source:
-        hfov = math.degrees(2.0 * math.atan(k.width / (2.0 * k.fx)))
-        lines.append(
-            f"ASSUMED field of view: {hfov:.0f} deg horizontal (no --intrinsics, --focal-px or "
-            "--hfov, and the focal length could not be measured); pitch, height and every "
-            "distance depend on it: calibrate with `slt camera calibrate`"
-        )
-    if roll_estimated and est.roll_sigma_rad is not None and result.span_s < ROLL_RELIABLE_S:
-        lines.append(
-            f"UNRELIABLE roll: {math.degrees(est.extrinsics.roll_rad):.2f} deg from a "
-            f"{result.span_s:.1f} s drive; over a short drive lane wander reads as up to 3 deg "
-            f"of roll (docs/camera.md; reliable to 0.75 deg over {ROLL_RELIABLE_S:.0f} s): "
-            "pass --roll-deg 0 for a level mount"
-        )
-    return lines
 
 
 def register(app: typer.Typer) -> None:

@@ -30,43 +30,27 @@ COMPARE_EXIT_HELP = (
 
 
 def _rules(values: list[str] | None) -> list[str] | None:
+    from superlane_tools.commands.compare.entry import check_rule
     from superlane_tools.errors import UsageError
-    from superlane_tools.fleet import parse_rule
 
     for value in values or []:
         try:
-            parse_rule(value)
+            check_rule(value)
         except UsageError as err:
             raise typer.BadParameter(str(err)) from err
     return values
 
 
 def _margins(values: list[str] | None) -> list[str] | None:
+    from superlane_tools.commands.compare.entry import parse_margin
     from superlane_tools.errors import UsageError
 
     for value in values or []:
         try:
-            _parse_margin(value)
+            parse_margin(value)
         except UsageError as err:
             raise typer.BadParameter(str(err)) from err
     return values
-
-
-def _parse_margin(text: str) -> tuple[str, float]:
-    """Parse ``KPI=VALUE`` (display unit: percentage points for ratios) into the KPI's unit."""
-    from superlane_tools.errors import UsageError
-    from superlane_tools.fleet import KPI_BY_NAME
-
-    name, _, value = text.partition("=")
-    if name not in KPI_BY_NAME:
-        raise UsageError(f"--margin {text}: unknown KPI {name!r} (names as in compare.md)")
-    try:
-        margin = float(value)
-    except ValueError:
-        margin = float("nan")
-    if not margin >= 0:
-        raise UsageError(f"--margin {text}: expected KPI=VALUE with a number >= 0")
-    return name, margin / 100.0 if KPI_BY_NAME[name].unit == "ratio" else margin
 
 
 def compare_cmd(
@@ -110,39 +94,38 @@ def compare_cmd(
     and the fleet for every KPI), compare_spans.parquet (the worst disagreement spans),
     compare_drives.parquet, compare.md, compare.html and plots/ under --out.
     """
-    from superlane_tools.commands.compare import CompareParams, compare_runs
-    from superlane_tools.fleet import BootstrapParams, SpanParams, parse_rule
+    from superlane_tools.commands.compare.entry import CompareOptions, run
 
     with cli_errors():
-        params = CompareParams(
-            bootstrap=BootstrapParams(n_resamples=resamples, seed=seed),
-            margins=dict(_parse_margin(v) for v in margin or []),
-            spans=SpanParams(max_spans=spans),
-            gate=tuple(parse_rule(v) for v in fail_on_regression or []),
-            plots=not no_plots,
-            command=command_line(),
+        options = CompareOptions(
+            base,
+            candidate,
+            out,
+            fail_on_regression or [],
+            margin or [],
+            seed,
+            resamples,
+            spans,
+            not no_plots,
+            command_line(),
+            new_output(out, overwrite, [base, candidate]),
         )
-        with new_output(out, overwrite, [base, candidate]):
-            result = compare_runs(base, candidate, out, params)
-    fleet = result.comparison.fleet_rows()
-    counts = fleet["verdict"].value_counts()
-    from superlane_tools.fleet import difference_lines
-
-    for line in difference_lines(result.differences)[:5]:
+        result = run(options)
+    for line in result.differences:
         console.print(f"differs: {line}", markup=False)
-    matched, n_b, n_c = result.comparison.n_drives()
-    summary = ", ".join(f"{counts.get(v, 0)} {v}" for v in ("worse", "better"))
+    matched, n_b, n_c = result.drives
+    summary = ", ".join(f"{result.verdicts[v]} {v}" for v in ("worse", "better"))
     console.print(
         f"compared {matched} matched drives (of {n_b} base, {n_c} candidate): {summary}, "
-        f"{len(fleet) - counts.get('worse', 0) - counts.get('better', 0)} other KPIs -> {out}",
+        f"{result.verdicts['other']} other KPIs -> {out}",
         markup=False,
     )
     code = report_skipped(result.skipped)
-    for line in result.gate.regressions:
+    for line in result.regressions:
         err_console.print(f"slt: regression: {line}", markup=False)
-    for line in result.gate.undecided:
+    for line in result.undecided:
         err_console.print(message_line("note", f"gate cannot decide: {line}"), markup=False)
-    exit_with(max(code, result.gate.code))
+    exit_with(max(code, result.gate_code))
 
 
 def register(app: typer.Typer) -> None:

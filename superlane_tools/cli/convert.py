@@ -17,20 +17,6 @@ from superlane_tools.cli._common import (
     report_skipped,
 )
 from superlane_tools.cli._outputs import new_output, overwrite_option
-from superlane_tools.errors import UsageError
-
-_KINDS = ("video", "nmea", "gpx", "can", "csv")
-
-
-def _per_file(values: list[str] | None, option: str) -> dict[str, str]:
-    """Parse repeated ``NAME=VALUE`` options (NAME: a file name or path given as INPUT)."""
-    out: dict[str, str] = {}
-    for value in values or []:
-        name, sep, rest = value.partition("=")
-        if not sep or not name or not rest:
-            raise UsageError(f"{option} takes FILE=VALUE, got {value!r}")
-        out[name] = rest
-    return out
 
 
 def convert_cmd(
@@ -79,30 +65,21 @@ def convert_cmd(
     overwrite: Annotated[bool, overwrite_option()] = False,
 ) -> None:
     """Convert a video and side logs, or any log alone, into one MCAP for slt and Foxglove."""
-    from superlane_tools.recording.convert import ConvertConfig, ConvertInput, convert
+    from superlane_tools.commands.convert import ConvertParams, run
 
     with cli_errors():
-        offsets = _per_file(offset, "--offset")
-        kinds = _per_file(kind, "--kind")
-        known = {p.name for p in inputs} | {str(p) for p in inputs}
-        for name in (*offsets, *kinds):
-            if name not in known:
-                raise UsageError(f"{name} is not one of the INPUT files")
-        items = []
-        for path in inputs:
-            k = kinds.get(str(path), kinds.get(path.name))
-            if k is not None and k not in _KINDS:
-                raise UsageError(f"--kind must be one of {', '.join(_KINDS)}, got {k!r}")
-            text = offsets.get(str(path), offsets.get(path.name, "0"))
-            try:
-                seconds = float(text)
-            except ValueError as err:
-                raise UsageError(f"--offset {path.name}: {text!r} is not seconds") from err
-            items.append(ConvertInput(path, k, seconds))  # type: ignore[arg-type]
-        with new_output(out, overwrite, inputs):
-            result = convert(
-                items, out, ConvertConfig(video_start, fps, camera=camera), command=command_line()
-            )
+        params = ConvertParams(
+            inputs,
+            out,
+            offset or [],
+            kind or [],
+            video_start,
+            fps,
+            camera,
+            command_line(),
+            new_output(out, overwrite, inputs),
+        )
+        result = run(params)
     for topic, count in sorted(result.counts.items()):
         note(f"{topic}: {count} messages")
     for line in result.notes:

@@ -28,12 +28,10 @@ def show_cmd(
     ] = None,
 ) -> None:
     """Show the messages, signals, units and enums of a DBC and every repair slt made."""
-    from superlane_tools.can import load_dbc
-    from superlane_tools.can.describe import describe_dbc
+    from superlane_tools.commands.dbc import show
 
     with cli_errors():
-        loaded = load_dbc(dbc)
-        doc = describe_dbc(loaded, message)
+        doc = show(dbc, message)
     if as_json:
         typer.echo(json.dumps(doc, indent=2))
         return

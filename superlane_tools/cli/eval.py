@@ -4,9 +4,8 @@ from __future__ import annotations
 
 import json
 from collections.abc import Sequence
-from dataclasses import asdict
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
@@ -21,6 +20,9 @@ from superlane_tools.cli._common import (
 from superlane_tools.cli._outputs import check_new_output, new_output, overwrite_option
 from superlane_tools.errors import ExitCode
 from superlane_tools.records import Skipped
+
+if TYPE_CHECKING:
+    from superlane_tools.commands.eval import EvalResult, SaveRequest
 
 eval_app = typer.Typer(
     name="eval",
@@ -53,51 +55,39 @@ Column = Annotated[
 
 
 def _save(
-    save: Path | None,
-    kind: str,
-    row: str,
-    column: str,
-    metrics: dict[str, Any],
-    pred: Path,
-    gt: Path,
-    extra: dict[str, Any] | None = None,
-    *,
-    overwrite: bool = False,
-) -> None:
-    if save is None:
-        return
-    from superlane_tools.reporting.paper_tables import EvalRecord, file_ref, save_record
+    save: Path | None, overwrite: bool, inputs: list[Path], row: str, column: str = ""
+) -> SaveRequest:
+    """Return the command's save request: ``--save``, its table cell, the output policy."""
+    from superlane_tools.commands.eval import SaveRequest
 
-    record = EvalRecord(
-        kind=kind,
-        row=row,
-        column=column,
-        metrics=metrics,
-        command=command_line(),
-        predictions=file_ref(pred),
-        ground_truth=file_ref(gt),
-        extra=extra or {},
-    )
-    with new_output(save, overwrite, [pred, gt], replaces=True):
-        note(f"wrote {save_record(record, save)}")
+    guard = new_output(save, overwrite, inputs, replaces=True)
+    return SaveRequest(save, row, column, command_line(), guard)
+
+
+def _saved(result: EvalResult) -> EvalResult:
+    if result.saved is not None:
+        note(f"wrote {result.saved}")
+    return result
 
 
 def _check_category(value: str) -> str:
     """Typer callback: a KITTI category that does not exist is a bad value (exit 2)."""
-    from superlane_tools.evaluation.kitti_files import CATEGORIES
+    from superlane_tools.commands.eval import kitti_categories
 
-    if value not in CATEGORIES:
-        raise typer.BadParameter(f"use one of {', '.join(CATEGORIES)}, not {value!r}")
+    categories = kitti_categories()
+    if value not in categories:
+        raise typer.BadParameter(f"use one of {', '.join(categories)}, not {value!r}")
     return value
 
 
 def _check_clips(values: list[str] | None) -> list[str] | None:
     """Typer callback: a Caltech clip that does not exist is a bad value (exit 2)."""
-    from superlane_tools.evaluation.caltech import CLIPS
+    from superlane_tools.commands.eval import caltech_clips
 
+    clips = caltech_clips()
     for value in values or []:
-        if value not in CLIPS:
-            raise typer.BadParameter(f"use one of {', '.join(CLIPS)}, not {value!r}")
+        if value not in clips:
+            raise typer.BadParameter(f"use one of {', '.join(clips)}, not {value!r}")
     return values
 
 
@@ -147,30 +137,13 @@ def tusimple_cmd(
     column: Column = "sc",
 ) -> None:
     """Print TuSimple accuracy, FP, FN and F1 (official LaneEval rules, or an ego mode)."""
-    from superlane_tools.errors import UsageError
-    from superlane_tools.evaluation import MODES, evaluate, evaluate_mode, load_jsonl
+    from superlane_tools.commands.eval import tusimple
 
     with cli_errors():
         check_new_output(save, overwrite)
-        if mode not in MODES:
-            raise UsageError(f"--mode must be one of {', '.join(MODES)}, not {mode!r}")
-        preds = load_jsonl(pred, require_h_samples=False)
-        if no_time_gate:
-            preds = [p._replace(run_time_ms=0.0) for p in preds]
-        gts = load_jsonl(gt, require_h_samples=True)
-        score = evaluate(preds, gts) if mode == "all" else evaluate_mode(preds, gts, mode, centre)
-        extra = {"mode": mode, "time_gate": not no_time_gate}
-        _save(save, "tusimple", row, column, score.as_dict(), pred, gt, extra, overwrite=overwrite)
-    values = score.as_dict()
-    if not as_json:
-        values = {
-            "frames": score.n_frames,
-            "accuracy": score.accuracy,
-            "FP": score.fp,
-            "FN": score.fn,
-            "F1": score.f1,
-        }
-    _print(values, as_json)
+        request = _save(save, overwrite, [pred, gt], row, column)
+        result = _saved(tusimple(pred, gt, mode, centre, not no_time_gate, request))
+    _print(result.metrics if as_json else result.rows[0], as_json)
 
 
 @eval_app.command("attributes")
@@ -190,31 +163,13 @@ def attributes_cmd(
     column: Column = "",
 ) -> None:
     """Print lane colour and style accuracy over the ground-truth lines found by a prediction."""
-    from superlane_tools.errors import UsageError
-    from superlane_tools.evaluation import MODES, attribute_accuracy, load_jsonl
+    from superlane_tools.commands.eval import attributes
 
     with cli_errors():
         check_new_output(save, overwrite)
-        if mode not in MODES:
-            raise UsageError(f"--mode must be one of {', '.join(MODES)}, not {mode!r}")
-        acc = attribute_accuracy(
-            load_jsonl(pred, require_h_samples=False),
-            load_jsonl(gt, require_h_samples=True),
-            mode,
-            centre,
-        )
-        _save(
-            save,
-            "attributes",
-            row,
-            column,
-            acc.as_dict(),
-            pred,
-            gt,
-            {"mode": mode},
-            overwrite=overwrite,
-        )
-    _print(acc.as_dict(), as_json)
+        request = _save(save, overwrite, [pred, gt], row, column)
+        result = _saved(attributes(pred, gt, mode, centre, request))
+    _print(result.metrics, as_json)
 
 
 @eval_app.command("kitti")
@@ -236,25 +191,14 @@ def kitti_cmd(
     row: Row = "SUPER",
 ) -> None:
     """Print the KITTI road benchmark in the bird's-eye view: MaxF, AP, precision, recall, FPR."""
-    from superlane_tools.evaluation.kitti_files import evaluate_folder
+    from superlane_tools.commands.eval import kitti
 
     with cli_errors():
         check_new_output(save, overwrite)
-        run = evaluate_folder(pred_dir, kitti_root, category)
-        values: dict[str, Any] = run.score.as_dict()
-        _save(
-            save,
-            "kitti",
-            row,
-            "",
-            values,
-            pred_dir,
-            kitti_root,
-            {"category": category},
-            overwrite=overwrite,
-        )
-    _print(values, as_json)
-    exit_with(_report_missing(run.missing))
+        request = _save(save, overwrite, [pred_dir, kitti_root], row)
+        result = _saved(kitti(pred_dir, kitti_root, category, request))
+    _print(result.metrics, as_json)
+    exit_with(_report_missing(result.missing))
 
 
 @eval_app.command("culane")
@@ -273,26 +217,13 @@ def culane_cmd(
     row: Row = "SUPER",
 ) -> None:
     """Print CULane F1 at IoU 0.5 per list, F1@75 and mF1 (official 30 px lanes, Hungarian)."""
-    from superlane_tools.evaluation.culane import evaluate_folder
+    from superlane_tools.commands.eval import culane
 
     with cli_errors():
         check_new_output(save, overwrite)
-        run = evaluate_folder(pred_dir, gt_root, lists or [], size=(width, height))
-        sets = {
-            r.name: {
-                "frames": r.n_frames,
-                "tp": r.at(0.5).tp,
-                "fp": r.at(0.5).fp,
-                "fn": r.at(0.5).fn,
-                "precision_50": r.at(0.5).precision,
-                "recall_50": r.at(0.5).recall,
-                "f1_50": r.at(0.5).f1,
-                "f1_75": r.at(0.75).f1,
-                "mf1": r.mf1,
-            }
-            for r in run.results
-        }
-        _save(save, "culane", row, "", {"sets": sets}, pred_dir, gt_root, overwrite=overwrite)
+        request = _save(save, overwrite, [pred_dir, gt_root], row)
+        result = _saved(culane(pred_dir, gt_root, lists or [], (width, height), request))
+    sets = result.metrics["sets"]
     if as_json:
         typer.echo(json.dumps(sets))
     else:
@@ -304,7 +235,7 @@ def culane_cmd(
                 f"{name:<20}{s['frames']:>7}{s['precision_50']:>8.4f}{s['recall_50']:>8.4f}"
                 f"{s['f1_50']:>8.4f}{s['f1_75']:>8.4f}{s['mf1']:>8.4f}"
             )
-    exit_with(_report_missing(run.missing))
+    exit_with(_report_missing(result.missing))
 
 
 @eval_app.command("caltech")
@@ -327,43 +258,24 @@ def caltech_cmd(
     row: Row = "SUPER",
 ) -> None:
     """Print Caltech lanes TPR per clip (Aly 2008 matching: mean <= 15 px or median <= 20 px)."""
-    from superlane_tools.evaluation.caltech import CLIPS, evaluate_clip, total
-    from superlane_tools.evaluation.errors import EvaluationError
+    from superlane_tools.commands.eval import caltech
 
     with cli_errors():
         check_new_output(save, overwrite)
-        names = clips or [c for c in CLIPS if (caltech_root / c / "labels.ccvl").is_file()]
-        if not names:
-            raise EvaluationError(f"no <clip>/labels.ccvl under {caltech_root}")
-        scores, missing = [], []
-        for name in names:
-            score, miss = evaluate_clip(pred_dir / name, caltech_root / name / "labels.ccvl", name)
-            scores.append(score)
-            missing += [f"{name}/{m}" for m in miss]
-        clip_values = {s.name: asdict(s) for s in scores}
-        _save(
-            save,
-            "caltech",
-            row,
-            "",
-            {"clips": clip_values},
-            pred_dir,
-            caltech_root,
-            overwrite=overwrite,
-        )
-    all_score = total(scores)
+        request = _save(save, overwrite, [pred_dir, caltech_root], row)
+        result = _saved(caltech(pred_dir, caltech_root, clips or [], request))
     if as_json:
-        typer.echo(json.dumps({"clips": clip_values, "all": asdict(all_score)}))
+        typer.echo(json.dumps({"clips": result.metrics["clips"], "all": result.rows[-1]}))
     else:
         typer.echo(
             f"{'clip':<14}{'frames':>7}{'truth':>7}{'correct':>8}{'false':>7}{'TPR':>8}{'FP/frame':>9}"
         )
-        for s in [*scores, all_score]:
+        for s in result.rows:
             typer.echo(
-                f"{s.name:<14}{s.n_frames:>7}{s.n_truth:>7}{s.correct:>8}{s.false:>7}"
-                f"{s.tpr:>8.4f}{s.fp_per_frame:>9.3f}"
+                f"{s['name']:<14}{s['n_frames']:>7}{s['n_truth']:>7}{s['correct']:>8}"
+                f"{s['false']:>7}{s['tpr']:>8.4f}{s['fp_per_frame']:>9.3f}"
             )
-    exit_with(_report_missing(missing))
+    exit_with(_report_missing(result.missing))
 
 
 def register(app: typer.Typer) -> None:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import inspect
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated
+from typing import Annotated
 
 import typer
 
@@ -20,32 +20,7 @@ from superlane_tools.cli._common import (
     report_skipped,
 )
 from superlane_tools.cli._outputs import new_output, overwrite_option
-from superlane_tools.errors import ExitCode, UsageError
-
-if TYPE_CHECKING:
-    from superlane_tools.geo import GeodeticOrigin
-
-
-def _origin(text: str | None) -> GeodeticOrigin | None:
-    """Parse ``--origin``; a malformed value is a usage error."""
-    from superlane_tools.geo import GeoError, parse_origin
-
-    if text is None:
-        return None
-    try:
-        return parse_origin(text)
-    except GeoError as err:
-        raise UsageError(f"--origin: {err}") from err
-
-
-def _time(text: str | None, option: str) -> tuple[float | None, int | None]:
-    """Parse ``--start``/``--end``: (seconds after the first message, absolute ns)."""
-    from superlane_tools.recording.times import parse_time
-
-    if text is None:
-        return None, None
-    spec = parse_time(text, option)
-    return (None, spec.ns) if spec.absolute else (spec.ns / 1e9, None)
+from superlane_tools.errors import ExitCode
 
 
 def extract_cmd(
@@ -119,6 +94,8 @@ def extract_cmd(
     speed and heading).
     """
     from superlane_tools.commands.extract import ExtractConfig, extract, load_stream_config
+    from superlane_tools.commands.options import parse_origin
+    from superlane_tools.commands.options import parse_time_range as _time
 
     with cli_errors():
         streams = load_stream_config(config) if config is not None else {}
@@ -132,7 +109,7 @@ def extract_cmd(
             dbc_paths=tuple(dbc or ()),
             frame_format=frames.lower(),
             every=every,
-            origin=_origin(origin),
+            origin=parse_origin(origin),
         )
 
         def show_dbc(name: str, loaded: object) -> None:

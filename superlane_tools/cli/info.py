@@ -144,27 +144,14 @@ def info(
     ] = False,
 ) -> None:
     """Show topics, types, counts, median rates, largest gaps and header-stamp offsets."""
-    from superlane_tools.recording import fast_info, open_recording, summarize
-    from superlane_tools.recording.inspect import (
-        CAN_MSGTYPES,
-        can_id_stats,
-        summary_from_mcap,
-    )
+    from superlane_tools.commands.info import run
 
-    file_info = fast_info(recording)
-    if file_info is not None and file_info.has_statistics and not scan:
-        summary = summary_from_mcap(recording, file_info)
-        _emit(summary, file_info, "summary section", [], as_json)
+    with cli_errors():
+        result = run(recording, scan, lambda total: progress("reading", total, "messages"))
+    _emit(result.summary, result.file_info, result.read_from, result.can_rows, as_json)
+    if result.fast:
         return
-    with cli_errors(), open_recording(recording) as rec:
-        expected = [t.message_count for t in rec.topics()]
-        total = sum(c for c in expected if c is not None) if None not in expected else None
-        with progress("reading", total, "messages") as bar:
-            summary = summarize(rec, progress=bar.update)
-        can_topics = [t.topic for t in summary.topics if t.msgtype in CAN_MSGTYPES]
-        can_rows = can_id_stats(rec, can_topics) if can_topics else []
-    _emit(summary, file_info, "every message", can_rows, as_json)
-    code = report_lost(summary.skipped, summary.message_count == 0, recording)
+    code = report_lost(result.summary.skipped, result.summary.message_count == 0, recording)
     if code != ExitCode.OK:
         raise typer.Exit(int(code))
 

@@ -64,28 +64,22 @@ def fit_cmd(
     overwrite: Annotated[bool, overwrite_option()] = False,
 ) -> None:
     """Fit lanes, heading, curvature and road slope to every mask under SEG_DIR."""
-    from superlane_tools.camera import load_camera
-    from superlane_tools.commands.lanes.fit import fit_masks
-    from superlane_tools.lanes import FitParams
-    from superlane_tools.lanes.class_map import load_classes
+    from superlane_tools.commands.lanes.entry import FitOptions, fit
 
     with cli_errors():
         check_new_output(out, overwrite, [seg_dir])
-        cam = load_camera(camera)
-        class_map = load_classes(classes if classes is not None else seg_dir / "classes.yaml")
-        params = FitParams(slope=not no_slope)
-        with new_output(out, overwrite, [seg_dir]), progress("fitting lanes", unit="masks") as bar:
-            result = fit_masks(
-                seg_dir,
-                cam,
-                out,
-                class_map,
-                params,
-                sequential=sequential,
-                command=command_line(),
-                progress=bar.update,
-                images_dir=images,
-            )
+        options = FitOptions(
+            seg_dir,
+            camera,
+            out,
+            classes,
+            sequential,
+            not no_slope,
+            images,
+            command_line(),
+            new_output(out, overwrite, [seg_dir]),
+        )
+        result = fit(options, lambda: progress("fitting lanes", unit="masks"))
         note(f"fitted {result.n_fitted} of {result.n_frames} frames -> {result.out}")
     exit_with(report_skipped(result.skipped))
 
@@ -127,20 +121,15 @@ def export_cmd(
     overwrite: Annotated[bool, overwrite_option()] = False,
 ) -> None:
     """Project fitted lanes into the image at each frame's rows; write TuSimple JSON lines."""
-    from superlane_tools.camera import load_camera
-    from superlane_tools.commands.lanes.export import export_tusimple, parse_h_samples
-    from superlane_tools.errors import UsageError
-    from superlane_tools.evaluation import ExportOptions
+    from superlane_tools.commands.lanes.entry import TusimpleOptions, tusimple
 
     with cli_errors():
         check_new_output(out, overwrite, [lanes_parquet])
-        if max_lines < 1 or (lanes is not None and lanes < 1):
-            raise UsageError("--max-lines and --lanes must be at least 1")
-        rows = parse_h_samples(h_samples)
-        cam = load_camera(camera)
-        options = ExportOptions(max_lines=max_lines, n_lanes=lanes, raw_ext=raw_ext)
-        with new_output(out, overwrite, [lanes_parquet]):
-            result = export_tusimple(lanes_parquet, cam, out, options, h_samples=rows, tasks=tasks)
+        guard = new_output(out, overwrite, [lanes_parquet])
+        options = TusimpleOptions(
+            lanes_parquet, camera, out, h_samples, tasks, max_lines, lanes, raw_ext, guard
+        )
+        result = tusimple(options)
         note(f"wrote {result.n_records} frames -> {result.out}")
 
 
@@ -152,13 +141,11 @@ def export_kitti_cmd(
     overwrite: Annotated[bool, overwrite_option()] = False,
 ) -> None:
     """Rasterise each frame's fitted ego lane as a KITTI submission PNG (um_lane_NNNNNN.png)."""
-    from superlane_tools.camera import load_camera
-    from superlane_tools.commands.lanes.export import export_kitti_ego_lane
+    from superlane_tools.commands.lanes.entry import kitti
 
     with cli_errors():
         check_new_output(out, overwrite, [lanes_parquet])
-        with new_output(out, overwrite, [lanes_parquet]):
-            result = export_kitti_ego_lane(lanes_parquet, load_camera(camera), out)
+        result = kitti(lanes_parquet, camera, out, new_output(out, overwrite, [lanes_parquet]))
         note(f"wrote {result.n_records} frames -> {result.out}")
 
 

@@ -65,24 +65,23 @@ def mine_cmd(
     spread out: never two of one drive closer than --min-gap-s, at most --max-per-drive of one
     drive, at most --max-frames.
     """
-    from superlane_tools.commands.mine import mine_runs
-    from superlane_tools.errors import UsageError
-    from superlane_tools.fleet import FleetError
-    from superlane_tools.fleet.mining import MineParams
+    from superlane_tools.commands.mine.entry import MineOptions, run
 
     with cli_errors():
-        try:
-            params = MineParams(
-                tuple(c.strip() for c in criteria.split(",") if c.strip()),
-                require_all,
-                max_frames,
-                min_gap_s,
-                max_per_drive=max_per_drive or None,
-            )
-        except FleetError as err:
-            raise UsageError(str(err)) from err
-        with new_output(out, overwrite, [*inputs, *(recordings or [])]):
-            result = mine_runs(inputs, out, params, recordings or [], compare_dir, command_line())
+        options = MineOptions(
+            inputs,
+            out,
+            criteria,
+            require_all,
+            max_frames,
+            max_per_drive,
+            min_gap_s,
+            compare_dir,
+            recordings or [],
+            command_line(),
+            new_output(out, overwrite, [*inputs, *(recordings or [])]),
+        )
+        result = run(options)
     console.print(f"mined {len(result.manifest)} frames -> {out}", markup=False)
     exit_with(report_skipped(result.skipped))
 

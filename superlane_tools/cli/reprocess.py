@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import inspect
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated
 
 import typer
 
@@ -23,62 +23,9 @@ from superlane_tools.cli._common import (
 )
 from superlane_tools.cli._outputs import check_new_output, new_output, overwrite_option
 
-TIMES_WIDTH = 100
-"""Characters of the ``times:`` line at most (the per-stage detail is in frames.parquet)."""
-
 
 def _recording_name(path: Path) -> str:
     return path.name.split(".")[0] if path.suffix else path.name
-
-
-def _compiling(compiler: Any) -> str:
-    """Return the progress note while the lane-fit kernels compile ("" when they do not)."""
-    return "compiling lane-fit kernels" if compiler is not None and compiler.poll() is None else ""
-
-
-def times_line(timings: dict[str, float], frames_per_s: float) -> str:
-    """Return the run's times in at most :data:`TIMES_WIDTH` characters.
-
-    Wall time, frames per second, then the stages that took the longest, as many as fit (their
-    times are sums over the worker threads, so they may exceed the wall time; every frame's
-    stage times are in frames.parquet).
-    """
-    run_keys = {"pass_wall", "post", "total"}
-    stages = sorted(
-        ((k, v) for k, v in timings.items() if k not in run_keys and not k.startswith("cpu_")),
-        key=lambda kv: -kv[1],
-    )
-    line = f"times: {timings.get('total', 0.0):.1f} s wall, {frames_per_s:.1f} frames/s"
-    prefix = "; stage sums: "
-    top: list[str] = []
-    for name, seconds in stages[:3]:
-        part = f"{name} {seconds:.1f} s"
-        if len(line + prefix + ", ".join([*top, part])) > TIMES_WIDTH:
-            break
-        top.append(part)
-    return line + prefix + ", ".join(top) if top else line
-
-
-def report_line(target: Path, availability: Any) -> str:
-    """Return the last line: where report.html is and one availability number per method."""
-    from superlane_tools.reporting.layout import REPORT_HTML_FILE
-    from superlane_tools.reporting.names import AVAILABILITY_NAMES
-
-    parts, unknown = [], []
-    for method, n_frames, n_available, n_unknown in availability:
-        name = AVAILABILITY_NAMES.get(method, method)
-        known = n_frames - n_unknown
-        if known <= 0:
-            unknown.append(name)
-            continue
-        of = f" of {known} known" if n_unknown else ""
-        parts.append(f"{name} {100.0 * n_available / known:.1f} %{of}")
-    line = f"report: {target / REPORT_HTML_FILE}"
-    if parts:
-        line += f" -- {', '.join(parts)} of frames available"
-    if unknown:
-        line += f"{'; ' if parts else ' -- '}availability unknown (no speed): {', '.join(unknown)}"
-    return line
 
 
 def reprocess_cmd(
@@ -159,7 +106,6 @@ def reprocess_cmd(
     the report; exit code 3 means input data was lost.
     """
     from superlane_tools.errors import UsageError
-    from superlane_tools.lanes.kernel_cache import start_compiling
 
     if print_config:
         from superlane_tools.commands.reprocess import default_config_yaml
@@ -171,78 +117,36 @@ def reprocess_cmd(
             raise UsageError("missing argument RECORDING (or use --print-config)")
         target = out if out is not None else Path("runs") / _recording_name(recording)
         check_new_output(target, overwrite, [recording])
-        # First: on a cold kernel cache the compiler is this run's critical path.
-        compiler = start_compiling()
-        try:
-            from superlane_tools.commands.reprocess import (
-                ReprocessConfig,
-                load_config,
-                reprocess_run,
-            )
+        from superlane_tools.commands.reprocess.entry import ReprocessOptions, run
 
-            cfg = load_config(config) if config is not None else ReprocessConfig()
-            overrides: dict[str, Any] = {}
-            if camera is not None:
-                overrides["camera"] = camera
-            if dbc:
-                overrides["can.dbcs"] = [str(p) for p in dbc]
-            if backend is not None:
-                overrides["segmentation.backend"] = backend.lower()
-            if model is not None:
-                overrides["segmentation.model"] = model
-            if oracle_labels is not None:
-                overrides["segmentation.oracle_labels"] = str(oracle_labels)
-            if category is not None:
-                overrides["kpi.category"] = category
-            if video:
-                overrides["output.video"] = True
-            if no_plots:
-                overrides["output.plots"] = False
-            if workers is not None:
-                overrides["workers"] = workers
-            if canonical_camera is not None:
-                overrides["segmentation.canonical_camera"] = canonical_camera
-            cfg = cfg.with_overrides(overrides)
-            with (
-                new_output(target, overwrite, [recording], replaces=True),
-                progress("reprocess", unit="frames") as bar,
-            ):
-
-                def on_phase(label: str) -> None:
-                    bar.phase(label, note=_compiling(compiler))
-
-                def on_frames(done: int, total: int | None) -> None:
-                    bar.update(done, total, note=_compiling(compiler))
-
-                result = reprocess_run(
-                    recording,
-                    target,
-                    cfg,
-                    on_frames,
-                    command_line(),
-                    with_signals,
-                    compiler,
-                    phase=on_phase,
-                )
-        finally:
-            if compiler is not None and compiler.poll() is None:
-                compiler.terminate()  # the run failed, or fitted nothing: no work left behind
-                compiler.wait()
-        added = result.signal_channels
-        if added is not None:
-            from superlane_tools.reporting.layout import ANNOTATIONS_FILE
-
-            console.print(
-                f"{ANNOTATIONS_FILE}: added {len(added)} signal channels "
-                f"({sum(added.values())} messages)",
-                markup=False,
-            )
+        options = ReprocessOptions(
+            recording,
+            target,
+            config,
+            camera,
+            dbc or [],
+            backend,
+            model,
+            oracle_labels,
+            category,
+            video,
+            not no_plots,
+            workers,
+            with_signals,
+            canonical_camera,
+            command_line(),
+            new_output(target, overwrite, [recording], replaces=True),
+        )
+        outcome = run(options, lambda: progress("reprocess", unit="frames"))
+        result = outcome.result
+        if outcome.signals_line is not None:
+            console.print(outcome.signals_line, markup=False)
     for line in result.notes:  # with the "Lanes not plausible" warning when there is one
         note(line)
     code = report_skipped(result.skipped)
     console.print(f"reprocessed {result.frames} frames -> {target}", markup=False)
-    console.print(times_line(result.timings, result.frames_per_s), markup=False)
-    console.print(report_line(target, result.availability), markup=False)
+    console.print(outcome.times_line, markup=False)
+    console.print(outcome.report_line, markup=False)
     exit_with(code)
 
 

@@ -18,7 +18,6 @@ from superlane_tools.cli._common import (
 )
 from superlane_tools.cli._outputs import new_output, overwrite_option
 from superlane_tools.errors import ExitCode
-from superlane_tools.records import Skipped
 
 
 def segment(
@@ -52,46 +51,21 @@ def segment(
     overwrite: Annotated[bool, overwrite_option()] = False,
 ) -> None:
     """Segment images into SUPER hierarchy leaf ids (label PNGs readable by `slt lanes fit`)."""
-    with cli_errors(), new_output(out, overwrite, [input_path]):
-        code = _run(input_path, out, backend, model, camera, overlays)
+    from superlane_tools.commands.segment import SegmentParams, run
+
+    guard = new_output(out, overwrite, [input_path])
+    params = SegmentParams(input_path, out, backend, model, camera, overlays, guard)
+    with cli_errors():
+        result = run(params, note, lambda total: progress("segment", total, "images"))
+    note(
+        f"segmented {result.written} of {result.seen} images with the {result.backend} "
+        f"backend into {out}"
+    )
+    code = report_skipped(result.skipped)
+    if result.written == 0:
+        code = ExitCode.ERROR
     if code != ExitCode.OK:
         raise typer.Exit(int(code))
-
-
-def _run(
-    input_path: Path,
-    out: Path,
-    backend_name: str,
-    model: str | None,
-    camera_name: str | None,
-    overlays: bool,
-) -> ExitCode:
-    from superlane_tools.camera.profiles import load_camera
-    from superlane_tools.commands.segment import segment_backend
-    from superlane_tools.scene import segment_images
-    from superlane_tools.scene.recording_frames import InputFrames
-
-    frames = InputFrames(input_path, out)
-    cam = load_camera(camera_name) if camera_name else None
-    seg_backend, chosen = segment_backend(input_path, out, backend_name, model, cam)
-    for line in chosen:
-        note(line)
-    skipped: list[Skipped] = []
-    written = seen = 0
-    with progress("segment", frames.total, "images") as bar:
-        for result in segment_images(frames, out, seg_backend, overlays=overlays):
-            seen += 1
-            if result.skipped is not None:
-                skipped.append(result.skipped)
-            else:
-                written += 1
-            bar.advance()
-    skipped.extend(frames.skipped)
-    note(f"segmented {written} of {seen} images with the {seg_backend.name} backend into {out}")
-    if written == 0:
-        report_skipped(skipped)
-        return ExitCode.ERROR
-    return report_skipped(skipped)
 
 
 def register(app: typer.Typer) -> None:

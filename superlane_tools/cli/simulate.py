@@ -91,12 +91,13 @@ def simulate(
     """Simulate one drive: `slt simulate --scenario NAME --out drive.mcap`."""
     if ctx.invoked_subcommand is not None:
         return
-    from superlane_tools.simulation.scenarios import SCENARIOS
+    from superlane_tools.commands import simulate as command
 
     if list_:
-        width_name = max(len(n) for n in SCENARIOS)
-        for name, spec in SCENARIOS.items():
-            console.print(f"{name:<{width_name}}  {spec.description}", markup=False, soft_wrap=True)
+        names = command.scenarios()
+        width_name = max(len(n) for n, _ in names)
+        for name, description in names:
+            console.print(f"{name:<{width_name}}  {description}", markup=False, soft_wrap=True)
         return
     if scenario is None or out is None:
         fail(
@@ -104,41 +105,30 @@ def simulate(
             ExitCode.USAGE,
         )
     with cli_errors():
-        from superlane_tools.simulation.drive import simulate_drive
-        from superlane_tools.simulation.scenarios import get_scenario
-        from superlane_tools.simulation.sensors import RtkParams, VehicleOptions
-
-        get_scenario(scenario)
-        rtk = RtkParams(
-            rate_hz=rtk_rate,
-            mode=rtk_mode,
-            dropouts_per_min=rtk_dropouts,
-            multipath_per_min=rtk_multipath,
+        params = command.DriveParams(
+            scenario,
+            out,
+            duration,
+            seed,
+            fmt,
+            width,
+            height,
+            fps,
+            jpeg_quality,
+            rtk_mode,
+            rtk_rate,
+            video,
+            rtk_dropouts,
+            rtk_multipath,
+            labels,
+            speed_kph,
+            imu,
+            second_bus,
+            mobileye_latency,
+            command_line(),
+            new_output(out, overwrite),
         )
-        rtk.validate()
-        with new_output(out, overwrite), progress(f"simulate {scenario}", unit="frames") as bar:
-            result = simulate_drive(
-                scenario,
-                duration,
-                seed,
-                fmt,
-                width,
-                height,
-                labels,
-                out,
-                fps=fps,
-                jpeg_quality=jpeg_quality,
-                video=video,
-                rtk=rtk,
-                vehicle=VehicleOptions(
-                    speed_kph=speed_kph,
-                    imu=imu,
-                    second_bus=second_bus,
-                    mobileye_latency_s=mobileye_latency,
-                ),
-                command=command_line(),
-                progress=bar.update,
-            )
+        result = command.drive(params, lambda: progress(f"simulate {scenario}", unit="frames"))
         o = result.outputs
         console.print(
             f"wrote {o.recording} ({result.frames} frames, {result.messages} messages), "
@@ -167,23 +157,22 @@ def dataset(
     overwrite: Annotated[bool, overwrite_option()] = False,
 ) -> None:
     """Write a training set: images, leaf-id masks, corridor masks and index.parquet."""
-    with cli_errors():
-        from superlane_tools.simulation.dataset import simulate_dataset
+    from superlane_tools.commands import simulate as command
 
-        names = tuple(n.strip() for item in (scenarios or []) for n in item.split(",") if n.strip())
-        with new_output(out, overwrite), progress("dataset", frames, "samples") as bar:
-            result = simulate_dataset(
-                out,
-                frames,
-                names or None,
-                seed,
-                width,
-                height,
-                image_format=image_format,
-                randomize=randomize,
-                command=command_line(),
-                progress=bar.update,
-            )
+    with cli_errors():
+        params = command.DatasetParams(
+            out,
+            frames,
+            scenarios or [],
+            seed,
+            width,
+            height,
+            image_format,
+            randomize,
+            command_line(),
+            new_output(out, overwrite),
+        )
+        result = command.dataset(params, lambda: progress("dataset", frames, "samples"))
         console.print(f"wrote {result.samples} samples to {result.folder}", markup=False)
 
 

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
@@ -14,6 +14,9 @@ from superlane_tools.cli._common import (
     console,
 )
 from superlane_tools.cli._outputs import check_new_output, new_output, overwrite_option
+
+if TYPE_CHECKING:
+    from superlane_tools.commands.tables import TableOutput
 
 tables_app = typer.Typer(
     name="tables",
@@ -29,16 +32,11 @@ OutFile = Annotated[
 Overwrite = Annotated[bool, overwrite_option()]
 
 
-def _emit(frame: object, out: Path | None, runs: list[Path], overwrite: bool) -> None:
-    from superlane_tools.commands.tables import write_summary_table
-    from superlane_tools.reporting.report import markdown_table
-
-    if out is None:
-        typer.echo(markdown_table(frame))  # type: ignore[arg-type]
+def _print(output: TableOutput) -> None:
+    if output.path is None:
+        typer.echo(output.text)
         return
-    with new_output(out, overwrite, runs, replaces=True):
-        path = write_summary_table(frame, out, runs, command_line())  # type: ignore[arg-type]
-    console.print(f"wrote {path}", markup=False)
+    console.print(f"wrote {output.path}", markup=False)
 
 
 @tables_app.command("availability")
@@ -51,24 +49,25 @@ def availability_cmd(
     overwrite: Overwrite = False,
 ) -> None:
     """Corridor paper Table II: #seq, frame-based n/N and sequence-based k/K per method."""
-    from superlane_tools.commands.tables import availability_table
-    from superlane_tools.errors import UsageError
+    from superlane_tools.commands.tables import availability
 
     with cli_errors():
         check_new_output(out, overwrite, runs)
-        if by not in ("category", "run"):
-            raise UsageError(f"--by must be 'category' or 'run', not {by!r}")
-        _emit(availability_table(runs, by), out, runs, overwrite)
+        guard = new_output(out, overwrite, runs, replaces=True)
+        output = availability(runs, by, out, command_line(), guard)
+    _print(output)
 
 
 @tables_app.command("curvature")
 def curvature_cmd(runs: RunDirs, out: OutFile = None, overwrite: Overwrite = False) -> None:
     """Curvature errors against RTK per run: SUPER (2*a2) and Mobileye (2*C2)."""
-    from superlane_tools.commands.tables import curvature_table
+    from superlane_tools.commands.tables import curvature
 
     with cli_errors():
         check_new_output(out, overwrite, runs)
-        _emit(curvature_table(runs), out, runs, overwrite)
+        guard = new_output(out, overwrite, runs, replaces=True)
+        output = curvature(runs, out, command_line(), guard)
+    _print(output)
 
 
 @tables_app.command("paper")
@@ -80,23 +79,12 @@ def paper_cmd(
     overwrite: Overwrite = False,
 ) -> None:
     """SUPER paper Tables 2-4 and the Fig. 9 modes from evaluation records (docs/evaluation.md)."""
-    from superlane_tools.reporting.paper_tables import (
-        load_record,
-        paper_cells,
-        paper_markdown,
-        write_paper_tables,
-    )
+    from superlane_tools.commands.tables import paper
 
     with cli_errors():
         check_new_output(out, overwrite, results)
-        sources = [str(p) for p in results]
-        cells = paper_cells([load_record(p) for p in results], sources)
-        if out is None:
-            typer.echo(paper_markdown(cells))
-            return
-        with new_output(out, overwrite, results):
-            path = write_paper_tables(cells, out, sources, command_line())
-    console.print(f"wrote {path}", markup=False)
+        output = paper(results, out, command_line(), new_output(out, overwrite, results))
+    _print(output)
 
 
 def register(app: typer.Typer) -> None:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Annotated
 
@@ -46,24 +45,12 @@ def cat_cmd(
     ] = False,
 ) -> None:
     """Print decoded messages, one per line, in log-time order."""
-    from superlane_tools.recording import open_recording
-    from superlane_tools.recording.times import format_utc
-    from superlane_tools.recording.tools import cat_messages, message_record
+    from superlane_tools.commands.cat import CatParams, run
 
-    count = 0
-    with cli_errors(), open_recording(recording) as rec:
-        for count, msg in enumerate(cat_messages(rec, topics, start, end), start=1):
-            record = message_record(msg, full_bytes)
-            if as_json:
-                typer.echo(json.dumps(record, separators=(",", ":")))
-            else:
-                data = json.dumps(record["data"], separators=(",", ":"))
-                typer.echo(f"{format_utc(msg.log_time_ns)} {msg.topic} [{msg.msgtype}] {data}")
-            if limit is not None and count >= limit:
-                break
-        skipped = list(rec.skipped)
-    everything = topics is None and start is None and end is None
-    exit_with(report_lost(skipped, everything and count == 0, recording))
+    params = CatParams(recording, topics, as_json, start, end, limit, full_bytes)
+    with cli_errors():
+        result = run(params, typer.echo)
+    exit_with(report_lost(result.skipped, result.nothing_read, recording))
 
 
 def filter_cmd(
@@ -98,10 +85,11 @@ def filter_cmd(
     overwrite: Annotated[bool, overwrite_option()] = False,
 ) -> None:
     """Write a trimmed copy of a recording: message definitions, metadata, attachments kept."""
-    from superlane_tools.recording.tools import filter_recording
+    from superlane_tools.commands.filter import FilterParams, run
 
-    with cli_errors(), new_output(out, overwrite, [recording]):
-        result = filter_recording(recording, out, topics, exclude, start, end)
+    guard = new_output(out, overwrite, [recording])
+    with cli_errors():
+        result = run(FilterParams(recording, out, topics, exclude, start, end, guard))
     for topic, count in sorted(result.counts.items()):
         note(f"{topic}: {count} messages")
     kind = {"ros1": "ROS 1 bag", "ros2": "ROS 2 bag"}.get(result.output_format, "MCAP")

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import inspect
-from dataclasses import replace
 from pathlib import Path
 from typing import Annotated
 
@@ -17,19 +16,6 @@ from superlane_tools.cli._common import (
     progress,
 )
 from superlane_tools.cli._outputs import check_new_output, new_output, overwrite_option
-from superlane_tools.errors import UsageError
-
-TASKS = ("segmentation", "corridor")
-
-
-def _size(text: str | None) -> tuple[int, int] | None:
-    if text is None:
-        return None
-    try:
-        width, height = (int(v) for v in text.lower().split("x"))
-    except ValueError as err:
-        raise UsageError(f"size must look like WIDTHxHEIGHT (e.g. 512x288), got {text!r}") from err
-    return width, height
 
 
 def train(
@@ -134,75 +120,42 @@ def train(
     overwrite: Annotated[bool, overwrite_option()] = False,
 ) -> None:
     """Train a network on CPU, export it to ONNX (opset 17) and write MODEL.card.yaml."""
+    from superlane_tools.commands.train import TrainOptions, run
+
     with cli_errors():
         check_new_output(out, overwrite or resume)
-        if task not in TASKS:
-            raise UsageError(f"TASK must be one of {', '.join(TASKS)}, got {task!r}")
-        if augment not in ("real", "camera", "canonical", "none"):
-            raise UsageError(f"--augment must be real, camera, canonical or none, got {augment!r}")
-        from superlane_tools.training import require_torch
-
-        require_torch()
-        from superlane_tools.training.augment import (
-            CAMERA_AUGMENT,
-            CANONICAL_AUGMENT,
-            RealAugment,
-        )
-        from superlane_tools.training.datasets import load_dataset_list, parse_data_arg
-        from superlane_tools.training.train import TrainParams
-        from superlane_tools.training.train import train as run_training
-
-        specs = [parse_data_arg(text) for text in data or []]
-        if adapter != "superlane":
-            specs = [replace(s, reader=adapter) if s.reader == "sim" else s for s in specs]
-        if datasets is not None:
-            specs += load_dataset_list(datasets)
-        if not specs:
-            raise UsageError("give training data with --data or --datasets")
-        params = TrainParams(
-            task=task,
-            data_dir=None,
-            datasets=tuple(specs),
-            out=out,
-            epochs=epochs,
-            steps=steps,
-            arch=arch,
-            dice_bands=dice_bands,
-            device=device,
-            resume=resume,
-            init=init,
-            budget_s=budget_s,
-            augment={
-                "real": RealAugment(),
-                "camera": CAMERA_AUGMENT,
-                "canonical": CANONICAL_AUGMENT,
-                "none": None,
-            }[augment],
-            canonical_camera=canonical_camera,
-            batch=batch,
-            lr=lr,
-            size=_size(size),
-            crop=_size(crop),
-            seed=seed,
-            max_frames=max_frames,
-            adapter=adapter,
-            command=command_line(),
-            checkpoint=checkpoint,
-            checkpoint_s=checkpoint_s,
-            validate_every=validate_every,
-            val_data=val_data,
-        )
-        if threads is not None:
-            params = replace(params, threads=threads)
-        with (  # --resume continues into the same MODEL.onnx
+        options = TrainOptions(
+            task,
+            out,
+            data or [],
+            datasets,
+            epochs,
+            steps,
+            batch,
+            lr,
+            size,
+            crop,
+            seed,
+            max_frames,
+            adapter,
+            threads,
+            arch,
+            augment,
+            budget_s,
+            dice_bands,
+            device,
+            init,
+            resume,
+            checkpoint,
+            checkpoint_s,
+            validate_every,
+            val_data,
+            canonical_camera,
+            command_line(),
+            # --resume continues into the same MODEL.onnx
             new_output(out, overwrite or resume, replaces=True),
-            progress(f"train {task}", unit="steps") as bar,
-        ):
-
-            def update(step: int, total: int, loss: float) -> None:
-                bar.update(step, total, note=f"loss {loss:.4f}")
-
-            result = run_training(params, update, note)
+        )
+        result = run(options, lambda: progress(f"train {task}", unit="steps"), note)
         note(
             f"trained {task} model ({result.card.parameters} parameters, "
             f"{result.seconds:.0f} s, {result.seconds_per_step:.2f} s per step, "

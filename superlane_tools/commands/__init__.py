@@ -1,6 +1,7 @@
-"""Thin orchestration, one unit per command (extract, reprocess, lanes, camera_estimate, batch).
+"""Orchestration, one unit per ``slt`` command (``commands/<command>``), each with its entry.
 
-Each command wires the layers below it (recordings, CAN, geometry, lane fit, scene, reporting)
-into one run; commands never import each other, except ``batch``, which runs the others as jobs
-(see ``docs/architecture.md``).
+``cli/<command>.py`` parses the options, calls the entry and prints its result; the command
+wires the layers below it (recordings, CAN, geometry, lane fit, scene, reporting) into one run.
+Commands never import each other, except ``batch``, which runs the others as jobs;
+``options.py`` and ``errors.py`` serve them all (see ``docs/architecture.md``).
 """

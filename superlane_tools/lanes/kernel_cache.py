@@ -1,13 +1,15 @@
 """The lane fit's compiled kernels: their cache, compiling them in a child, loading them.
 
-The one place that starts and awaits the kernel compile: :func:`start_compiling` (a child
-process, on a cold cache), :func:`warm_up` / :func:`warm_up_in_background` (wait for it and
-load the kernels in this process), :func:`kernels_ready` / :func:`kernels_loading`.
+The one place that starts, awaits and stops the kernel compile: :func:`compiling` (the
+context a run opens: a child process compiling on a cold cache, stopped when the run leaves it
+behind), :func:`start_compiling` (the child itself), :func:`warm_up` /
+:func:`warm_up_in_background` (wait for it and load the kernels in this process),
+:func:`kernels_ready` / :func:`kernels_loading`.
 
 Light on purpose (no numba, no scipy; the kernels are imported inside :func:`warm_up`):
-``slt reprocess`` asks :func:`cache_is_cold` and calls :func:`start_compiling` first thing, so
-that on the first run after an install the compiler, which is that run's critical path, starts
-before the command's own imports instead of after.
+``slt reprocess`` opens :func:`compiling` first thing, so that on the first run after an
+install the compiler, which is that run's critical path, starts before the command's own
+imports instead of after.
 """
 
 from __future__ import annotations
@@ -36,6 +38,8 @@ __all__ = [
     "cache_is_cold",
     "compile_all",
     "compile_into_cache",
+    "compiling",
+    "is_compiling",
     "kernel_cache_dir",
     "kernels_loading",
     "kernels_ready",
@@ -127,6 +131,28 @@ def start_compiling() -> subprocess.Popen[bytes] | None:
         return subprocess.Popen([sys.executable, "-c", _COMPILE], stdout=subprocess.DEVNULL)
     except OSError:
         return None
+
+
+def is_compiling(compiler: subprocess.Popen[bytes] | None) -> bool:
+    """Return whether ``compiler`` (from :func:`compiling`) is still compiling."""
+    return compiler is not None and compiler.poll() is None
+
+
+@contextlib.contextmanager
+def compiling() -> Iterator[subprocess.Popen[bytes] | None]:
+    """Compile the kernels in a child while the block runs (on a cold cache; else None).
+
+    Pass the child to :func:`warm_up_in_background` / :func:`warm_up`, which wait for it. A
+    child still running when the block ends (the run failed, or fitted nothing) is stopped:
+    no work is left behind.
+    """
+    compiler = start_compiling()
+    try:
+        yield compiler
+    finally:
+        if compiler is not None and compiler.poll() is None:
+            compiler.terminate()
+            compiler.wait()
 
 
 _TASKS = Path("/proc/self/task")

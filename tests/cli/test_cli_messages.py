@@ -15,7 +15,7 @@ from typer.testing import CliRunner
 
 from superlane_tools.cli import app
 from superlane_tools.cli._common import progress
-from superlane_tools.cli.reprocess import TIMES_WIDTH, report_line, times_line
+from superlane_tools.commands.reprocess.entry import TIMES_WIDTH, report_line, times_line
 from superlane_tools.recording import messages as m
 from superlane_tools.recording.writers import open_writer
 

@@ -1,23 +1,63 @@
-"""``slt reprocess``: the end-to-end offline pipeline from a drive to tables, plots and reports."""
+"""``slt reprocess``: the end-to-end offline pipeline from a drive to tables, plots and reports.
 
-from superlane_tools.commands.reprocess.publish import reprocess_run
-from superlane_tools.commands.reprocess.result import ReprocessResult
-from superlane_tools.commands.reprocess.run import reprocess
-from superlane_tools.drive.config import (
-    BACKENDS,
-    CanConfig,
-    CorridorConfig,
-    KpiConfig,
-    OutputConfig,
-    ReprocessConfig,
-    RtkConfig,
-    SegmentationConfig,
-    TopicsConfig,
-    TrackingConfig,
-    config_from_mapping,
-    default_config_yaml,
-    load_config,
-)
+The names below load their module on first use (PEP 562), so that ``slt reprocess`` starts the
+lane-fit kernels' compiler (:mod:`superlane_tools.commands.reprocess.entry`) before the
+pipeline's imports, as it did from ``cli/``.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from superlane_tools.commands.reprocess.publish import reprocess_run
+    from superlane_tools.commands.reprocess.result import ReprocessResult
+    from superlane_tools.commands.reprocess.run import reprocess
+    from superlane_tools.drive.config import (
+        BACKENDS,
+        CanConfig,
+        CorridorConfig,
+        KpiConfig,
+        OutputConfig,
+        ReprocessConfig,
+        RtkConfig,
+        SegmentationConfig,
+        TopicsConfig,
+        TrackingConfig,
+        config_from_mapping,
+        default_config_yaml,
+        load_config,
+    )
+
+_HOMES = {
+    "BACKENDS": "superlane_tools.drive.config",
+    "CanConfig": "superlane_tools.drive.config",
+    "CorridorConfig": "superlane_tools.drive.config",
+    "KpiConfig": "superlane_tools.drive.config",
+    "OutputConfig": "superlane_tools.drive.config",
+    "ReprocessConfig": "superlane_tools.drive.config",
+    "ReprocessResult": "superlane_tools.commands.reprocess.result",
+    "RtkConfig": "superlane_tools.drive.config",
+    "SegmentationConfig": "superlane_tools.drive.config",
+    "TopicsConfig": "superlane_tools.drive.config",
+    "TrackingConfig": "superlane_tools.drive.config",
+    "config_from_mapping": "superlane_tools.drive.config",
+    "default_config_yaml": "superlane_tools.drive.config",
+    "load_config": "superlane_tools.drive.config",
+    "reprocess": "superlane_tools.commands.reprocess.run",
+    "reprocess_run": "superlane_tools.commands.reprocess.publish",
+}
+
+
+def __getattr__(name: str) -> Any:
+    home = _HOMES.get(name)
+    if home is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(home), name)
+    globals()[name] = value
+    return value
+
 
 __all__ = [
     "BACKENDS",
