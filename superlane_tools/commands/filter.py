@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from superlane_tools.recording.tools import FilterResult
+    from superlane_tools.recording._filter_types import FilterResult
 
 
 @dataclass(frozen=True)

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from superlane_tools.errors import UsageError
-from superlane_tools.recording._filter_types import FilterResult as FilterResult
+from superlane_tools.recording._filter_types import FilterResult
 from superlane_tools.recording.base import Recording
 from superlane_tools.recording.errors import RecordingError
 from superlane_tools.recording.times import parse_time
