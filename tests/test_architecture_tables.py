@@ -136,12 +136,12 @@ def test_readers_and_writers_take_their_columns_from_the_specs() -> None:
 
 
 def test_each_derived_table_is_a_field_of_the_drives_tables() -> None:
-    """Reprocess writes ``DriveTables.<name>`` for every derived spec (matched by the name)."""
+    """Reprocess writes ``DerivedTables.<name>`` for every derived spec (matched by the name)."""
     from dataclasses import fields
 
-    from superlane_tools.drive.finalize import DriveTables
+    from superlane_tools.drive.finalize import DerivedTables
     from superlane_tools.fleet.kpis import DriveTables as KpiTables
     from superlane_tools.reporting.layout import DERIVED_TABLES, RunLayout
 
-    assert set(DERIVED_TABLES) <= {f.name for f in fields(DriveTables)}
+    assert set(DERIVED_TABLES) <= {f.name for f in fields(DerivedTables)}
     assert {f.name for f in fields(KpiTables)} <= set(RunLayout.tables())

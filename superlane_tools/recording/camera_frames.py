@@ -11,15 +11,16 @@ once, at a reduced size where the caller asks for one.
 from __future__ import annotations
 
 from collections.abc import Collection, Iterator
-from typing import Any, NamedTuple
-
-import numpy as np
-from numpy.typing import NDArray
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 from superlane_tools.recording.base import Recording
 from superlane_tools.recording.images import decode_frame, decode_reduced
 from superlane_tools.recording.video import read_with_video
 from superlane_tools.records import Message
+
+if TYPE_CHECKING:
+    import numpy as np
+    from numpy.typing import NDArray
 
 
 class CameraFrame(NamedTuple):

@@ -92,13 +92,14 @@ def test_culane_clip_is_never_split_by_frame(realdata: Path) -> None:
 
 
 def test_validation_segments_known_cameras_in_the_canonical_camera(realdata: Path) -> None:
+    from superlane_tools.camera.model import CameraModel
     from superlane_tools.training.validation import DevSet, _culane, _tusimple, score_sets
 
     tus, cul = _tusimple(realdata), _culane(realdata, "culane/nightblur_0531_2336_0004", "n")
     assert tus is not None
     assert cul is not None
     assert tus.camera == "tusimple"
-    assert not cul.camera
+    assert isinstance(cul.camera, CameraModel)  # estimated from the clip's frames, labels unused
     seen: list[tuple[int, ...]] = []
 
     def segment(image: np.ndarray) -> np.ndarray:
@@ -107,10 +108,11 @@ def test_validation_segments_known_cameras_in_the_canonical_camera(realdata: Pat
 
     sets = [
         DevSet("t", tus.images[:1], tus.lanes[:1], camera="tusimple"),
-        DevSet("n", cul.images[:1], cul.lanes[:1]),
+        DevSet("n", cul.images[:1], cul.lanes[:1], camera=cul.camera),
+        DevSet("u", cul.images[:1], cul.lanes[:1]),  # camera unknown: as it is
     ]
     score_sets(segment, sets, CanonicalCamera.for_input(512, 160))
-    assert seen == [(160, 512, 3), cul.images[0].shape]
+    assert seen == [(160, 512, 3), (160, 512, 3), cul.images[0].shape]
     seen.clear()
     score_sets(segment, sets)
-    assert seen == [tus.images[0].shape, cul.images[0].shape]
+    assert seen == [tus.images[0].shape, cul.images[0].shape, cul.images[0].shape]

@@ -5,9 +5,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from contextlib import AbstractContextManager, nullcontext
 from pathlib import Path
-from typing import Any, NamedTuple
-
-import pandas as pd
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 from superlane_tools.commands.tables.build import (
     availability_table,
@@ -16,6 +14,9 @@ from superlane_tools.commands.tables.build import (
 )
 from superlane_tools.errors import UsageError
 from superlane_tools.reporting.report import markdown_table
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 
 class TableOutput(NamedTuple):
