@@ -25,6 +25,7 @@ PACKAGE = ROOT / "superlane_tools"
 # (checked below by the absence of package cycles).
 RANKS = {
     "_version": 0,
+    "_lazy": 0,
     "errors": 0,
     "records": 0,
     "hierarchy": 0,

@@ -7,8 +7,9 @@ other modules and their scipy.
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from superlane_tools._lazy import lazy_attributes
 
 if TYPE_CHECKING:
     from superlane_tools.lanes.attributes import CODE_OF, MARKING_CODES, Marking
@@ -44,13 +45,7 @@ _HOMES = {
 }
 
 
-def __getattr__(name: str) -> Any:
-    home = _HOMES.get(name)
-    if home is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(home), name)
-    globals()[name] = value
-    return value
+__getattr__ = lazy_attributes(__name__, globals(), _HOMES)
 
 
 __all__ = [

@@ -7,8 +7,9 @@ estimate's imports. The entry is :func:`superlane_tools.commands.camera_estimate
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from superlane_tools._lazy import lazy_attributes
 
 if TYPE_CHECKING:
     from superlane_tools.commands.camera_estimate.estimate import CameraEstimate, estimate_camera
@@ -27,13 +28,7 @@ _HOMES = {
 }
 
 
-def __getattr__(name: str) -> Any:
-    home = _HOMES.get(name)
-    if home is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(home), name)
-    globals()[name] = value
-    return value
+__getattr__ = lazy_attributes(__name__, globals(), _HOMES)
 
 
 __all__ = [
