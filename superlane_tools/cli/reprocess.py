@@ -108,9 +108,9 @@ def reprocess_cmd(
     from superlane_tools.errors import UsageError
 
     if print_config:
-        from superlane_tools.commands.reprocess import default_config_yaml
+        from superlane_tools.commands.reprocess.entry import default_config
 
-        typer.echo(default_config_yaml(), nl=False)
+        typer.echo(default_config(), nl=False)
         return
     with cli_errors():
         if recording is None:

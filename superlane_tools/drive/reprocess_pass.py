@@ -31,7 +31,6 @@ from superlane_tools.drive.finalize import DerivedTables, drive_tables, kpi_segm
 from superlane_tools.drive.loop import (
     DriveTopics,
     FrameSink,
-    Progress,
     drive_topics,
     frame_total,
     run_frames,
@@ -41,7 +40,7 @@ from superlane_tools.drive.run_facts import camera_facts
 from superlane_tools.drive.selfcheck import CLIP_FRAMES, SAMPLE_CLIPS, SelfCheck, drive_self_check
 from superlane_tools.drive.stages import FrameStages
 from superlane_tools.recording.calibration import resolve_camera
-from superlane_tools.records import Skipped
+from superlane_tools.records import Progress, Skipped
 from superlane_tools.reporting.drive_notes import timing_line, unlike_training_data
 from superlane_tools.reporting.drive_sections import ReportFacts
 
