@@ -6,7 +6,8 @@ heading ``a1``, half curvature ``a2``, slope ``b`` (Eq. 10), optionally the road
 curvature term ``c`` (``z = b x + c x^2``, beyond the paper) and, when J1 is used, the
 road-centre offset ``a0c``; lane offsets as histogram peaks (Eq. 4); point-to-line
 assignment; then, beyond the paper, a weighted least-squares refit of the shared model and a
-bounded per-line correction.
+bounded per-line correction. The pixels' rays are :mod:`._rays`; the lines built from the
+shared model (assignment, corrections, ranges, markings) are :mod:`._lines`.
 """
 
 from __future__ import annotations
