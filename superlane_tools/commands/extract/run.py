@@ -10,7 +10,7 @@ from pathlib import Path
 from superlane_tools.can import LoadedDbc, load_dbcs
 from superlane_tools.commands.errors import PipelineError
 from superlane_tools.commands.extract.config import ExtractConfig, ExtractResult
-from superlane_tools.commands.extract.sinks import ExtractSinks, open_sinks
+from superlane_tools.commands.extract.sinks import ExtractSinks, extract_sinks
 from superlane_tools.recording import (
     Recording,
     SkipLog,
@@ -76,7 +76,7 @@ def extract(
         provenance = _provenance(src, dbc_files, config, selected, command)
         whole = window == (None, None)
         total = message_total(rec.topics(), set(kind_of)) if whole else None
-        opened = open_sinks(out, config, selected, dbcs, provenance, skips)
+        opened = extract_sinks(out, config, selected, dbcs, provenance, skips)
         outputs = _stream(rec, kind_of, window, opened, provenance, total, progress)
         read_skips = list(rec.skipped)
     coverage = opened.can.coverage() if opened.can is not None and dbcs else None

@@ -42,7 +42,7 @@ class ExtractSinks(NamedTuple):
         }
 
 
-def open_sinks(
+def extract_sinks(
     out: Path,
     config: ExtractConfig,
     selected: Mapping[str, tuple[str, ...]],
