@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from functools import partial
 
 from superlane_tools.commands.batch.engine import BatchEngine, Job, JobOutcome, OnDone
@@ -61,7 +61,7 @@ class _Attempts:
     status: StatusTable
     rows: RowContext
     tally: Tally
-    finished: int = field(default=0)
+    finished: int = 0
 
     def on_done(self, attempt: int, retry: list[Job], engine: str) -> OnDone:
         """Return the engine's callback for the round of attempt ``attempt``."""

@@ -9,7 +9,12 @@ from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from superlane_tools.commands.options import OutputGuard, ProgressOpener
+from superlane_tools.commands.options import (
+    OutputGuard,
+    ProgressOpener,
+    parse_origin,
+    parse_time_range,
+)
 
 if TYPE_CHECKING:
     from superlane_tools.can import LoadedDbc
@@ -43,7 +48,6 @@ def settings(options: ExtractOptions) -> ExtractConfig:
         UsageError: If a time, the origin, the frame format or ``--every`` is bad.
     """
     from superlane_tools.commands.extract.config import ExtractConfig
-    from superlane_tools.commands.options import parse_origin, parse_time_range
     from superlane_tools.recording import load_stream_config
 
     o = options
