@@ -4,12 +4,11 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from superlane_tools.records import Skipped
+from superlane_tools.records import Progress, Skipped
 from superlane_tools.reporting.layout import CORRIDOR_MASKS_TABLE
 
 if TYPE_CHECKING:
@@ -18,9 +17,6 @@ if TYPE_CHECKING:
 
     from superlane_tools.camera.model import CameraModel
     from superlane_tools.corridor import CorridorParams
-
-Progress = Callable[[int, int | None], None]
-"""Progress callback ``(images done, images total or None)``."""
 
 
 @dataclass(frozen=True)

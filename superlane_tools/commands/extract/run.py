@@ -20,7 +20,7 @@ from superlane_tools.recording import (
     select_streams,
     time_range_ns,
 )
-from superlane_tools.records import Skipped
+from superlane_tools.records import Progress, Skipped
 from superlane_tools.reporting.atomic import remove_stale_temps
 from superlane_tools.reporting.message_pass import stream_messages
 from superlane_tools.reporting.provenance import HashedProvenance, PendingIdentities
@@ -31,7 +31,7 @@ def extract(
     out_dir: str | os.PathLike[str],
     config: ExtractConfig,
     command: str = "",
-    progress: Callable[[int, int | None], None] | None = None,
+    progress: Progress | None = None,
     on_dbc: Callable[[str, LoadedDbc], None] | None = None,
 ) -> ExtractResult:
     """Extract frames, camera info, CAN and GNSS from a recording in one streaming pass.
@@ -141,7 +141,7 @@ def _stream(
     opened: ExtractSinks,
     provenance: HashedProvenance,
     total: int | None,
-    progress: Callable[[int, int | None], None] | None,
+    progress: Progress | None,
 ) -> tuple[Path, ...]:
     """Stream the selected topics of the window into their kinds' sinks; return the files."""
     by_kind = opened.by_kind()
