@@ -8,7 +8,7 @@ each, ``labels.json`` (TuSimple lines, the folder ``slt train --data tusimple=SE
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Hashable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -190,7 +190,7 @@ def _manifest_row(
     drive: str,
     recording: Path,
     image: str,
-    pick: dict[str, Any],
+    pick: Mapping[Hashable, Any],
     jpeg: FrameJpeg,
     params: MineParams,
 ) -> dict[str, Any]:

@@ -8,7 +8,8 @@ import subprocess
 from superlane_tools.commands.reprocess.result import ReprocessResult
 from superlane_tools.commands.reprocess.run import reprocess
 from superlane_tools.drive.config import ReprocessConfig
-from superlane_tools.drive.reprocess_pass import Phase, Progress
+from superlane_tools.drive.reprocess_pass import Phase
+from superlane_tools.records import Progress
 
 
 def reprocess_run(

@@ -18,8 +18,9 @@ from superlane_tools.commands.reprocess.outputs import RunOutputs, add_signal_ch
 from superlane_tools.commands.reprocess.result import ReprocessResult
 from superlane_tools.corridor import TimeSegment
 from superlane_tools.drive.config import ReprocessConfig
-from superlane_tools.drive.reprocess_pass import Phase, Progress, reprocess_pass
+from superlane_tools.drive.reprocess_pass import Phase, reprocess_pass
 from superlane_tools.recording import open_recording
+from superlane_tools.records import Progress
 from superlane_tools.reporting.drive_notes import unlike_training_data
 
 
