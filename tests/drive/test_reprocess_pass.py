@@ -44,8 +44,9 @@ class Opener:
 
 
 def _pass(path: Path, opener: Opener, labels: list[str] | None = None) -> DriveOutcome:
+    said = labels if labels is not None else []
     with open_recording(path) as rec:
-        return reprocess_pass(rec, path, CFG, opener, {}, phase=(labels or []).append)
+        return reprocess_pass(rec, path, CFG, opener, {}, phase=said.append)
 
 
 def test_a_camera_drive_is_resolved_then_passed_once(recording: Path) -> None:

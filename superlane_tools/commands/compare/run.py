@@ -5,8 +5,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-
-import pandas as pd
+from typing import TYPE_CHECKING
 
 from superlane_tools.fleet import (
     BootstrapParams,
@@ -25,6 +24,9 @@ from superlane_tools.records import Skipped
 from superlane_tools.reporting import Provenance, write_table
 from superlane_tools.reporting.layout import CompareLayout
 from superlane_tools.reporting.report import write_report
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 DELTA_PLOT_KPIS = (
     "availability_frames.super",
