@@ -94,7 +94,8 @@ def main() -> None:
     )
     parser.add_argument("--out", type=Path, default=RESULTS, help="results JSON")
     args = parser.parse_args()
-    from superlane_tools.commands.reprocess import ReprocessConfig, reprocess
+    from superlane_tools.commands.reprocess import reprocess
+    from superlane_tools.drive.config import ReprocessConfig
     from superlane_tools.reporting import read_provenance
     from superlane_tools.reporting.layout import RunLayout
     from superlane_tools.simulation.drive import simulate_drive

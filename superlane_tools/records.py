@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any, NamedTuple
+
+Progress = Callable[[int, int | None], None]
+"""Progress callback of a pass over items: ``(items done, items total or None)``."""
 
 
 class Message(NamedTuple):

@@ -24,7 +24,19 @@ from superlane_tools.errors import ExitCode, message_line
 from superlane_tools.records import Skipped
 
 if TYPE_CHECKING:
-    from superlane_tools.commands.batch import BatchProgress
+    from superlane_tools.commands.batch import BatchProgress, BatchReport
+
+Manifest = Annotated[
+    Path | None,
+    typer.Option(
+        "--manifest",
+        "-m",
+        help="CSV/Parquet/YAML with path and optional category, vehicle, date, sequence, "
+        "start_s, end_s.",
+        exists=True,
+        dir_okay=False,
+    ),
+]
 
 
 @contextmanager
@@ -56,17 +68,7 @@ def batch_cmd(
             show_default=False,
         ),
     ] = None,
-    manifest: Annotated[
-        Path | None,
-        typer.Option(
-            "--manifest",
-            "-m",
-            help="CSV/Parquet/YAML with path and optional category, vehicle, date, sequence, "
-            "start_s, end_s.",
-            exists=True,
-            dir_okay=False,
-        ),
-    ] = None,
+    manifest: Manifest = None,
     out: Annotated[
         Path, typer.Option("--out", "-o", help="Output root; one folder per recording.")
     ] = Path("runs"),
@@ -128,6 +130,11 @@ def batch_cmd(
     )
     with cli_errors():
         report = run(options, lambda total, kind: _ticker(total, kind, engine))
+    _print(report)
+
+
+def _print(report: BatchReport) -> None:
+    """Print the counts and where the status and summary are; exit with the batch's code."""
     counts = ", ".join(f"{k} {v}" for k, v in report.counts.items())
     console.print(
         f"batch: {counts} in {report.wall_s:.1f} s ({report.engine}, {report.workers} workers)",

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import inspect
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
@@ -21,6 +21,29 @@ from superlane_tools.cli._common import (
 )
 from superlane_tools.cli._outputs import new_output, overwrite_option
 from superlane_tools.errors import ExitCode
+
+if TYPE_CHECKING:
+    from superlane_tools.commands.extract import ExtractResult
+
+DbcFiles = Annotated[
+    list[Path] | None,
+    typer.Option(
+        "--dbc",
+        metavar="[BUS=]FILE",
+        help="DBC file to decode CAN signals with (repeatable); BUS=FILE (can0=pt.dbc) "
+        "binds it to one bus (CAN topic or channel), a plain FILE decodes every bus.",
+        callback=check_dbc_specs,
+    ),
+]
+StreamConfig = Annotated[
+    Path | None,
+    typer.Option(
+        "--config",
+        help="YAML {frames: [...], camera_info: [...], can: [...], gnss: [...]}.",
+        exists=True,
+        dir_okay=False,
+    ),
+]
 
 
 def extract_cmd(
@@ -54,16 +77,7 @@ def extract_cmd(
             help="End (exclusive): seconds after the first message, ISO 8601 or epoch ns.",
         ),
     ] = None,
-    dbc: Annotated[
-        list[Path] | None,
-        typer.Option(
-            "--dbc",
-            metavar="[BUS=]FILE",
-            help="DBC file to decode CAN signals with (repeatable); BUS=FILE (can0=pt.dbc) "
-            "binds it to one bus (CAN topic or channel), a plain FILE decodes every bus.",
-            callback=check_dbc_specs,
-        ),
-    ] = None,
+    dbc: DbcFiles = None,
     frames: Annotated[
         str, typer.Option("--frames", help="Image file format: jpg, png or none (index only).")
     ] = "jpg",
@@ -72,15 +86,7 @@ def extract_cmd(
         str | None,
         typer.Option(help="ENU origin 'lat,lon[,alt]' (degrees, metres); default: first fix."),
     ] = None,
-    config: Annotated[
-        Path | None,
-        typer.Option(
-            "--config",
-            help="YAML {frames: [...], camera_info: [...], can: [...], gnss: [...]}.",
-            exists=True,
-            dir_okay=False,
-        ),
-    ] = None,
+    config: StreamConfig = None,
     verbose: Annotated[
         bool, typer.Option("--verbose", "-v", help="List every DBC repair, not just how many.")
     ] = False,
@@ -93,41 +99,30 @@ def extract_cmd(
     can_raw.parquet, can_signals.parquet (with --dbc) and rtk.parquet (with ENU east/north/up,
     speed and heading).
     """
-    from superlane_tools.commands.extract import ExtractConfig, extract, load_stream_config
-    from superlane_tools.commands.options import parse_origin
-    from superlane_tools.commands.options import parse_time_range as _time
+    from superlane_tools.commands.extract.entry import ExtractOptions, run
 
+    options = ExtractOptions(
+        recording,
+        out,
+        topics or [],
+        start,
+        end,
+        dbc or [],
+        frames,
+        every,
+        origin,
+        config,
+        verbose,
+        command_line(),
+        new_output(out, overwrite, [recording]),
+    )
     with cli_errors():
-        streams = load_stream_config(config) if config is not None else {}
-        settings = ExtractConfig(
-            topics=tuple(topics or ()),
-            streams=streams,
-            start_s=_time(start, "--start")[0],
-            end_s=_time(end, "--end")[0],
-            start_ns=_time(start, "--start")[1],
-            end_ns=_time(end, "--end")[1],
-            dbc_paths=tuple(dbc or ()),
-            frame_format=frames.lower(),
-            every=every,
-            origin=parse_origin(origin),
-        )
+        result = run(options, lambda: progress("extract", unit="messages"), note)
+    _print(result, out)
 
-        def show_dbc(name: str, loaded: object) -> None:
-            repairs = getattr(loaded, "repairs", [])
-            hint = " (--verbose or `slt dbc show` lists them)" if repairs and not verbose else ""
-            note(f"dbc {name}: loaded with {len(repairs)} repair(s){hint}")
-            for line in repairs if verbose else []:
-                note(f"dbc {name}: {line}")
 
-        with new_output(out, overwrite, [recording]), progress("extract", unit="messages") as bar:
-            result = extract(
-                recording,
-                out,
-                settings,
-                command=command_line(),
-                progress=bar.update,
-                on_dbc=show_dbc,
-            )
+def _print(result: ExtractResult, out: Path) -> None:
+    """Print what was extracted and written, the notes; exit with the run's code."""
     for kind, names in result.selected.items():
         if names:
             console.print(f"{kind}: {', '.join(names)}", markup=False)

@@ -28,75 +28,92 @@ def _recording_name(path: Path) -> str:
     return path.name.split(".")[0] if path.suffix else path.name
 
 
+# The options, as Typer reads them from the annotations.
+_Recording = Annotated[
+    Path | None,
+    typer.Argument(
+        help="Recording: MCAP, ROS 1 .bag, ROS 2 bag folder, or a dashcam video (.mp4, .mkv)."
+    ),
+]
+_Out = Annotated[
+    Path | None, typer.Option("--out", "-o", help="Output folder (default runs/<name>/).")
+]
+_Config = Annotated[
+    Path | None,
+    typer.Option("--config", help="Config file (.toml or .yaml).", exists=True, dir_okay=False),
+]
+_PrintConfig = Annotated[
+    bool, typer.Option("--print-config", help="Print the default config (YAML) and exit.")
+]
+_Camera = Annotated[
+    str | None,
+    camera_option("'auto' (CameraInfo + extrinsics), a profile or a YAML.", "auto|NAME|YAML"),
+]
+_Dbc = Annotated[
+    list[Path] | None,
+    typer.Option(
+        "--dbc",
+        metavar="[BUS=]FILE",
+        help="DBC file (repeatable; replaces the shipped DBCs); BUS=FILE binds it to one "
+        "CAN bus (topic), e.g. can0=pt.dbc.",
+        callback=check_dbc_specs,
+    ),
+]
+_Backend = Annotated[
+    str | None,
+    typer.Option("--backend", help="Segmentation: auto, classical, onnx or oracle."),
+]
+_Model = Annotated[str | None, model_option("Segmentation ONNX model (path or name).")]
+_OracleLabels = Annotated[
+    Path | None,
+    typer.Option(
+        "--oracle-labels",
+        help="Leaf-id label PNG folder for --backend oracle.",
+        exists=True,
+        file_okay=False,
+    ),
+]
+_Category = Annotated[
+    str | None, typer.Option("--category", help="Category label of this drive's sequences.")
+]
+_Video = Annotated[bool, typer.Option("--video", help="Also write overlay.mp4.")]
+_NoPlots = Annotated[bool, typer.Option("--no-plots", help="Skip plots/*.png.")]
+_Workers = Annotated[int | None, typer.Option("--workers", help="Threads for the image stages.")]
+_WithSignals = Annotated[
+    bool,
+    typer.Option(
+        "--with-signals",
+        help="Add decoded CAN signals and the truth curves to annotations.mcap.",
+    ),
+]
+_CanonicalCamera = Annotated[
+    bool | None,
+    typer.Option(
+        "--canonical-camera/--no-canonical-camera",
+        help="Segment in the canonical virtual camera also with models trained without "
+        "it (network backends; default off; models trained in it always use it).",
+    ),
+]
+_Overwrite = Annotated[bool, overwrite_option()]
+
+
 def reprocess_cmd(
-    recording: Annotated[
-        Path | None,
-        typer.Argument(
-            help="Recording: MCAP, ROS 1 .bag, ROS 2 bag folder, or a dashcam video (.mp4, .mkv)."
-        ),
-    ] = None,
-    out: Annotated[
-        Path | None, typer.Option("--out", "-o", help="Output folder (default runs/<name>/).")
-    ] = None,
-    config: Annotated[
-        Path | None,
-        typer.Option("--config", help="Config file (.toml or .yaml).", exists=True, dir_okay=False),
-    ] = None,
-    print_config: Annotated[
-        bool, typer.Option("--print-config", help="Print the default config (YAML) and exit.")
-    ] = False,
-    camera: Annotated[
-        str | None,
-        camera_option("'auto' (CameraInfo + extrinsics), a profile or a YAML.", "auto|NAME|YAML"),
-    ] = None,
-    dbc: Annotated[
-        list[Path] | None,
-        typer.Option(
-            "--dbc",
-            metavar="[BUS=]FILE",
-            help="DBC file (repeatable; replaces the shipped DBCs); BUS=FILE binds it to one "
-            "CAN bus (topic), e.g. can0=pt.dbc.",
-            callback=check_dbc_specs,
-        ),
-    ] = None,
-    backend: Annotated[
-        str | None,
-        typer.Option("--backend", help="Segmentation: auto, classical, onnx or oracle."),
-    ] = None,
-    model: Annotated[str | None, model_option("Segmentation ONNX model (path or name).")] = None,
-    oracle_labels: Annotated[
-        Path | None,
-        typer.Option(
-            "--oracle-labels",
-            help="Leaf-id label PNG folder for --backend oracle.",
-            exists=True,
-            file_okay=False,
-        ),
-    ] = None,
-    category: Annotated[
-        str | None, typer.Option("--category", help="Category label of this drive's sequences.")
-    ] = None,
-    video: Annotated[bool, typer.Option("--video", help="Also write overlay.mp4.")] = False,
-    no_plots: Annotated[bool, typer.Option("--no-plots", help="Skip plots/*.png.")] = False,
-    workers: Annotated[
-        int | None, typer.Option("--workers", help="Threads for the image stages.")
-    ] = None,
-    with_signals: Annotated[
-        bool,
-        typer.Option(
-            "--with-signals",
-            help="Add decoded CAN signals and the truth curves to annotations.mcap.",
-        ),
-    ] = False,
-    canonical_camera: Annotated[
-        bool | None,
-        typer.Option(
-            "--canonical-camera/--no-canonical-camera",
-            help="Segment in the canonical virtual camera also with models trained without "
-            "it (network backends; default off; models trained in it always use it).",
-        ),
-    ] = None,
-    overwrite: Annotated[bool, overwrite_option()] = False,
+    recording: _Recording = None,
+    out: _Out = None,
+    config: _Config = None,
+    print_config: _PrintConfig = False,
+    camera: _Camera = None,
+    dbc: _Dbc = None,
+    backend: _Backend = None,
+    model: _Model = None,
+    oracle_labels: _OracleLabels = None,
+    category: _Category = None,
+    video: _Video = False,
+    no_plots: _NoPlots = False,
+    workers: _Workers = None,
+    with_signals: _WithSignals = False,
+    canonical_camera: _CanonicalCamera = None,
+    overwrite: _Overwrite = False,
 ) -> None:
     """Reprocess a drive: SUPER lane fit, corridor network, Hough baseline, CAN, RTK.
 
@@ -108,9 +125,9 @@ def reprocess_cmd(
     from superlane_tools.errors import UsageError
 
     if print_config:
-        from superlane_tools.commands.reprocess import default_config_yaml
+        from superlane_tools.commands.reprocess.entry import default_config
 
-        typer.echo(default_config_yaml(), nl=False)
+        typer.echo(default_config(), nl=False)
         return
     with cli_errors():
         if recording is None:

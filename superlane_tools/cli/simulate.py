@@ -25,68 +25,88 @@ simulate_app = typer.Typer(
 )
 
 
+# The options of `simulate`, as Typer reads them from the annotations.
+_Scenario = Annotated[
+    str | None, typer.Option("--scenario", "-s", help="Scenario name (see --list).")
+]
+_Out = Annotated[
+    Path | None,
+    typer.Option("--out", "-o", help="Recording path (.mcap, .bag, or ROS 2 bag folder)."),
+]
+_Duration = Annotated[float, typer.Option(help="Drive length, seconds.")]
+_Seed = Annotated[int, typer.Option(help="Seed of all random choices.")]
+_Fmt = Annotated[str, typer.Option("--format", help="mcap, ros1 or ros2.")]
+_Width = Annotated[int, typer.Option(help="Image width, pixels.")]
+_Height = Annotated[int, typer.Option(help="Image height, pixels.")]
+_Fps = Annotated[float, typer.Option(help="Camera frame rate, Hz.")]
+_JpegQuality = Annotated[
+    int | None, typer.Option(help="JPEG quality 1-100 (default: the scenario's).")
+]
+_RtkMode = Annotated[
+    str, typer.Option(help="GNSS fix quality: fixed (RTK, cm), float or standalone (m).")
+]
+_RtkRate = Annotated[float, typer.Option(help="GNSS fix rate, Hz (10-20).")]
+_Video = Annotated[
+    str | None,
+    typer.Option(
+        metavar="FORMAT",
+        help="Write the camera as foxglove_msgs/CompressedVideo (h264 or h265), not JPEG.",
+    ),
+]
+_RtkDropouts = Annotated[float, typer.Option(help="GNSS outages per minute (1-4 s each).")]
+_RtkMultipath = Annotated[
+    float,
+    typer.Option(help="GNSS multipath episodes per minute (2-8 s of 0.3-1.5 m jumps, float)."),
+]
+_Labels = Annotated[
+    bool, typer.Option("--labels", help="Also write label and corridor PNGs per frame.")
+]
+_SpeedKph = Annotated[
+    bool, typer.Option("--speed-kph", help="Send the CAN speed in km/h (slt_vehicle_kph.dbc).")
+]
+_Imu = Annotated[bool, typer.Option("--imu", help="Also write an IMU topic (/imu/data).")]
+_SecondBus = Annotated[
+    bool,
+    typer.Option(
+        "--second-bus",
+        help="Mobileye lanes on a second CAN bus (/can1/rx) with an id colliding with 0x180.",
+    ),
+]
+_MobileyeLatency = Annotated[
+    float,
+    typer.Option(
+        "--mobileye-latency",
+        help="Delay of the Mobileye lane messages after their camera frame, seconds (0-1).",
+    ),
+]
+_List = Annotated[bool, typer.Option("--list", help="List the scenarios and exit.")]
+_Overwrite = Annotated[bool, overwrite_option()]
+
+
 @simulate_app.callback(invoke_without_command=True)
 def simulate(
     ctx: typer.Context,
-    scenario: Annotated[
-        str | None, typer.Option("--scenario", "-s", help="Scenario name (see --list).")
-    ] = None,
-    out: Annotated[
-        Path | None,
-        typer.Option("--out", "-o", help="Recording path (.mcap, .bag, or ROS 2 bag folder)."),
-    ] = None,
-    duration: Annotated[float, typer.Option(help="Drive length, seconds.")] = 20.0,
-    seed: Annotated[int, typer.Option(help="Seed of all random choices.")] = 0,
-    fmt: Annotated[str, typer.Option("--format", help="mcap, ros1 or ros2.")] = "mcap",
-    width: Annotated[int, typer.Option(help="Image width, pixels.")] = 1280,
-    height: Annotated[int, typer.Option(help="Image height, pixels.")] = 720,
-    fps: Annotated[float, typer.Option(help="Camera frame rate, Hz.")] = 15.0,
-    jpeg_quality: Annotated[
-        int | None, typer.Option(help="JPEG quality 1-100 (default: the scenario's).")
-    ] = None,
-    rtk_mode: Annotated[
-        str, typer.Option(help="GNSS fix quality: fixed (RTK, cm), float or standalone (m).")
-    ] = "fixed",
-    rtk_rate: Annotated[float, typer.Option(help="GNSS fix rate, Hz (10-20).")] = 10.0,
-    video: Annotated[
-        str | None,
-        typer.Option(
-            metavar="FORMAT",
-            help="Write the camera as foxglove_msgs/CompressedVideo (h264 or h265), not JPEG.",
-        ),
-    ] = None,
-    rtk_dropouts: Annotated[
-        float, typer.Option(help="GNSS outages per minute (1-4 s each).")
-    ] = 0.0,
-    rtk_multipath: Annotated[
-        float,
-        typer.Option(help="GNSS multipath episodes per minute (2-8 s of 0.3-1.5 m jumps, float)."),
-    ] = 0.0,
-    labels: Annotated[
-        bool, typer.Option("--labels", help="Also write label and corridor PNGs per frame.")
-    ] = False,
-    speed_kph: Annotated[
-        bool, typer.Option("--speed-kph", help="Send the CAN speed in km/h (slt_vehicle_kph.dbc).")
-    ] = False,
-    imu: Annotated[
-        bool, typer.Option("--imu", help="Also write an IMU topic (/imu/data).")
-    ] = False,
-    second_bus: Annotated[
-        bool,
-        typer.Option(
-            "--second-bus",
-            help="Mobileye lanes on a second CAN bus (/can1/rx) with an id colliding with 0x180.",
-        ),
-    ] = False,
-    mobileye_latency: Annotated[
-        float,
-        typer.Option(
-            "--mobileye-latency",
-            help="Delay of the Mobileye lane messages after their camera frame, seconds (0-1).",
-        ),
-    ] = 0.1,
-    list_: Annotated[bool, typer.Option("--list", help="List the scenarios and exit.")] = False,
-    overwrite: Annotated[bool, overwrite_option()] = False,
+    scenario: _Scenario = None,
+    out: _Out = None,
+    duration: _Duration = 20.0,
+    seed: _Seed = 0,
+    fmt: _Fmt = "mcap",
+    width: _Width = 1280,
+    height: _Height = 720,
+    fps: _Fps = 15.0,
+    jpeg_quality: _JpegQuality = None,
+    rtk_mode: _RtkMode = "fixed",
+    rtk_rate: _RtkRate = 10.0,
+    video: _Video = None,
+    rtk_dropouts: _RtkDropouts = 0.0,
+    rtk_multipath: _RtkMultipath = 0.0,
+    labels: _Labels = False,
+    speed_kph: _SpeedKph = False,
+    imu: _Imu = False,
+    second_bus: _SecondBus = False,
+    mobileye_latency: _MobileyeLatency = 0.1,
+    list_: _List = False,
+    overwrite: _Overwrite = False,
 ) -> None:
     """Simulate one drive: `slt simulate --scenario NAME --out drive.mcap`."""
     if ctx.invoked_subcommand is not None:

@@ -17,107 +17,136 @@ from superlane_tools.cli._common import (
 )
 from superlane_tools.cli._outputs import check_new_output, new_output, overwrite_option
 
+# The options of `train`, as Typer reads them from the annotations.
+_Task = Annotated[str, typer.Argument(metavar="TASK", help="segmentation or corridor.")]
+_Out = Annotated[Path, typer.Option("--out", help="Output MODEL.onnx (card written beside).")]
+_Data = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--data",
+        metavar="[READER[:WEIGHT]=]DIR",
+        help=(
+            "Dataset: sim (a `slt simulate dataset` folder, the default), tusimple "
+            "(labels.json), camvid, or an adapter name; WEIGHT = sampling weight. Repeat."
+        ),
+    ),
+]
+_Datasets = Annotated[
+    Path | None,
+    typer.Option("--datasets", help="YAML list of datasets (reader, folder, weight, ...)."),
+]
+_Epochs = Annotated[int, typer.Option("--epochs", min=1, help="Passes over the data.")]
+_Steps = Annotated[
+    int | None, typer.Option("--steps", min=1, help="Optimiser steps (overrides --epochs).")
+]
+_Batch = Annotated[int, typer.Option("--batch", min=1, help="Frames per step.")]
+_Lr = Annotated[float, typer.Option("--lr", min=1e-7, help="Adam learning rate.")]
+_Size = Annotated[
+    str | None,
+    typer.Option(
+        "--size", help="Network input WxH (default 512x288 segmentation, 652x360 corridor)."
+    ),
+]
+_Crop = Annotated[
+    str | None, typer.Option("--crop", help="Train on random WxH crops (faster steps).")
+]
+_Seed = Annotated[int, typer.Option("--seed", help="Seed of init, shuffling, augmentation.")]
+_MaxFrames = Annotated[
+    int | None, typer.Option("--max-frames", min=1, help="Use at most N frames.")
+]
+_Adapter = Annotated[
+    str,
+    typer.Option("--adapter", help="Label adapter (superlane, cityscapes, ..., or a YAML)."),
+]
+_Threads = Annotated[
+    int | None,
+    typer.Option("--threads", min=1, help="torch CPU threads (default: every core)."),
+]
+_Arch = Annotated[
+    str,
+    typer.Option(
+        "--arch",
+        help="Network: super, lite0, lite0-slim, lite0-s16 or lite0-s16-tiny "
+        "(segmentation); fast or paper (corridor).",
+    ),
+]
+_Augment = Annotated[
+    str,
+    typer.Option(
+        "--augment",
+        help="Augmentation: real (default), camera (wider camera geometry, night), "
+        "canonical (camera's photometry, little geometry: for --canonical-camera), none.",
+    ),
+]
+_BudgetS = Annotated[
+    float | None,
+    typer.Option(
+        "--budget-s", min=1, help="Wall-clock budget, s: the LR schedule follows it; stop then."
+    ),
+]
+_DiceBands = Annotated[
+    int, typer.Option("--dice-bands", min=1, help="Row bands of the lane-marking Dice.")
+]
+_Device = Annotated[str, typer.Option("--device", help="torch device: cpu or cuda.")]
+_Init = Annotated[
+    Path | None, typer.Option("--init", help="Start from a checkpoint's weights (fine-tune).")
+]
+_Resume = Annotated[
+    bool,
+    typer.Option("--resume", help="Continue from the checkpoint if it exists (more steps OK)."),
+]
+_Checkpoint = Annotated[
+    Path | None,
+    typer.Option("--checkpoint", help="Resumable checkpoint (default MODEL.ckpt.pt)."),
+]
+_CheckpointS = Annotated[
+    float, typer.Option("--checkpoint-every-s", min=0, help="Save it every S seconds.")
+]
+_ValidateEvery = Annotated[
+    int, typer.Option("--validate-every", min=0, help="Validate every N steps (0: off).")
+]
+_ValData = Annotated[
+    Path | None,
+    typer.Option("--val-data", help="Real-data folder of the dev sets (validation)."),
+]
+_CanonicalCamera = Annotated[
+    bool,
+    typer.Option(
+        "--canonical-camera",
+        help="Resample frames with a known or estimated camera into the canonical camera.",
+    ),
+]
+_Overwrite = Annotated[bool, overwrite_option()]
+
 
 def train(
-    task: Annotated[str, typer.Argument(metavar="TASK", help="segmentation or corridor.")],
-    out: Annotated[Path, typer.Option("--out", help="Output MODEL.onnx (card written beside).")],
-    data: Annotated[
-        list[str] | None,
-        typer.Option(
-            "--data",
-            metavar="[READER[:WEIGHT]=]DIR",
-            help=(
-                "Dataset: sim (a `slt simulate dataset` folder, the default), tusimple "
-                "(labels.json), camvid, or an adapter name; WEIGHT = sampling weight. Repeat."
-            ),
-        ),
-    ] = None,
-    datasets: Annotated[
-        Path | None,
-        typer.Option("--datasets", help="YAML list of datasets (reader, folder, weight, ...)."),
-    ] = None,
-    epochs: Annotated[int, typer.Option("--epochs", min=1, help="Passes over the data.")] = 10,
-    steps: Annotated[
-        int | None, typer.Option("--steps", min=1, help="Optimiser steps (overrides --epochs).")
-    ] = None,
-    batch: Annotated[int, typer.Option("--batch", min=1, help="Frames per step.")] = 8,
-    lr: Annotated[float, typer.Option("--lr", min=1e-7, help="Adam learning rate.")] = 2e-3,
-    size: Annotated[
-        str | None,
-        typer.Option(
-            "--size", help="Network input WxH (default 512x288 segmentation, 652x360 corridor)."
-        ),
-    ] = None,
-    crop: Annotated[
-        str | None, typer.Option("--crop", help="Train on random WxH crops (faster steps).")
-    ] = None,
-    seed: Annotated[int, typer.Option("--seed", help="Seed of init, shuffling, augmentation.")] = 0,
-    max_frames: Annotated[
-        int | None, typer.Option("--max-frames", min=1, help="Use at most N frames.")
-    ] = None,
-    adapter: Annotated[
-        str,
-        typer.Option("--adapter", help="Label adapter (superlane, cityscapes, ..., or a YAML)."),
-    ] = "superlane",
-    threads: Annotated[
-        int | None,
-        typer.Option("--threads", min=1, help="torch CPU threads (default: every core)."),
-    ] = None,
-    arch: Annotated[
-        str,
-        typer.Option(
-            "--arch",
-            help="Network: super, lite0, lite0-slim, lite0-s16 or lite0-s16-tiny "
-            "(segmentation); fast or paper (corridor).",
-        ),
-    ] = "",
-    augment: Annotated[
-        str,
-        typer.Option(
-            "--augment",
-            help="Augmentation: real (default), camera (wider camera geometry, night), "
-            "canonical (camera's photometry, little geometry: for --canonical-camera), none.",
-        ),
-    ] = "real",
-    budget_s: Annotated[
-        float | None,
-        typer.Option(
-            "--budget-s", min=1, help="Wall-clock budget, s: the LR schedule follows it; stop then."
-        ),
-    ] = None,
-    dice_bands: Annotated[
-        int, typer.Option("--dice-bands", min=1, help="Row bands of the lane-marking Dice.")
-    ] = 1,
-    device: Annotated[str, typer.Option("--device", help="torch device: cpu or cuda.")] = "cpu",
-    init: Annotated[
-        Path | None, typer.Option("--init", help="Start from a checkpoint's weights (fine-tune).")
-    ] = None,
-    resume: Annotated[
-        bool,
-        typer.Option("--resume", help="Continue from the checkpoint if it exists (more steps OK)."),
-    ] = False,
-    checkpoint: Annotated[
-        Path | None,
-        typer.Option("--checkpoint", help="Resumable checkpoint (default MODEL.ckpt.pt)."),
-    ] = None,
-    checkpoint_s: Annotated[
-        float, typer.Option("--checkpoint-every-s", min=0, help="Save it every S seconds.")
-    ] = 300.0,
-    validate_every: Annotated[
-        int, typer.Option("--validate-every", min=0, help="Validate every N steps (0: off).")
-    ] = 300,
-    val_data: Annotated[
-        Path | None,
-        typer.Option("--val-data", help="Real-data folder of the dev sets (validation)."),
-    ] = None,
-    canonical_camera: Annotated[
-        bool,
-        typer.Option(
-            "--canonical-camera",
-            help="Resample frames with a known or estimated camera into the canonical camera.",
-        ),
-    ] = False,
-    overwrite: Annotated[bool, overwrite_option()] = False,
+    task: _Task,
+    out: _Out,
+    data: _Data = None,
+    datasets: _Datasets = None,
+    epochs: _Epochs = 10,
+    steps: _Steps = None,
+    batch: _Batch = 8,
+    lr: _Lr = 2e-3,
+    size: _Size = None,
+    crop: _Crop = None,
+    seed: _Seed = 0,
+    max_frames: _MaxFrames = None,
+    adapter: _Adapter = "superlane",
+    threads: _Threads = None,
+    arch: _Arch = "",
+    augment: _Augment = "real",
+    budget_s: _BudgetS = None,
+    dice_bands: _DiceBands = 1,
+    device: _Device = "cpu",
+    init: _Init = None,
+    resume: _Resume = False,
+    checkpoint: _Checkpoint = None,
+    checkpoint_s: _CheckpointS = 300.0,
+    validate_every: _ValidateEvery = 300,
+    val_data: _ValData = None,
+    canonical_camera: _CanonicalCamera = False,
+    overwrite: _Overwrite = False,
 ) -> None:
     """Train a network on CPU, export it to ONNX (opset 17) and write MODEL.card.yaml."""
     from superlane_tools.commands.train import TrainOptions, run

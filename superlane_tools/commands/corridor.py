@@ -4,15 +4,19 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from superlane_tools.records import Skipped
+from superlane_tools.records import Progress, Skipped
 from superlane_tools.reporting.layout import CORRIDOR_MASKS_TABLE
 
-Progress = Callable[[int, int | None], None]
-"""Progress callback ``(images done, images total or None)``."""
+if TYPE_CHECKING:
+    import numpy as np
+    from numpy.typing import NDArray
+
+    from superlane_tools.camera.model import CameraModel
+    from superlane_tools.corridor import CorridorParams
 
 
 @dataclass(frozen=True)
@@ -59,18 +63,11 @@ def predict_corridors(
     Raises:
         SceneError: For an unusable model or input.
     """
-    import cv2
-    import numpy as np
     import pandas as pd
 
     from superlane_tools.camera.profiles import load_camera
-    from superlane_tools.corridor import CorridorParams, corridor_from_mask
-    from superlane_tools.reporting import (
-        Provenance,
-        input_identity,
-        write_bytes_atomic,
-        write_table,
-    )
+    from superlane_tools.corridor import CorridorParams
+    from superlane_tools.reporting import Provenance, input_identity, write_table
     from superlane_tools.scene.corridor_runtime import CorridorSmoother, OnnxCorridorModel
     from superlane_tools.scene.recording_frames import InputFrames
 
@@ -91,19 +88,7 @@ def predict_corridors(
             smoother.reset()
             continue
         prob = smoother.update(runtime.probability(image))
-        rel = Path(f"{frame.name}.png")
-        ok, png = cv2.imencode(".png", np.round(prob * 255.0).astype(np.uint8))
-        assert ok, "PNG encoding of a uint8 image cannot fail"
-        write_bytes_atomic(dst / rel, png.tobytes())
-        geometry = corridor_from_mask(prob, cam, params) if cam is not None else None
-        rows.append(
-            {
-                "name": rel.as_posix(),
-                "corridor_fraction": float((prob > threshold).mean()),
-                "width_m": geometry.width_m if geometry else math.nan,
-                "length_m": geometry.length_m if geometry else math.nan,
-            }
-        )
+        rows.append(_write_map(prob, dst, frame.name, cam, params))
     skipped.extend(frames.skipped)
     if not rows:
         return CorridorResult(None, 0, runtime.name, tuple(skipped))
@@ -119,3 +104,30 @@ def predict_corridors(
     )
     table = write_table(pd.DataFrame(rows), dst / CORRIDOR_MASKS_TABLE.file, provenance)
     return CorridorResult(table, len(rows), runtime.name, tuple(skipped))
+
+
+def _write_map(
+    prob: NDArray[np.float32],
+    dst: Path,
+    name: str,
+    cam: CameraModel | None,
+    params: CorridorParams,
+) -> dict[str, object]:
+    """Write one image's probability map as ``dst/<name>.png``; return its table row."""
+    import cv2
+    import numpy as np
+
+    from superlane_tools.corridor import corridor_from_mask
+    from superlane_tools.reporting import write_bytes_atomic
+
+    rel = Path(f"{name}.png")
+    ok, png = cv2.imencode(".png", np.round(prob * 255.0).astype(np.uint8))
+    assert ok, "PNG encoding of a uint8 image cannot fail"
+    write_bytes_atomic(dst / rel, png.tobytes())
+    geometry = corridor_from_mask(prob, cam, params) if cam is not None else None
+    return {
+        "name": rel.as_posix(),
+        "corridor_fraction": float((prob > params.threshold).mean()),
+        "width_m": geometry.width_m if geometry else math.nan,
+        "length_m": geometry.length_m if geometry else math.nan,
+    }

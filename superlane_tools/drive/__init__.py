@@ -26,6 +26,7 @@ from superlane_tools.drive.loop import (
     run_frames,
 )
 from superlane_tools.drive.record import Corridors, DriveFrames, DriveFramesBuilder, FitSeries
+from superlane_tools.drive.reprocess_pass import DriveOutcome, PassSetup, reprocess_pass
 from superlane_tools.drive.sinks import AnnotationSink, ExampleSink, FrameTablesSink, VideoSink
 from superlane_tools.drive.stages import Finished, FrameStages, Prepared
 from superlane_tools.reporting.drive_sections import ReportFacts
@@ -39,6 +40,7 @@ __all__ = [
     "DerivedTables",
     "DriveFrames",
     "DriveFramesBuilder",
+    "DriveOutcome",
     "DrivePass",
     "DriveTopics",
     "ExampleSink",
@@ -49,6 +51,7 @@ __all__ = [
     "FrameTablesSink",
     "KpiConfig",
     "OutputConfig",
+    "PassSetup",
     "Prepared",
     "ReportFacts",
     "ReprocessConfig",
@@ -64,5 +67,6 @@ __all__ = [
     "frame_total",
     "load_config",
     "load_manifest",
+    "reprocess_pass",
     "run_frames",
 ]

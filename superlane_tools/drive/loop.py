@@ -13,7 +13,7 @@ routed to their collectors. A new per-frame output is a new sink, never a copy o
 from __future__ import annotations
 
 from collections import deque
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
@@ -25,15 +25,12 @@ from superlane_tools.drive.record import DriveFrames, DriveFramesBuilder
 from superlane_tools.drive.signals import ImuSamples
 from superlane_tools.drive.stages import Finished, FrameStages, Prepared
 from superlane_tools.recording import Streams, read_with_video, select_one_each, topics_of_type
-from superlane_tools.records import Message
+from superlane_tools.records import Message, Progress
 from superlane_tools.reporting.gnss_fixes import GnssCollector, GnssFixes
 from superlane_tools.reporting.message_pass import MessageTaker, stream_messages
 
 CAN_TYPE, IMU_TYPE = "can_msgs/msg/Frame", "sensor_msgs/msg/Imu"
 """Every topic of these types is read unless ``topics.can`` / ``topics.imu`` names one."""
-
-Progress = Callable[[int, int | None], None]
-"""Progress callback ``(frames done, frames total or None)``."""
 
 
 class FrameSink(Protocol):

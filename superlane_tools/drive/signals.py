@@ -21,7 +21,11 @@ from superlane_tools.geo import (
     grade_fixes,
     yaw_rate_curvature,
 )
-from superlane_tools.geo.curvature import CurvatureParams, trajectory_curvature
+from superlane_tools.geo.curvature import (
+    CurvatureParams,
+    TrajectoryCurvature,
+    trajectory_curvature,
+)
 from superlane_tools.geo.dynamics import DynamicsCurvature, DynamicsParams
 from superlane_tools.recording.align import align
 from superlane_tools.records import Message
@@ -29,6 +33,7 @@ from superlane_tools.reporting.gnss_fixes import GnssFixes
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
+BoolArray = NDArray[np.bool_]
 
 SIGNAL_TOLERANCE_NS = 200_000_000
 """CAN speed / yaw rate / Mobileye values apply to frames at most this far away in time."""
@@ -186,17 +191,52 @@ def rtk_truth(
         config.min_status,
         config.max_horizontal_var_m2,
     )
-    good, reasons = grades.good, grades.reasons
+    good = grades.good
     t = gnss.log_time_ns
+    east, north, up = _good_enu(gnss, good)
+    gap_s = np.concatenate([[0.0], np.diff(t) / 1e9])
+    dropout = gap_s > config.max_gap_s
+    params = curvature_params(config)
+    fix_speed_mps = _fix_speed_mps(speed, t, good, east, north)
+    at_fix = trajectory_curvature(t, east, north, good, t, params, fix_speed_mps)
+    at_frame = trajectory_curvature(t, east, north, good, frame_t_ns, params, fix_speed_mps)
+    with np.errstate(invalid="ignore"):
+        slow = good & ~(fix_speed_mps >= config.min_speed_mps)
+    valid = at_frame.valid & _near_a_good_fix(t[good], frame_t_ns, config.max_frame_gap_s)
+    curvature = np.where(valid, at_frame.curvature_per_m, np.nan)
+    fixes = _fixes_table(gnss, (east, north, up), grades.reasons, good, gap_s, dropout, at_fix)
+    fixes["speed_mps"] = fix_speed_mps
+    fixes["slow"] = slow
+    return RtkTruth(
+        fixes,
+        at_frame.s_m,
+        at_frame.heading_rad,
+        curvature,
+        valid,
+        int(good.sum()),
+        int((~good).sum()),
+        int(dropout.sum()),
+        grades.degraded,
+        _noise_floor(t, var, good & ~slow, fix_speed_mps, grades.degraded, config),
+        int(slow.sum()),
+    )
+
+
+def _good_enu(gnss: GnssFixes, good: BoolArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """East, north, up (m) of the good fixes, around the first of them; NaN elsewhere."""
     east = np.full(len(gnss), np.nan)
     north, up = east.copy(), east.copy()
     if good.any():
         lat = np.where(good, gnss.latitude_deg, np.nan)
         enu = geodetic_to_enu(lat, gnss.longitude_deg, gnss.altitude_m)
         east, north, up = enu.east_m, enu.north_m, enu.up_m
-    gap_s = np.concatenate([[0.0], np.diff(t) / 1e9])
-    dropout = gap_s > config.max_gap_s
-    params = curvature_params(config)
+    return east, north, up
+
+
+def _fix_speed_mps(
+    speed: Series | None, t: IntArray, good: BoolArray, east: FloatArray, north: FloatArray
+) -> FloatArray:
+    """Speed (m/s) at each fix: CAN speed when it has values there, else the fixes' own."""
     fix_speed_mps = None
     if speed is not None:
         fix_speed_mps = align(speed.t_ns, speed.values, t, "linear", SIGNAL_TOLERANCE_NS)
@@ -204,21 +244,34 @@ def rtk_truth(
         from superlane_tools.geo import fix_speed
 
         fix_speed_mps = fix_speed(t, np.where(good, east, np.nan), np.where(good, north, np.nan))
-    at_fix = trajectory_curvature(t, east, north, good, t, params, fix_speed_mps)
-    at_frame = trajectory_curvature(t, east, north, good, frame_t_ns, params, fix_speed_mps)
-    with np.errstate(invalid="ignore"):
-        slow = good & ~(fix_speed_mps >= config.min_speed_mps)
-    good_t = t[good]
-    valid = at_frame.valid.copy()
+    return fix_speed_mps
+
+
+def _near_a_good_fix(good_t: IntArray, frame_t_ns: IntArray, max_gap_s: float) -> BoolArray:
+    """Frames at most ``max_gap_s`` from a good fix (all frames when there is none)."""
+    near_ok = np.ones(frame_t_ns.shape[0], dtype=bool)
     if good_t.size:
         near = np.searchsorted(good_t, frame_t_ns)
         d_prev = np.abs(frame_t_ns - good_t[np.clip(near - 1, 0, good_t.size - 1)])
         d_next = np.abs(good_t[np.clip(near, 0, good_t.size - 1)] - frame_t_ns)
-        valid &= np.minimum(d_prev, d_next) <= config.max_frame_gap_s * 1e9
-    curvature = np.where(valid, at_frame.curvature_per_m, np.nan)
-    fixes = pd.DataFrame(
+        near_ok = np.minimum(d_prev, d_next) <= max_gap_s * 1e9
+    return near_ok
+
+
+def _fixes_table(
+    gnss: GnssFixes,
+    enu: tuple[FloatArray, FloatArray, FloatArray],
+    reasons: list[str],
+    good: BoolArray,
+    gap_s: FloatArray,
+    dropout: BoolArray,
+    at_fix: TrajectoryCurvature,
+) -> pd.DataFrame:
+    """One row per fix: position, grade, gaps and the trajectory's curvature there."""
+    east, north, up = enu
+    return pd.DataFrame(
         {
-            "log_time_ns": t,
+            "log_time_ns": gnss.log_time_ns,
             "topic": gnss.topic_names().astype(str),
             "latitude_deg": gnss.latitude_deg,
             "longitude_deg": gnss.longitude_deg,
@@ -238,21 +291,6 @@ def rtk_truth(
             "curvature_per_m": np.where(at_fix.valid, at_fix.curvature_per_m, np.nan),
             "curvature_valid": at_fix.valid,
         }
-    )
-    fixes["speed_mps"] = fix_speed_mps
-    fixes["slow"] = slow
-    return RtkTruth(
-        fixes,
-        at_frame.s_m,
-        at_frame.heading_rad,
-        curvature,
-        valid,
-        int(good.sum()),
-        int((~good).sum()),
-        int(dropout.sum()),
-        grades.degraded,
-        _noise_floor(t, var, good & ~slow, fix_speed_mps, grades.degraded, config),
-        int(slow.sum()),
     )
 
 

@@ -23,6 +23,7 @@ from superlane_tools.fleet.compare import Comparison, DriveKpis, compare_fleets
 from superlane_tools.fleet.differences import difference_lines, run_differences
 from superlane_tools.fleet.errors import FleetError
 from superlane_tools.fleet.kpis import KPI_BY_NAME, KPIS, DriveTables, Kpi, sequence_kpis
+from superlane_tools.fleet.load import LoadedFleets, drives_table, load
 from superlane_tools.fleet.report import compare_sections, iso_time
 from superlane_tools.fleet.runs import DriveRun, Fleet, find_drives, read_tables
 from superlane_tools.fleet.spans import (
@@ -67,18 +68,21 @@ __all__ = [
     "GateResult",
     "GateRule",
     "Kpi",
+    "LoadedFleets",
     "SpanParams",
     "compare_fleets",
     "compare_sections",
     "difference_lines",
     "disagreement_spans",
     "drive_delta",
+    "drives_table",
     "find_drives",
     "frame_disagreement",
     "holm",
     "iso_time",
     "judge",
     "judge_gate",
+    "load",
     "parse_rule",
     "read_tables",
     "regressions",

@@ -159,21 +159,28 @@ def refit_shared(
         vertical_bound: Bound on ``|c|`` (1/m); > 0 also estimates ``c`` (needs two lines or
             more), 0 keeps ``start.c``.
     """
-    if compiled:
-        return _refit_compiled(
-            iq,
-            r,
-            labels,
-            n_lines,
-            start,
-            height_m,
-            order,
-            fit_slope,
-            slope_bound,
-            max_range_m,
-            iterations,
-            vertical_bound,
-        )
+    refit = _refit_compiled if compiled else _refit_numpy
+    return refit(
+        iq, r, labels, n_lines, start, height_m, order, fit_slope, slope_bound, max_range_m,
+        iterations, vertical_bound,
+    )  # fmt: skip
+
+
+def _refit_numpy(
+    iq: FloatArray,
+    r: FloatArray,
+    labels: IntArray,
+    n_lines: int,
+    start: SharedModel,
+    height_m: float,
+    order: int,
+    fit_slope: bool,
+    slope_bound: float,
+    max_range_m: float,
+    iterations: int,
+    vertical_bound: float,
+) -> SharedModel:
+    """:func:`refit_shared` on a numpy design matrix (the reference of ``_refit_compiled``)."""
     keep = labels >= 0
     iq, r, lab = iq[keep], r[keep], labels[keep]
     if iq.size < n_lines + order + 1:
@@ -186,27 +193,9 @@ def refit_shared(
     fit_slope = fit_slope and n_lines >= 2
     fit_vertical = vertical_bound > 0 and n_lines >= 2
     for _ in range(iterations if fit_slope or fit_vertical else 1):
-        den0 = iq + b / height_m
-        den = road_den(den0, c / height_m)
-        ok = den >= 1.0 / max_range_m
-        x = 1.0 / np.where(ok, den, 1.0)
-        y = r * x
-        sqrt_w = np.where(ok, 1.0 / np.maximum(x, NEAR_WEIGHT_M), 0.0)
-        cols = [onehot, x[:, None]]
-        if order == 2:
-            cols.append((x * x)[:, None])
-        if c == 0.0:
-            dx = -x * x / height_m
-            dy = -x * y / height_m
-            g = (a1 + 2.0 * a2 * x) * dx - dy
-        else:
-            s = np.maximum(2.0 * den - den0, 1e-9)
-            g = (a1 + 2.0 * a2 * x - r) * (-x / (height_m * s))
-        if fit_slope:
-            cols.append(g[:, None])
-        if fit_vertical:
-            cols.append((g * x)[:, None])
-        design = np.hstack(cols)
+        design, y, sqrt_w = _design(
+            iq, r, onehot, (a1, a2, b, c), height_m, max_range_m, order, fit_slope, fit_vertical
+        )
         p = _solve(design, y, sqrt_w)
         weighted = design * sqrt_w[:, None]
         normal = weighted.T @ weighted
@@ -215,21 +204,75 @@ def refit_shared(
         a2 = float(p[n_lines + 1]) if order == 2 else 0.0
         if not (fit_slope or fit_vertical):
             break
-        done = True
         k = n_lines + (2 if order == 2 else 1)
-        if fit_slope:
-            b_new = float(np.clip(b + float(p[k]), -slope_bound, slope_bound))
-            done = abs(b_new - b) < 1e-7
-            b = b_new
-            k += 1
-        if fit_vertical:
-            c_new = float(np.clip(c + float(p[k]), -vertical_bound, vertical_bound))
-            done = done and abs(c_new - c) < 1e-9
-            c = c_new
+        b, c, done = _road_step(p[k:], (b, c), fit_slope, slope_bound, fit_vertical, vertical_bound)
         if done:
             break
     model = SharedModel(a1, a2, b, np.asarray(offsets, dtype=np.float64), c)
     return _with_cov(model, normal, iq, r, lab, n_lines, order, fit_slope, height_m, max_range_m)
+
+
+def _design(
+    iq: FloatArray,
+    r: FloatArray,
+    onehot: FloatArray,
+    shared: tuple[float, float, float, float],
+    height_m: float,
+    max_range_m: float,
+    order: int,
+    fit_slope: bool,
+    fit_vertical: bool,
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """One Gauss-Newton step's design matrix at ``(a1, a2, b, c)``, target ``y`` and weights.
+
+    Columns: offsets..., ``a1``, [``a2``], [``b``], [``c``] (``b`` and ``c`` linearised).
+    """
+    a1, a2, b, c = shared
+    den0 = iq + b / height_m
+    den = road_den(den0, c / height_m)
+    ok = den >= 1.0 / max_range_m
+    x = 1.0 / np.where(ok, den, 1.0)
+    y = r * x
+    sqrt_w = np.where(ok, 1.0 / np.maximum(x, NEAR_WEIGHT_M), 0.0)
+    cols = [onehot, x[:, None]]
+    if order == 2:
+        cols.append((x * x)[:, None])
+    if c == 0.0:
+        dx = -x * x / height_m
+        dy = -x * y / height_m
+        g = (a1 + 2.0 * a2 * x) * dx - dy
+    else:
+        s = np.maximum(2.0 * den - den0, 1e-9)
+        g = (a1 + 2.0 * a2 * x - r) * (-x / (height_m * s))
+    if fit_slope:
+        cols.append(g[:, None])
+    if fit_vertical:
+        cols.append((g * x)[:, None])
+    return np.hstack(cols), y, sqrt_w
+
+
+def _road_step(
+    steps: FloatArray,
+    road: tuple[float, float],
+    fit_slope: bool,
+    slope_bound: float,
+    fit_vertical: bool,
+    vertical_bound: float,
+) -> tuple[float, float, bool]:
+    """Step the road's ``b`` and ``c`` by ``steps`` (those fitted, bounded); True once settled."""
+    b, c = road
+    done = True
+    k = 0
+    if fit_slope:
+        b_new = float(np.clip(b + float(steps[k]), -slope_bound, slope_bound))
+        done = abs(b_new - b) < 1e-7
+        b = b_new
+        k += 1
+    if fit_vertical:
+        c_new = float(np.clip(c + float(steps[k]), -vertical_bound, vertical_bound))
+        done = done and abs(c_new - c) < 1e-9
+        c = c_new
+    return b, c, done
 
 
 def _with_cov(

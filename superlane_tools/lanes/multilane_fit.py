@@ -6,37 +6,31 @@ heading ``a1``, half curvature ``a2``, slope ``b`` (Eq. 10), optionally the road
 curvature term ``c`` (``z = b x + c x^2``, beyond the paper) and, when J1 is used, the
 road-centre offset ``a0c``; lane offsets as histogram peaks (Eq. 4); point-to-line
 assignment; then, beyond the paper, a weighted least-squares refit of the shared model and a
-bounded per-line correction.
+bounded per-line correction. The pixels' rays are :mod:`._rays`; the lines built from the
+shared model (assignment, corrections, ranges, markings) are :mod:`._lines`.
 """
 
 from __future__ import annotations
 
 import math
 import time
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import minimize
 
 from superlane_tools.camera.model import CameraModel
-from superlane_tools.lanes._refit import (
-    NEAR_WEIGHT_M,
-    LocalCorrection,
-    SharedModel,
-    local_correction,
-    local_corrections_compiled,
-    refit_shared,
+from superlane_tools.lanes._lines import (
+    ASSIGN_ANGLE_RAD,
+    assign_compiled,
+    build_lanes,
+    model_lookahead,
 )
-from superlane_tools.lanes.attributes import (
-    UNKNOWN,
-    Marking,
-    lane_attributes,
-    marking_from_codes,
-    style_from_coverage,
-)
+from superlane_tools.lanes._rays import RayPoints
+from superlane_tools.lanes._refit import SharedModel, refit_shared
 from superlane_tools.lanes.cost import CostFunction, CostSetup, kernels, ray_points
 from superlane_tools.lanes.errors import LaneFitError
-from superlane_tools.lanes.fit_lookahead import effective_lookahead, refit_sqrt_weights
 from superlane_tools.lanes.kernel_cache import warm_up
 from superlane_tools.lanes.params import FitParams
 from superlane_tools.lanes.peaks import assign, find_offsets, merge_close
@@ -45,73 +39,14 @@ from superlane_tools.lanes.result import Lane, LaneFit
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.intp]
 
-ASSIGN_ANGLE_RAD = 0.008
-"""Assignment radius growth with distance (radians): segmentation noise grows with range."""
 REFIT_COST_SLACK = 0.05
 """Largest increase of J (nats) that a least-squares refit may cause and still be kept."""
 SCAN_POINTS = 300
+"""Lane points used by the batched loss-curve search."""
 INIT_ROUNDS = 2
 """Coordinate-wise passes over the loss curves in the initial search."""
-"""Lane points used by the batched loss-curve search."""
 _STEP = np.array([0.01, 0.0005, 0.01, 0.5, 0.0001])
 """Nelder-Mead unit step of (a1 rad, a2 1/m, b, a0c m, c 1/m); tolerances are in these units."""
-
-
-class _Points:
-    """Usable pixels as viewing rays ``(iq, r)`` from the camera foot (see ``cost``)."""
-
-    def __init__(self, camera: CameraModel, uv: FloatArray | None, params: FitParams) -> None:
-        pix = np.empty((0, 2)) if uv is None else np.asarray(uv, dtype=np.float64).reshape(-1, 2)
-        if pix.size and not np.all(np.isfinite(pix)):
-            raise LaneFitError("pixel coordinates must be finite")
-        self.n_pixels = pix.shape[0]
-        if self.n_pixels == 0:
-            self.iq = self.r = self.rows = np.empty(0)
-            self.index = np.empty(0, dtype=np.intp)
-            return
-        height = camera.extrinsics.height_m
-        # Keep rays that meet the road within range for some admissible slope; a vertical
-        # curvature term c acts as the extra slope c * x over the range.
-        reach = (
-            (params.slope_bound + params.vertical_curvature_bound * params.max_range_m) / height
-            if params.slope
-            else 0.0
-        )
-        if params.backend == "numba":
-            xn, yn = camera.normalized(pix)
-            iq, r, keep = kernels().ray_slopes(
-                np.ascontiguousarray(xn),
-                np.ascontiguousarray(yn),
-                np.ascontiguousarray(camera.extrinsics.rotation, dtype=np.float64),
-                height,
-                reach,
-                1.0 / params.max_range_m,
-                1.0 / params.min_range_m,
-            )
-        else:
-            dirs = camera.rays(pix)
-            forward = dirs[:, 0] > 1e-9
-            dx = np.where(forward, dirs[:, 0], 1.0)
-            iq = -dirs[:, 2] / (height * dx)
-            r = dirs[:, 1] / dx
-            keep = (
-                forward
-                & (iq + reach >= 1.0 / params.max_range_m)
-                & (iq - reach <= 1.0 / params.min_range_m)
-            )
-        self.index = np.flatnonzero(keep)
-        self.iq, self.r, self.rows = iq[keep], r[keep], pix[keep, 1]
-
-    @property
-    def size(self) -> int:
-        return int(self.iq.size)
-
-    def sample(self, n_max: int, seed: int) -> IntArray:
-        """Return sorted indices of a deterministic uniform subsample (image-pixel density)."""
-        if self.size <= n_max:
-            return np.arange(self.size)
-        rng = np.random.default_rng(seed)
-        return np.sort(rng.choice(self.size, n_max, replace=False))
 
 
 def _initial_guess(cost: CostFunction, params: FitParams, free: list[int]) -> FloatArray:
@@ -235,7 +170,7 @@ def _nelder_mead(
 
 
 def _road_only(
-    road: _Points, camera: CameraModel, params: FitParams, t0: float, n_lane: int
+    road: RayPoints, camera: CameraModel, params: FitParams, t0: float, n_lane: int
 ) -> LaneFit:
     """Fit the road centre line alone (J1) when there are no lane points."""
     idx = road.sample(params.max_road_points, params.seed)
@@ -309,12 +244,40 @@ def fit_frame(
     p = params or FitParams()
     warm_up(p.backend)  # kernel loading is set-up, not per-frame fit time
     t0 = time.perf_counter()
-    lane = _Points(camera, lane_uv, p)
+    lane = RayPoints(camera, lane_uv, p)
     codes = _lane_codes(attributes, lane)
     use_road = p.lambda_road > 0 and (
         p.road_term == "always" or (p.road_term == "auto" and lane.size < p.road_term_below)
     )
-    road = _Points(camera, road_uv if use_road else None, p)
+    road = RayPoints(camera, road_uv if use_road else None, p)
+    unfit = _without_optimiser(lane, road, camera, p, t0)
+    if unfit is not None:
+        return unfit
+    height = camera.extrinsics.height_m
+    setup = CostSetup(height, p, p.lambda_road if use_road else 0.0)
+    sel = lane.sample(p.max_points, p.seed)
+    solution = _optimise(setup, lane, sel, road, p, init)
+    iqs, rs = lane.iq[sel], lane.r[sel]
+    model, extras = _shared_model(iqs, rs, solution, height, p)
+    lanes, quality = build_lanes(lane, model, codes, height, p)
+    extras["lookahead_m"] = model_lookahead(iqs, rs, model, height, p)
+    return _lane_fit(model, lanes, quality, solution, lane.size, extras, t0)
+
+
+class _Solution(NamedTuple):
+    """The optimiser's result: its cost function, theta ``(a1, a2, b, a0c, c)`` and J there."""
+
+    cost: CostFunction
+    theta: FloatArray
+    iterations: int
+    converged: bool
+    j_final: float
+
+
+def _without_optimiser(
+    lane: RayPoints, road: RayPoints, camera: CameraModel, p: FitParams, t0: float
+) -> LaneFit | None:
+    """The fit of a frame with too few lane points (road alone, or none); None otherwise."""
     if lane.size == 0:
         if road.size >= p.min_points:
             return _road_only(road, camera, p, t0, 0)
@@ -323,10 +286,18 @@ def fit_frame(
         return LaneFit(
             reason="too few points", n_points=lane.size, fit_time_s=time.perf_counter() - t0
         )
+    return None
 
-    height = camera.extrinsics.height_m
-    setup = CostSetup(height, p, p.lambda_road if use_road else 0.0)
-    sel = lane.sample(p.max_points, p.seed)
+
+def _optimise(
+    setup: CostSetup,
+    lane: RayPoints,
+    sel: IntArray,
+    road: RayPoints,
+    p: FitParams,
+    init: LaneFit | tuple[float, float, float] | None,
+) -> _Solution:
+    """Minimise J from ``init`` or from the loss-curve search when there is none."""
     ridx = road.sample(p.max_road_points, p.seed) if road.size else None
     cost = _cost_over(setup, lane, sel, p.nm_points, road, ridx)
     free = _free_parameters(p, cost.n_road > 0)
@@ -337,28 +308,43 @@ def fit_frame(
         theta0 = _initial_guess(scan, p, free)
         cost.evaluations += scan.evaluations
     theta, nit, converged = _nelder_mead(cost, theta0, free, p)
-    j_final = cost(theta)
-    a1, a2, b, a0c, cv = (float(v) for v in theta)
+    return _Solution(cost, theta, nit, converged, cost(theta))
+
+
+def _shared_model(
+    iqs: FloatArray, rs: FloatArray, solution: _Solution, height: float, p: FitParams
+) -> tuple[SharedModel, dict[str, float]]:
+    """Lane offsets at the optimiser's solution, refitted when J agrees; the fit's extras."""
+    a1, a2, b, a0c, cv = (float(v) for v in solution.theta)
     extras = {"nm_a1": a1, "nm_a2": a2, "nm_b": b}
     if p.vertical:
         extras["nm_c"] = cv
-
-    iqs, rs = lane.iq[sel], lane.r[sel]
     x_s, y_s, _ok = ray_points(iqs, rs, b, height, p.max_range_m, cv)
     offsets = find_offsets(y_s - x_s * (a1 + a2 * x_s), p)
     model = SharedModel(a1, a2, b, offsets, cv)
     if p.refit and offsets.size:
         model = _refit(iqs, rs, model, height, p)
-        if not _refit_kept(cost, model, a0c, j_final, p):
+        if not _refit_kept(solution.cost, model, a0c, solution.j_final, p):
             model = SharedModel(a1, a2, b, offsets, cv)
         extras["refit_rejected"] = float(model.offsets is offsets)
+    return model, extras
 
-    lanes, quality = _build_lanes(lane, model, codes, height, p)
-    extras["lookahead_m"] = _lookahead(iqs, rs, model, height, p)
+
+def _lane_fit(
+    model: SharedModel,
+    lanes: list[Lane],
+    quality: float,
+    solution: _Solution,
+    n_points: int,
+    extras: dict[str, float],
+    t0: float,
+) -> LaneFit:
+    """The frame's fit: the model's lines, the ego pair around the camera and why it is short."""
     n_lines = len(lanes)
     reason = "" if n_lines >= 2 else ("one line" if n_lines == 1 else "no lines")
     left = [i for i, ln in enumerate(lanes) if ln.offset_m > 0]
     right = [i for i, ln in enumerate(lanes) if ln.offset_m <= 0]
+    cost = solution.cost
     return LaneFit(
         a1=model.a1,
         a2=model.a2,
@@ -367,21 +353,21 @@ def fit_frame(
         lanes=tuple(lanes),
         ego_left=left[-1] if left else -1,
         ego_right=right[0] if right else -1,
-        road_centre_m=a0c if cost.n_road else math.nan,
-        cost=j_final,
-        iterations=nit,
+        road_centre_m=float(solution.theta[3]) if cost.n_road else math.nan,
+        cost=solution.j_final,
+        iterations=solution.iterations,
         evaluations=cost.evaluations,
-        converged=converged,
+        converged=solution.converged,
         fit_time_s=time.perf_counter() - t0,
         quality=quality,
         reason=reason,
-        n_points=lane.size,
+        n_points=n_points,
         extras=extras,
         shared_cov=model.cov if model.cov is not None else np.full((3, 3), math.nan),
     )
 
 
-def _lane_codes(attributes: IntArray | None, lane: _Points) -> IntArray | None:
+def _lane_codes(attributes: IntArray | None, lane: RayPoints) -> IntArray | None:
     """The marking codes of the usable lane pixels (None without attributes)."""
     if attributes is None:
         return None
@@ -395,10 +381,10 @@ def _lane_codes(attributes: IntArray | None, lane: _Points) -> IntArray | None:
 
 def _cost_over(
     setup: CostSetup,
-    lane: _Points,
+    lane: RayPoints,
     sel: IntArray,
     n_points: int,
-    road: _Points,
+    road: RayPoints,
     ridx: IntArray | None,
 ) -> CostFunction:
     """J over about ``n_points`` of the sampled lane points ``sel`` (every k-th) and ``ridx``."""
@@ -431,7 +417,7 @@ def _refit(
     """Two rounds of point assignment and weighted least-squares refit of the shared model."""
     for _ in range(2):
         if p.backend == "numba":
-            _x, _res, labels = _assign_compiled(iqs, rs, model, height, p)
+            _x, _res, labels = assign_compiled(iqs, rs, model, height, p)
         else:
             x_c, y_c, _ok = ray_points(iqs, rs, model.b, height, p.max_range_m, model.c)
             resid = y_c - x_c * (model.a1 + model.a2 * x_c)
@@ -456,26 +442,6 @@ def _refit(
     return model
 
 
-def _assign_compiled(
-    iq: FloatArray, r: FloatArray, model: SharedModel, height: float, p: FitParams
-) -> tuple[FloatArray, FloatArray, IntArray]:
-    """Assign rays to the model's lines with the compiled kernel: ``x``, residual, labels."""
-    out: tuple[FloatArray, FloatArray, IntArray] = kernels().assign_points(
-        iq,
-        r,
-        model.a1,
-        model.a2,
-        model.b,
-        model.c,
-        1.0 / height,
-        1.0 / p.max_range_m,
-        np.ascontiguousarray(model.offsets, dtype=np.float64),
-        p.assign_radius_m,
-        ASSIGN_ANGLE_RAD,
-    )
-    return out
-
-
 def _refit_kept(
     cost: CostFunction, model: SharedModel, a0c: float, j_final: float, p: FitParams
 ) -> bool:
@@ -490,132 +456,3 @@ def _refit_kept(
         abs(model.a1) <= 2.0 * p.heading_bound_rad and abs(model.a2) <= p.curvature_bound / 2
     )
     return bool(inside and np.isfinite(j_refit) and j_refit <= j_final + REFIT_COST_SLACK)
-
-
-def _lookahead(
-    iqs: FloatArray, rs: FloatArray, model: SharedModel, height: float, p: FitParams
-) -> float:
-    """Effective look-ahead of the final model's ``2*a2`` over the points it was fitted to."""
-    if model.offsets.size == 0:
-        return math.nan
-    x, y, ok = ray_points(iqs, rs, model.b, height, p.max_range_m, model.c)
-    resid = np.where(ok, y - x * (model.a1 + model.a2 * x), np.nan)
-    radius = p.assign_radius_m + ASSIGN_ANGLE_RAD * np.nan_to_num(x)
-    labels = assign(resid, model.offsets, radius)
-    x = np.where(ok, x, np.nan)
-    return effective_lookahead(x, labels, refit_sqrt_weights(x, NEAR_WEIGHT_M))
-
-
-def _build_lanes(
-    lane: _Points, model: SharedModel, codes: IntArray | None, height: float, p: FitParams
-) -> tuple[list[Lane], float]:
-    """Assign all usable points to the lines, add local corrections, ranges and attributes.
-
-    The numpy reference (``backend="numpy"``) is the body below; ``numba`` runs its deliberate
-    twin :func:`_build_lanes_compiled` (same formulas, single passes over the points). They are
-    kept apart on purpose, like the cost's two backends, and tested against each other through
-    :func:`fit_frame` (``tests/lanes/test_lanes_kernels.py``, ``test_lanes_vertical.py``).
-    """
-    if model.offsets.size == 0:
-        return [], 0.0
-    if p.backend == "numba":
-        return _build_lanes_compiled(lane, model, codes, height, p)
-    x, y, ok = ray_points(lane.iq, lane.r, model.b, height, p.max_range_m, model.c)
-    base = x * (model.a1 + model.a2 * x)
-    resid = np.where(ok, y - base, np.nan)
-    radius = p.assign_radius_m + ASSIGN_ANGLE_RAD * np.nan_to_num(x)
-    labels = assign(resid, model.offsets, radius)
-    corrections = []
-    for n, offset in enumerate(model.offsets):
-        mask = labels == n
-        corr = (
-            local_correction(x[mask], resid[mask] - offset, p.order, p.local_bound_m)
-            if p.local_correction
-            else None
-        )
-        corrections.append(corr)
-    if p.local_correction:
-        # Reassign with the corrected lines so that each line's range follows its own points.
-        lane_res = np.stack(
-            [
-                resid - off - (c.c0 + x * (c.c1 + x * c.c2) if c else 0.0)
-                for off, c in zip(model.offsets, corrections, strict=True)
-            ],
-            axis=1,
-        )
-        dist = np.where(np.isfinite(lane_res), np.abs(lane_res), np.inf)
-        best = np.argmin(dist, axis=1)
-        labels = np.where(dist[np.arange(best.size), best] <= radius, best, -1)
-    marks = lane_attributes(labels, model.offsets.size, lane.rows, codes)
-    lanes = []
-    n_assigned = 0
-    for n, offset in enumerate(model.offsets):
-        mask = labels == n
-        if not mask.any() or int(mask.sum()) < p.min_line_points:
-            continue  # no evidence for a line here (the evidence rule, FitParams)
-        n_assigned += int(mask.sum())
-        c = corrections[n]
-        xn = x[mask]
-        lanes.append(
-            Lane(
-                offset_m=float(offset + (c.c0 if c else 0.0)),
-                a1=model.a1 + (c.c1 if c else 0.0),
-                a2=model.a2 + (c.c2 if c else 0.0),
-                range_min_m=float(xn.min()),
-                range_max_m=float(xn.max()),
-                colour=marks[n].colour,
-                style=marks[n].style,
-                n_points=int(mask.sum()),
-            )
-        )
-    lanes.sort(key=lambda ln: -ln.offset_m)
-    return lanes, float(n_assigned) / max(lane.size, 1)
-
-
-def _build_lanes_compiled(
-    lane: _Points, model: SharedModel, codes: IntArray | None, height: float, p: FitParams
-) -> tuple[list[Lane], float]:
-    """:func:`_build_lanes` with single-pass kernels over the points (same results).
-
-    A deliberate twin of the numpy reference in :func:`_build_lanes`, not a copy to merge: a
-    change to one must be made to the other (the backend-comparison tests fail otherwise).
-    """
-    k = kernels()
-    offsets = np.ascontiguousarray(model.offsets, dtype=np.float64)
-    x, resid, labels = _assign_compiled(lane.iq, lane.r, model, height, p)
-    sums_x, sums_r = k.line_sums(x, resid, labels, offsets, NEAR_WEIGHT_M)
-    if p.local_correction:
-        coef = local_corrections_compiled(sums_x, sums_r, p.order, p.local_bound_m)
-        lines = np.concatenate([offsets[:, None], coef], axis=1)
-        labels = k.reassign(x, resid, lines, p.assign_radius_m, ASSIGN_ANGLE_RAD)
-        _, sums_r = k.line_sums(x, resid, labels, offsets, NEAR_WEIGHT_M)
-    else:
-        coef = np.zeros((offsets.size, 3))
-    corrections = [LocalCorrection(*(float(v) for v in row)) for row in coef]
-    coverage = k.row_coverage(np.ascontiguousarray(lane.rows), labels, offsets.size)
-    lanes = []
-    n_assigned = 0
-    for n, offset in enumerate(offsets):
-        count = int(sums_r[n, 3])
-        if count == 0 or count < p.min_line_points:
-            continue  # no evidence for a line here (the evidence rule, FitParams)
-        n_assigned += count
-        mark = marking_from_codes(codes[labels == n]) if codes is not None else UNKNOWN
-        if mark.style == "unknown":
-            n_rows, first, last = (int(v) for v in coverage[n])
-            mark = Marking(mark.colour, style_from_coverage(n_rows, last - first + 1))
-        c = corrections[n]
-        lanes.append(
-            Lane(
-                offset_m=float(offset + c.c0),
-                a1=model.a1 + c.c1,
-                a2=model.a2 + c.c2,
-                range_min_m=float(sums_r[n, 4]),
-                range_max_m=float(sums_r[n, 5]),
-                colour=mark.colour,
-                style=mark.style,
-                n_points=count,
-            )
-        )
-    lanes.sort(key=lambda ln: -ln.offset_m)
-    return lanes, float(n_assigned) / max(lane.size, 1)

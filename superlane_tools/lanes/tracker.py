@@ -235,79 +235,159 @@ def track_lanes(
     p = params or TrackerParams()
     s = np.asarray(s_m, dtype=np.float64)
     n = s.size
-    a1 = np.asarray(heading_rad, dtype=np.float64)
-    curv = np.asarray(curvature_per_m, dtype=np.float64)
-    b = np.asarray(slope, dtype=np.float64)
-    near, far = np.asarray(near_m, np.float64), np.asarray(far_m, np.float64)
-    ahead_m = np.full(n, np.nan) if lookahead_m is None else np.asarray(lookahead_m, np.float64)
-    cand = (
-        np.asarray(valid, dtype=bool)
-        & np.isfinite(a1)
-        & np.isfinite(curv)
-        & np.isfinite(b)
-        & np.isfinite(near)
-        & np.isfinite(far)
-        & (far > near)
-    )
+    fits = _Fits.of(heading_rad, curvature_per_m, slope, near_m, far_m, valid, lookahead_m)
     sigmas = np.array([p.heading_sigma_rad, p.curvature_sigma_per_m, p.slope_sigma])
     r_fixed = np.diag(sigmas**2)
     use_fit = p.measurement_noise == "fit" and fit_cov is not None
-    xs_f = np.full((n, N_STATE), np.nan)
-    ps_f = np.full((n, N_STATE, N_STATE), np.nan)
-    xs_p = np.full((n, N_STATE), np.nan)
-    ps_p = np.full((n, N_STATE, N_STATE), np.nan)
-    fs = np.zeros((n, N_STATE, N_STATE))
-    used = np.zeros(n, dtype=bool)
-    gated = np.zeros(n, dtype=bool)
-    starts = np.zeros(n, dtype=bool)
+    rec = _Record.empty(n)
     x: FloatArray | None = None
     cov = np.zeros((N_STATE, N_STATE))
     rejections = 0
     for k in range(n):
-        step = s[k] - s[k - 1] if k else np.nan
-        restart = x is None or not np.isfinite(step) or not 0 <= step <= p.max_step_m
-        if restart:
-            x = None
-        else:
-            assert x is not None
-            f, q = _transition(float(step), p)
-            x, cov = f @ x, f @ cov @ f.T + q
-            fs[k] = f
-        if x is not None:
-            xs_p[k], ps_p[k] = x, cov
-        if cand[k]:
-            mid, half = 0.5 * (near[k] + far[k]), 0.5 * (far[k] - near[k])
-            ahead = ahead_m[k] if np.isfinite(ahead_m[k]) and ahead_m[k] > 0 else mid
-            z = np.array([-a1[k], curv[k], b[k]])
+        x, cov = _predict(rec, k, x, cov, s[k] - s[k - 1] if k else np.nan, p)
+        if fits.cand[k]:
+            z, h, ahead = fits.measurement(k)
             if x is None:
                 x, cov = _initial(z, ahead)
-                starts[k] = True
-                used[k] = True
+                rec.starts[k] = True
+                rec.used[k] = True
                 rejections = 0
             else:
-                h = measurement_matrix(mid, half)
-                h[1, 3] = ahead  # 2*a2 measures the curvature at the fit's own look-ahead
                 r = fit_noise(fit_cov[k], sigmas, p) if use_fit and fit_cov is not None else r_fixed
-                nu = z - h @ x
-                s_cov = h @ cov @ h.T + r
-                d2 = float(nu @ np.linalg.solve(s_cov, nu))
-                if d2 > p.gate_chi2 and rejections < p.max_rejections:
-                    gated[k] = True
-                    rejections += 1
-                else:
-                    if d2 > p.gate_chi2:
-                        cov = cov * 10.0
-                        s_cov = h @ cov @ h.T + r
-                    gain = np.linalg.solve(s_cov, h @ cov).T
-                    x = x + gain @ nu
-                    cov = (np.eye(N_STATE) - gain @ h) @ cov
-                    cov = 0.5 * (cov + cov.T)
-                    used[k] = True
-                    rejections = 0
+                x, cov, rejections = _gated_update(rec, k, (x, cov), z, h, r, rejections, p)
         if x is not None:
-            xs_f[k], ps_f[k] = x, cov
-    xs = _rts(xs_f, ps_f, xs_p, ps_p, fs, starts) if p.smooth else xs_f
-    return TrackedLanes(xs[:, 2], xs[:, 1], xs[:, 2] + xs[:, 1], xs[:, 0], used, gated)
+            rec.xs_f[k], rec.ps_f[k] = x, cov
+    xs = _rts(rec.xs_f, rec.ps_f, rec.xs_p, rec.ps_p, rec.fs, rec.starts) if p.smooth else rec.xs_f
+    return TrackedLanes(xs[:, 2], xs[:, 1], xs[:, 2] + xs[:, 1], xs[:, 0], rec.used, rec.gated)
+
+
+class _Fits(NamedTuple):
+    """The per-frame fits as float arrays, and which of them are measurement candidates."""
+
+    a1: FloatArray
+    curv: FloatArray
+    b: FloatArray
+    near: FloatArray
+    far: FloatArray
+    ahead_m: FloatArray
+    cand: BoolArray
+
+    @classmethod
+    def of(
+        cls,
+        heading_rad: FloatArray,
+        curvature_per_m: FloatArray,
+        slope: FloatArray,
+        near_m: FloatArray,
+        far_m: FloatArray,
+        valid: BoolArray,
+        lookahead_m: FloatArray | None,
+    ) -> _Fits:
+        """The fits of :func:`track_lanes`'s arguments; candidates are finite and valid."""
+        a1 = np.asarray(heading_rad, dtype=np.float64)
+        curv = np.asarray(curvature_per_m, dtype=np.float64)
+        b = np.asarray(slope, dtype=np.float64)
+        near, far = np.asarray(near_m, np.float64), np.asarray(far_m, np.float64)
+        n = a1.size
+        ahead_m = np.full(n, np.nan) if lookahead_m is None else np.asarray(lookahead_m, np.float64)
+        cand = (
+            np.asarray(valid, dtype=bool)
+            & np.isfinite(a1)
+            & np.isfinite(curv)
+            & np.isfinite(b)
+            & np.isfinite(near)
+            & np.isfinite(far)
+            & (far > near)
+        )
+        return cls(a1, curv, b, near, far, ahead_m, cand)
+
+    def measurement(self, k: int) -> tuple[FloatArray, FloatArray, float]:
+        """Frame ``k``'s measurement ``z = (-a1, 2*a2, b)``, its ``H`` and its look-ahead (m)."""
+        near, far, ahead_k = self.near[k], self.far[k], self.ahead_m[k]
+        mid, half = 0.5 * (near + far), 0.5 * (far - near)
+        ahead = ahead_k if np.isfinite(ahead_k) and ahead_k > 0 else mid
+        z = np.array([-self.a1[k], self.curv[k], self.b[k]])
+        h = measurement_matrix(mid, half)
+        h[1, 3] = ahead  # 2*a2 measures the curvature at the fit's own look-ahead
+        return z, h, ahead
+
+
+@dataclass
+class _Record:
+    """The forward filter per frame: predicted and filtered states, transitions and flags."""
+
+    xs_f: FloatArray
+    ps_f: FloatArray
+    xs_p: FloatArray
+    ps_p: FloatArray
+    fs: FloatArray
+    used: BoolArray
+    gated: BoolArray
+    starts: BoolArray
+
+    @classmethod
+    def empty(cls, n: int) -> _Record:
+        """A record of ``n`` frames without a track."""
+        return cls(
+            np.full((n, N_STATE), np.nan),
+            np.full((n, N_STATE, N_STATE), np.nan),
+            np.full((n, N_STATE), np.nan),
+            np.full((n, N_STATE, N_STATE), np.nan),
+            np.zeros((n, N_STATE, N_STATE)),
+            np.zeros(n, dtype=bool),
+            np.zeros(n, dtype=bool),
+            np.zeros(n, dtype=bool),
+        )
+
+
+def _predict(
+    rec: _Record, k: int, x: FloatArray | None, cov: FloatArray, step: float, p: TrackerParams
+) -> tuple[FloatArray | None, FloatArray]:
+    """Carry the track over ``step`` metres to frame ``k``, or end it (no step, too long)."""
+    restart = x is None or not np.isfinite(step) or not 0 <= step <= p.max_step_m
+    if restart:
+        x = None
+    else:
+        assert x is not None
+        f, q = _transition(float(step), p)
+        x, cov = f @ x, f @ cov @ f.T + q
+        rec.fs[k] = f
+    if x is not None:
+        rec.xs_p[k], rec.ps_p[k] = x, cov
+    return x, cov
+
+
+def _gated_update(
+    rec: _Record,
+    k: int,
+    state: tuple[FloatArray, FloatArray],
+    z: FloatArray,
+    h: FloatArray,
+    r: FloatArray,
+    rejections: int,
+    p: TrackerParams,
+) -> tuple[FloatArray, FloatArray, int]:
+    """Update the state with frame ``k``'s measurement unless the innovation gate rejects it.
+
+    Returns:
+        The state ``x``, its covariance and the number of rejections in a row.
+    """
+    x, cov = state
+    nu = z - h @ x
+    s_cov = h @ cov @ h.T + r
+    d2 = float(nu @ np.linalg.solve(s_cov, nu))
+    if d2 > p.gate_chi2 and rejections < p.max_rejections:
+        rec.gated[k] = True
+        return x, cov, rejections + 1
+    if d2 > p.gate_chi2:
+        cov = cov * 10.0
+        s_cov = h @ cov @ h.T + r
+    gain = np.linalg.solve(s_cov, h @ cov).T
+    x = x + gain @ nu
+    cov = (np.eye(N_STATE) - gain @ h) @ cov
+    cov = 0.5 * (cov + cov.T)
+    rec.used[k] = True
+    return x, cov, 0
 
 
 COV_INDEX = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))

@@ -12,6 +12,7 @@ import struct
 import zlib
 from collections.abc import Collection, Iterator
 from dataclasses import dataclass, field
+from enum import Enum
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, BinaryIO, NamedTuple
 
@@ -275,134 +276,12 @@ def walk_data_section(
     Returns:
         The schemas, channels, chunk positions and counts found, and the losses.
     """
-    from mcap.records import Channel, Chunk, DataEnd, Footer, MessageIndex, Schema
-    from mcap.records import Message as McapMessage
-    from mcap.stream_reader import breakup_chunk
-
-    walk = McapWalk(path)
-    name = path.name
-    size = handle.seek(0, io.SEEK_END)
-    records = _records_from(handle, 0)
-    offset = len(MCAP_MAGIC)
-    last_time: int | None = None
-    pending: _LostChunk | None = None
-    while True:
-        try:
-            record = next(records)
-        except StopIteration:
-            break
-        except Exception as err:  # garbled mid-record: read on at the next chunk indexed
-            why = f"{type(err).__name__}: {err}"
-            ci = _index_from(summary, offset)
-            if ci is None and summary is not None and summary.chunk_indexes:
-                # after the last chunk (its message indexes, the data end): nothing is lost
-                walk.losses.append(
-                    Loss(
-                        "corrupt record",
-                        f"{name}: unreadable record at byte {offset} ({why}), "
-                        "after the last chunk the index lists",
-                        offset,
-                        size,
-                    )
-                )
-                walk.data_end = offset
-                break
-            if ci is None:  # cut, or garbled with no index to read on by
-                walk.losses.append(
-                    Loss(
-                        "truncated file",
-                        f"{name}: unreadable from byte {offset} "
-                        f"({type(err).__name__}); later messages are lost",
-                        offset,
-                        size,
-                        start_ns=last_time,
-                    )
-                )
-                walk._finish_chunk_losses()
-                return walk
-            if ci.chunk_start_offset > offset:  # a record between chunks
-                walk.losses.append(
-                    Loss(
-                        "corrupt record",
-                        f"{name}: unreadable record at byte {offset} ({why}); "
-                        f"read on at the chunk at byte {ci.chunk_start_offset}",
-                        offset,
-                        ci.chunk_start_offset,
-                    )
-                )
-                walk.resume[offset] = (ci.chunk_start_offset, False)
-                offset = ci.chunk_start_offset
-                records = _records_from(handle, offset)
-                continue
-            end = ci.chunk_start_offset + ci.chunk_length
-            walk.resume[offset] = (end, True)
-            chunk = _readable_chunk_at(handle, offset)  # its prefix may be all that is garbled
-            if chunk is None:  # lose the chunk; its message indexes tell what it held
-                pending = _LostChunk(
-                    offset,
-                    end,
-                    ci.message_start_time,
-                    ci.message_end_time,
-                    f"{name}: chunk at byte {offset}: {why}",
-                )
-                walk._lost_chunks.append(pending)
-                offset = end
-                records = _records_from(handle, offset)
-                continue
-            record = chunk
-            records = _records_from(handle, end)
-        if isinstance(record, MessageIndex):
-            if pending is not None:
-                times = [t for t, _ in record.records]
-                if times:
-                    pending.times[record.channel_id] = times
-            offset = handle.tell()
-            continue
-        pending = None
-        if isinstance(record, Chunk):
-            try:
-                inner = breakup_chunk(record, validate_crc=True)
-            except Exception as err:  # bad CRC or compression: skip this chunk only
-                pending = _LostChunk(
-                    offset,
-                    handle.tell(),
-                    record.message_start_time,
-                    record.message_end_time,
-                    f"{name}: chunk at byte {offset}: {type(err).__name__}: {err}",
-                )
-                walk._lost_chunks.append(pending)
-            else:
-                ids: set[int] = set()
-                for item in inner:
-                    if isinstance(item, Schema):
-                        walk.schemas[item.id] = item
-                    elif isinstance(item, Channel):
-                        walk.channels[item.id] = item
-                    elif isinstance(item, McapMessage):
-                        ids.add(item.channel_id)
-                        walk.counts[item.channel_id] = walk.counts.get(item.channel_id, 0) + 1
-                        last_time = max(item.log_time, last_time or 0)
-                walk.chunks.append(
-                    ChunkRef(
-                        offset, record.message_start_time, record.message_end_time, frozenset(ids)
-                    )
-                )
-        elif isinstance(record, Schema):
-            walk.schemas[record.id] = record
-        elif isinstance(record, Channel):
-            walk.channels[record.id] = record
-        elif isinstance(record, McapMessage):
-            walk.loose_messages = True
-            walk.counts[record.channel_id] = walk.counts.get(record.channel_id, 0) + 1
-            last_time = max(record.log_time, last_time or 0)
-        elif isinstance(record, Footer | DataEnd):
-            # The summary after the data end repeats schemas and channels; those of the data
-            # section are the ones messages were written with (and a damaged summary must not
-            # override them).
-            walk.data_end = offset
-            break
-        offset = handle.tell()
+    walker = _DataWalker(handle, McapWalk(path), summary)
+    cut = walker.run()
+    walk = walker.walk
     walk._finish_chunk_losses()
+    if cut:
+        return walk
     if summary is not None:  # records lost with a damaged region: the summary repeats them
         for sid, schema in summary.schemas.items():
             walk.schemas.setdefault(sid, schema)
@@ -412,13 +291,197 @@ def walk_data_section(
         walk.losses.append(
             Loss(
                 "truncated file",
-                f"{name}: no footer; the file was cut short",
-                size,
-                size,
-                start_ns=last_time,
+                f"{path.name}: no footer; the file was cut short",
+                walker.size,
+                walker.size,
+                start_ns=walker.last_time,
             )
         )
     return walk
+
+
+class _Step(Enum):
+    """How the walk goes on after an unreadable record."""
+
+    NEXT = "read on at the next record"
+    END = "the data section is over"
+    CUT = "nothing to read on by: the walk ends here"
+
+
+class _DataWalker:
+    """The state of one :func:`walk_data_section`: where it reads and what it has found."""
+
+    def __init__(self, handle: BinaryIO, walk: McapWalk, summary: Summary | None) -> None:
+        self.handle = handle
+        self.walk = walk
+        self.summary = summary
+        self.name = walk.path.name
+        self.size = handle.seek(0, io.SEEK_END)
+        self.records = _records_from(handle, 0)
+        self.offset = len(MCAP_MAGIC)
+        self.last_time: int | None = None
+        self.pending: _LostChunk | None = None
+
+    def run(self) -> bool:
+        """Take records up to the data end; return True when the walk was cut short."""
+        while True:
+            try:
+                record = next(self.records)
+            except StopIteration:
+                return False
+            except Exception as err:  # garbled mid-record: read on at the next chunk indexed
+                step = self._read_on(err)
+                if step is _Step.NEXT:
+                    continue
+                if isinstance(step, _Step):
+                    return step is _Step.CUT
+                record = step
+            if not self._take(record):
+                return False
+
+    def _restart(self, offset: int) -> None:
+        self.offset = offset
+        self.records = _records_from(self.handle, offset)
+
+    def _read_on(self, err: Exception) -> Chunk | _Step:
+        """After an unreadable record: the chunk found readable there, or how to go on."""
+        why = f"{type(err).__name__}: {err}"
+        offset = self.offset
+        ci = _index_from(self.summary, offset)
+        if ci is None:
+            return self._unreadable_end(err, why)
+        if ci.chunk_start_offset > offset:  # a record between chunks
+            self.walk.losses.append(
+                Loss(
+                    "corrupt record",
+                    f"{self.name}: unreadable record at byte {offset} ({why}); "
+                    f"read on at the chunk at byte {ci.chunk_start_offset}",
+                    offset,
+                    ci.chunk_start_offset,
+                )
+            )
+            self.walk.resume[offset] = (ci.chunk_start_offset, False)
+            self._restart(ci.chunk_start_offset)
+            return _Step.NEXT
+        end = ci.chunk_start_offset + ci.chunk_length
+        self.walk.resume[offset] = (end, True)
+        chunk = _readable_chunk_at(self.handle, offset)  # its prefix may be all that is garbled
+        if chunk is None:  # lose the chunk; its message indexes tell what it held
+            self._lose_chunk(
+                _LostChunk(
+                    offset,
+                    end,
+                    ci.message_start_time,
+                    ci.message_end_time,
+                    f"{self.name}: chunk at byte {offset}: {why}",
+                )
+            )
+            self._restart(end)
+            return _Step.NEXT
+        self.records = _records_from(self.handle, end)
+        return chunk
+
+    def _unreadable_end(self, err: Exception, why: str) -> _Step:
+        """An unreadable record with no chunk indexed after it: the end, or a cut file."""
+        offset = self.offset
+        if self.summary is not None and self.summary.chunk_indexes:
+            # after the last chunk (its message indexes, the data end): nothing is lost
+            self.walk.losses.append(
+                Loss(
+                    "corrupt record",
+                    f"{self.name}: unreadable record at byte {offset} ({why}), "
+                    "after the last chunk the index lists",
+                    offset,
+                    self.size,
+                )
+            )
+            self.walk.data_end = offset
+            return _Step.END
+        # cut, or garbled with no index to read on by
+        self.walk.losses.append(
+            Loss(
+                "truncated file",
+                f"{self.name}: unreadable from byte {offset} "
+                f"({type(err).__name__}); later messages are lost",
+                offset,
+                self.size,
+                start_ns=self.last_time,
+            )
+        )
+        return _Step.CUT
+
+    def _lose_chunk(self, lost: _LostChunk) -> None:
+        self.pending = lost
+        self.walk._lost_chunks.append(lost)
+
+    def _count(self, msg: McapMessage) -> None:
+        self.walk.counts[msg.channel_id] = self.walk.counts.get(msg.channel_id, 0) + 1
+        self.last_time = max(msg.log_time, self.last_time or 0)
+
+    def _take(self, record: Any) -> bool:
+        """Take one record into the walk; return False at the data end."""
+        from mcap.records import Channel, Chunk, DataEnd, Footer, MessageIndex, Schema
+        from mcap.records import Message as McapMessage
+
+        if isinstance(record, MessageIndex):
+            if self.pending is not None:
+                times = [t for t, _ in record.records]
+                if times:
+                    self.pending.times[record.channel_id] = times
+            self.offset = self.handle.tell()
+            return True
+        self.pending = None
+        if isinstance(record, Chunk):
+            self._take_chunk(record)
+        elif isinstance(record, Schema):
+            self.walk.schemas[record.id] = record
+        elif isinstance(record, Channel):
+            self.walk.channels[record.id] = record
+        elif isinstance(record, McapMessage):
+            self.walk.loose_messages = True
+            self._count(record)
+        elif isinstance(record, Footer | DataEnd):
+            # The summary after the data end repeats schemas and channels; those of the data
+            # section are the ones messages were written with (and a damaged summary must not
+            # override them).
+            self.walk.data_end = self.offset
+            return False
+        self.offset = self.handle.tell()
+        return True
+
+    def _take_chunk(self, record: Chunk) -> None:
+        """Take a chunk's schemas, channels and messages, or lose it (bad CRC or compression)."""
+        from mcap.records import Channel, Schema
+        from mcap.records import Message as McapMessage
+        from mcap.stream_reader import breakup_chunk
+
+        try:
+            inner = breakup_chunk(record, validate_crc=True)
+        except Exception as err:  # bad CRC or compression: skip this chunk only
+            self._lose_chunk(
+                _LostChunk(
+                    self.offset,
+                    self.handle.tell(),
+                    record.message_start_time,
+                    record.message_end_time,
+                    f"{self.name}: chunk at byte {self.offset}: {type(err).__name__}: {err}",
+                )
+            )
+            return
+        ids: set[int] = set()
+        for item in inner:
+            if isinstance(item, Schema):
+                self.walk.schemas[item.id] = item
+            elif isinstance(item, Channel):
+                self.walk.channels[item.id] = item
+            elif isinstance(item, McapMessage):
+                ids.add(item.channel_id)
+                self._count(item)
+        self.walk.chunks.append(
+            ChunkRef(
+                self.offset, record.message_start_time, record.message_end_time, frozenset(ids)
+            )
+        )
 
 
 def _index_from(summary: Summary | None, offset: int) -> ChunkIndex | None:

@@ -182,91 +182,105 @@ def robust_blf_reader(path: Path, skips: SkipLog) -> Any:
 
     class _Reader(can.BLFReader):
         _lost = False
+        """True after a damaged container: an object spanning from it is gone."""
 
         def __iter__(self) -> Generator[Any, None, None]:
-            name = path.name
-            size = path.stat().st_size
-            if self.file_size and size < self.file_size:
-                skips.add("truncated file", f"{name}: {size} of {self.file_size} bytes", 0)
-            while True:
-                start = self.file.tell()
-                data = self.file.read(_BLF_OBJ.size)
-                if len(data) < _BLF_OBJ.size:
-                    if data.strip(b"\0"):
-                        skips.add("truncated file", f"{name}: cut inside an object", 0)
-                    break
-                signature, _, _, obj_size, obj_type = _BLF_OBJ.unpack(data)
-                if signature != b"LOBJ" or not _BLF_OBJ.size <= obj_size <= _BLF_MAX_OBJECT:
-                    skips.add("garbled BLF bytes", f"{name}: first at byte {start}", 0)
-                    if not self._resync(start + 1):
-                        break
-                    continue
-                obj_data = self.file.read(obj_size - _BLF_OBJ.size)
-                cut = len(obj_data) < obj_size - _BLF_OBJ.size
-                if cut:
-                    skips.add("truncated file", f"{name}: cut inside the object at byte {start}", 0)
-                self.file.read(obj_size % 4)
-                if obj_type == _BLF_CONTAINER:
-                    yield from self._container(obj_data, f"{name}: container at byte {start}")
-                if cut:
-                    break
-            self.stop()
-
-        def _container(self, obj_data: bytes, where: str) -> Generator[Any, None, None]:
-            """Yield a container's frames: all of an intact one, those before the damage else."""
-            error: str | None = None
-            try:
-                method, _ = struct.unpack_from("<H6xI", obj_data)
-            except struct.error:
-                method, error = 0, "container header cut short"
-            payload = obj_data[16:]
-            if method == 2:
-                payload, error = _inflate_prefix(payload)
-            elif method != 0:
-                payload, error = b"", f"unknown compression method {method}"
-            data = self._tail + payload
-            self._tail = b""
-            if self._lost:  # an object spanning from a damaged container is gone: resync
-                found = data.find(b"LOBJ")
-                data = data[found:] if found >= 0 else b""
-            self._lost = False
-            while data:
-                bad = _first_bad_object(data)
-                try:
-                    yield from self._parse_container(data if bad is None else data[:bad])
-                    if bad is None:
-                        break
-                    skips.add("garbled BLF object", f"{where}: object of a bad size")
-                    resume = bad
-                except (ValueError, struct.error, IndexError, can.io.blf.BLFParseError) as err:
-                    skips.add("garbled BLF object", f"{where}: {type(err).__name__}: {err}")
-                    resume = self._pos
-                found = data.find(b"LOBJ", resume + 1)
-                data = data[found:] if found >= 0 else b""
-                self._tail = b""
-            if error is not None:
-                skips.add("corrupt BLF container", f"{where}: {error}; later frames in it lost")
-                self._tail = b""
-                self._lost = True
-
-        def _resync(self, offset: int) -> bool:
-            """Seek to the next ``LOBJ`` at or after ``offset``; False at the end of the file."""
-            self.file.seek(offset)
-            carry = b""
-            base = offset
-            while True:
-                block = self.file.read(1 << 16)
-                if not block:
-                    return False
-                hay = carry + block
-                found = hay.find(b"LOBJ")
-                if found >= 0:
-                    self.file.seek(base - len(carry) + found)
-                    return True
-                carry = hay[-3:]
-                base += len(block)
+            return _blf_frames(self, path, skips)
 
     return _Reader(path)
+
+
+def _blf_frames(reader: Any, path: Path, skips: SkipLog) -> Generator[Any, None, None]:
+    """Yield the frames of ``reader``'s objects (:func:`robust_blf_reader`), then close it."""
+    name = path.name
+    size = path.stat().st_size
+    if reader.file_size and size < reader.file_size:
+        skips.add("truncated file", f"{name}: {size} of {reader.file_size} bytes", 0)
+    while True:
+        start = reader.file.tell()
+        data = reader.file.read(_BLF_OBJ.size)
+        if len(data) < _BLF_OBJ.size:
+            if data.strip(b"\0"):
+                skips.add("truncated file", f"{name}: cut inside an object", 0)
+            break
+        signature, _, _, obj_size, obj_type = _BLF_OBJ.unpack(data)
+        if signature != b"LOBJ" or not _BLF_OBJ.size <= obj_size <= _BLF_MAX_OBJECT:
+            skips.add("garbled BLF bytes", f"{name}: first at byte {start}", 0)
+            if not _resync(reader.file, start + 1):
+                break
+            continue
+        obj_data = reader.file.read(obj_size - _BLF_OBJ.size)
+        cut = len(obj_data) < obj_size - _BLF_OBJ.size
+        if cut:
+            skips.add("truncated file", f"{name}: cut inside the object at byte {start}", 0)
+        reader.file.read(obj_size % 4)
+        if obj_type == _BLF_CONTAINER:
+            yield from _container_frames(
+                reader, obj_data, f"{name}: container at byte {start}", skips
+            )
+        if cut:
+            break
+    reader.stop()
+
+
+def _container_frames(
+    reader: Any, obj_data: bytes, where: str, skips: SkipLog
+) -> Generator[Any, None, None]:
+    """Yield a container's frames: all of an intact one, those before the damage else."""
+    import can
+
+    error: str | None = None
+    try:
+        method, _ = struct.unpack_from("<H6xI", obj_data)
+    except struct.error:
+        method, error = 0, "container header cut short"
+    payload = obj_data[16:]
+    if method == 2:
+        payload, error = _inflate_prefix(payload)
+    elif method != 0:
+        payload, error = b"", f"unknown compression method {method}"
+    data = reader._tail + payload
+    reader._tail = b""
+    if reader._lost:  # an object spanning from a damaged container is gone: resync
+        found = data.find(b"LOBJ")
+        data = data[found:] if found >= 0 else b""
+    reader._lost = False
+    while data:
+        bad = _first_bad_object(data)
+        try:
+            yield from reader._parse_container(data if bad is None else data[:bad])
+            if bad is None:
+                break
+            skips.add("garbled BLF object", f"{where}: object of a bad size")
+            resume = bad
+        except (ValueError, struct.error, IndexError, can.io.blf.BLFParseError) as err:
+            skips.add("garbled BLF object", f"{where}: {type(err).__name__}: {err}")
+            resume = reader._pos
+        found = data.find(b"LOBJ", resume + 1)
+        data = data[found:] if found >= 0 else b""
+        reader._tail = b""
+    if error is not None:
+        skips.add("corrupt BLF container", f"{where}: {error}; later frames in it lost")
+        reader._tail = b""
+        reader._lost = True
+
+
+def _resync(file: Any, offset: int) -> bool:
+    """Seek ``file`` to the next ``LOBJ`` at or after ``offset``; False at the end of the file."""
+    file.seek(offset)
+    carry = b""
+    base = offset
+    while True:
+        block = file.read(1 << 16)
+        if not block:
+            return False
+        hay = carry + block
+        found = hay.find(b"LOBJ")
+        if found >= 0:
+            file.seek(base - len(carry) + found)
+            return True
+        carry = hay[-3:]
+        base += len(block)
 
 
 def _first_bad_object(data: bytes) -> int | None:

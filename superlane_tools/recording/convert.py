@@ -24,7 +24,7 @@ import re
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
@@ -38,6 +38,10 @@ from superlane_tools.recording.formats import canlog, nmea, video
 from superlane_tools.recording.times import format_utc, parse_time
 from superlane_tools.recording.typestore import COMPRESSED_VIDEO_MSGTYPE
 from superlane_tools.records import Skipped
+
+if TYPE_CHECKING:
+    from superlane_tools.camera.model import CameraModel
+    from superlane_tools.recording.writers import RecordingWriter
 
 InputKind = Literal["video", "nmea", "gpx", "can", "csv"]
 VIDEO_SUFFIXES = video.SUFFIXES | video.RAW_SUFFIXES
@@ -478,31 +482,14 @@ def convert(
         raise RecordingError("nothing to convert: pass at least one input file")
     result = ConvertResult(Path(out))
     sources: list[Iterator[Item]] = []
-    kinds = []
+    kinds: list[InputKind] = []
     for item in inputs:
-        if item.path.is_dir():
-            raise RecordingError(
-                f"{item.path} is a folder; convert takes files (video, NMEA, GPX, CAN log, CSV)"
-            )
-        if not item.path.is_file():
-            raise RecordingError(f"input not found: {item.path}")
-        if item.path.stat().st_size == 0:
-            raise RecordingError(f"{item.path}: empty file (0 bytes)")
-        kind = item.kind or input_kind(item.path)
+        kind = _checked_kind(item)
         kinds.append(kind)
         offset_ns = round(item.offset_s * _NS)
         result.alignment[f"{item.path.name}.kind"] = kind
         result.alignment[f"{item.path.name}.offset_ns"] = str(offset_ns)
-        if kind == "video":
-            sources.append(_video_items(item.path, cfg, offset_ns, result))
-        elif kind == "nmea":
-            sources.append(_fix_items(item.path, offset_ns, result))
-        elif kind == "gpx":
-            sources.append(_gpx_items(item.path, offset_ns, result))
-        elif kind == "can":
-            sources.append(_can_items(item.path, offset_ns, result))
-        else:
-            sources.append(_csv_items(item.path, offset_ns, result))
+        sources.append(_items(kind, item.path, cfg, offset_ns, result))
     if kinds.count("video") > 1:
         raise RecordingError("one video per recording: convert each video on its own")
     result.alignment["clock"] = (
@@ -510,35 +497,9 @@ def convert(
         if all(i.offset_s == 0 for i in inputs)
         else "each input's clock plus its --offset"
     )
-    camera = None
-    if cfg.camera is not None:
-        from superlane_tools.camera import load_camera
-
-        if "video" not in kinds:
-            raise RecordingError("--camera describes a video's camera: give a video input")
-        camera = load_camera(cfg.camera)
-    topics: dict[str, str] = {}
+    camera = _video_camera(cfg, kinds)
     with open_writer(out, "mcap", compression="none" if "video" in kinds else "zstd") as writer:
-        for t, topic, msgtype, payload in heapq.merge(*sources, key=lambda x: x[0]):
-            if topic not in topics:
-                writer.add_topic(topic, msgtype)
-                topics[topic] = msgtype
-            message = payload
-            if msgtype == COMPRESSED_VIDEO_MSGTYPE:
-                message = msgs.compressed_video(t, CAMERA_FRAME, payload[0], payload[1])
-                if camera is not None:
-                    info = _camera_info(camera, t, payload[2])
-                    if CAMERA_INFO_TOPIC not in topics:
-                        writer.add_topic(CAMERA_INFO_TOPIC, "sensor_msgs/msg/CameraInfo")
-                        topics[CAMERA_INFO_TOPIC] = "sensor_msgs/msg/CameraInfo"
-                        writer.add_metadata(
-                            METADATA_CAMERA, camera_metadata(camera, VEHICLE_FRAME, CAMERA_FRAME)
-                        )
-                    writer.write(CAMERA_INFO_TOPIC, t, info)
-                    result.counts[CAMERA_INFO_TOPIC] = result.counts.get(CAMERA_INFO_TOPIC, 0) + 1
-            writer.write(topic, t, message)
-            result.counts[topic] = result.counts.get(topic, 0) + 1
-        if not topics:
+        if not _write_merged(writer, sources, camera, result):
             raise RecordingError("the inputs hold no messages to write")
         writer.add_metadata(
             METADATA_NAME,
@@ -550,3 +511,76 @@ def convert(
         )
     result.notes = list(dict.fromkeys(result.notes))
     return result
+
+
+def _checked_kind(item: ConvertInput) -> InputKind:
+    """Return what an input holds, after checking that it is a non-empty file."""
+    if item.path.is_dir():
+        raise RecordingError(
+            f"{item.path} is a folder; convert takes files (video, NMEA, GPX, CAN log, CSV)"
+        )
+    if not item.path.is_file():
+        raise RecordingError(f"input not found: {item.path}")
+    if item.path.stat().st_size == 0:
+        raise RecordingError(f"{item.path}: empty file (0 bytes)")
+    return item.kind or input_kind(item.path)
+
+
+def _items(
+    kind: InputKind, path: Path, cfg: ConvertConfig, offset_ns: int, result: ConvertResult
+) -> Iterator[Item]:
+    """The time-ordered items of one input of ``kind`` (read when first iterated)."""
+    if kind == "video":
+        return _video_items(path, cfg, offset_ns, result)
+    if kind == "nmea":
+        return _fix_items(path, offset_ns, result)
+    if kind == "gpx":
+        return _gpx_items(path, offset_ns, result)
+    if kind == "can":
+        return _can_items(path, offset_ns, result)
+    return _csv_items(path, offset_ns, result)
+
+
+def _video_camera(cfg: ConvertConfig, kinds: list[InputKind]) -> CameraModel | None:
+    """The camera of ``--camera``, which needs a video input; None without the option."""
+    if cfg.camera is None:
+        return None
+    from superlane_tools.camera import load_camera
+
+    if "video" not in kinds:
+        raise RecordingError("--camera describes a video's camera: give a video input")
+    return load_camera(cfg.camera)
+
+
+def _write_merged(
+    writer: RecordingWriter,
+    sources: list[Iterator[Item]],
+    camera: CameraModel | None,
+    result: ConvertResult,
+) -> dict[str, str]:
+    """Write the inputs' items in time order, counting them; return the topics and types.
+
+    A video frame becomes a ``CompressedVideo`` message, with its camera info when a camera
+    is given (the camera's topic and metadata record come with the first frame).
+    """
+    topics: dict[str, str] = {}
+    for t, topic, msgtype, payload in heapq.merge(*sources, key=lambda x: x[0]):
+        if topic not in topics:
+            writer.add_topic(topic, msgtype)
+            topics[topic] = msgtype
+        message = payload
+        if msgtype == COMPRESSED_VIDEO_MSGTYPE:
+            message = msgs.compressed_video(t, CAMERA_FRAME, payload[0], payload[1])
+            if camera is not None:
+                info = _camera_info(camera, t, payload[2])
+                if CAMERA_INFO_TOPIC not in topics:
+                    writer.add_topic(CAMERA_INFO_TOPIC, "sensor_msgs/msg/CameraInfo")
+                    topics[CAMERA_INFO_TOPIC] = "sensor_msgs/msg/CameraInfo"
+                    writer.add_metadata(
+                        METADATA_CAMERA, camera_metadata(camera, VEHICLE_FRAME, CAMERA_FRAME)
+                    )
+                writer.write(CAMERA_INFO_TOPIC, t, info)
+                result.counts[CAMERA_INFO_TOPIC] = result.counts.get(CAMERA_INFO_TOPIC, 0) + 1
+        writer.write(topic, t, message)
+        result.counts[topic] = result.counts.get(topic, 0) + 1
+    return topics

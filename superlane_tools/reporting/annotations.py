@@ -178,6 +178,10 @@ def _finite(value: Any) -> float | None:
     return v if math.isfinite(v) else None
 
 
+_Row = tuple[int, str, dict[str, Any]]
+"""One JSON message to add: ``(log time ns, topic, values)``."""
+
+
 def add_signals(
     annotations: Path, can_signals: pd.DataFrame | None, curvature: pd.DataFrame | None
 ) -> dict[str, int]:
@@ -200,48 +204,12 @@ def add_signals(
 
     from superlane_tools.recording.mcap_copy import McapCopier
 
-    rows: list[tuple[int, str, dict[str, Any]]] = []
+    rows: list[_Row] = []
     schemas: dict[str, dict[str, Any]] = {}
     if can_signals is not None and len(can_signals):
-        table = can_signals
-        for (message, t_ns), group in table.groupby(["message", "log_time_ns"], sort=False):
-            topic = SIGNALS_PREFIX + str(message)
-            values = {
-                str(s): _finite(v) for s, v in zip(group["signal"], group["value"], strict=True)
-            }
-            rows.append((int(cast(Any, t_ns)), topic, values))
-            if topic not in schemas:
-                units = dict(
-                    zip(
-                        table.loc[table["message"] == message, "signal"],
-                        table.loc[table["message"] == message, "unit"],
-                        strict=True,
-                    )
-                )
-                schemas[topic] = {
-                    "title": f"slt.can.{message}",
-                    "type": "object",
-                    "properties": {
-                        str(sig): {**_NUM, "description": str(unit or "")}
-                        for sig, unit in units.items()
-                    },
-                }  # fmt: skip
+        _signal_rows(can_signals, rows, schemas)
     if curvature is not None:
-        curves = curvature
-        wanted = [c for c in _TRUTH_COLUMNS if c in curves.columns]
-        schemas[TRUTH_TOPIC] = {
-            "title": "slt.Truth",
-            "type": "object",
-            "properties": {c: {**_NUM, "description": _TRUTH_COLUMNS[c]} for c in wanted},
-        }
-        rows.extend(
-            (
-                int(rec[0]),
-                TRUTH_TOPIC,
-                {c: _finite(v) for c, v in zip(wanted, rec[1:], strict=True)},
-            )
-            for rec in curves[["log_time_ns", *wanted]].itertuples(index=False)
-        )
+        _truth_rows(curvature, rows, schemas)
     rows.sort(key=lambda r: r[0])
     counts: dict[str, int] = {}
     with (
@@ -265,6 +233,48 @@ def add_signals(
             counts[topic] = counts.get(topic, 0) + 1
         writer.finish()  # type: ignore[no-untyped-call]
     return counts
+
+
+def _signal_rows(table: pd.DataFrame, rows: list[_Row], schemas: dict[str, dict[str, Any]]) -> None:
+    """Add one message per CAN message and time to ``rows``, and each message's schema."""
+    for (message, t_ns), group in table.groupby(["message", "log_time_ns"], sort=False):
+        topic = SIGNALS_PREFIX + str(message)
+        values = {str(s): _finite(v) for s, v in zip(group["signal"], group["value"], strict=True)}
+        rows.append((int(cast(Any, t_ns)), topic, values))
+        if topic not in schemas:
+            units = dict(
+                zip(
+                    table.loc[table["message"] == message, "signal"],
+                    table.loc[table["message"] == message, "unit"],
+                    strict=True,
+                )
+            )
+            schemas[topic] = {
+                "title": f"slt.can.{message}",
+                "type": "object",
+                "properties": {
+                    str(sig): {**_NUM, "description": str(unit or "")}
+                    for sig, unit in units.items()
+                },
+            }  # fmt: skip
+
+
+def _truth_rows(curves: pd.DataFrame, rows: list[_Row], schemas: dict[str, dict[str, Any]]) -> None:
+    """Add one truth message per row of the curvature table to ``rows``, and its schema."""
+    wanted = [c for c in _TRUTH_COLUMNS if c in curves.columns]
+    schemas[TRUTH_TOPIC] = {
+        "title": "slt.Truth",
+        "type": "object",
+        "properties": {c: {**_NUM, "description": _TRUTH_COLUMNS[c]} for c in wanted},
+    }
+    rows.extend(
+        (
+            int(rec[0]),
+            TRUTH_TOPIC,
+            {c: _finite(v) for c, v in zip(wanted, rec[1:], strict=True)},
+        )
+        for rec in curves[["log_time_ns", *wanted]].itertuples(index=False)
+    )
 
 
 _TRUTH_COLUMNS = {

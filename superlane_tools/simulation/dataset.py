@@ -23,7 +23,7 @@ from superlane_tools.reporting.layout import DATASET_INDEX_SCHEMA, DatasetLayout
 from superlane_tools.simulation.drive import encode_jpeg, encode_png, sim_camera
 from superlane_tools.simulation.errors import ScenarioError, SimulationError
 from superlane_tools.simulation.groundtruth import h_samples, lane_truth, tusimple_lanes
-from superlane_tools.simulation.scenarios import get_scenario, scenario_names
+from superlane_tools.simulation.scenarios import Scenario, get_scenario, scenario_names
 from superlane_tools.simulation.scene import Conditions
 from superlane_tools.simulation.world import build_world, frame_world
 
@@ -101,82 +101,21 @@ def simulate_dataset(
     """
     names = tuple(scenarios) if scenarios else scenario_names()
     specs = [get_scenario(n) for n in names]
-    if frames <= 0:
-        raise ScenarioError(f"frames must be positive, got {frames}")
-    if image_format not in {"jpg", "png"}:
-        raise ScenarioError(f"image format must be jpg or png, got {image_format!r}")
-    if not 0.0 <= randomize <= 1.0:
-        raise ScenarioError(f"randomize must be 0-1, got {randomize}")
+    _check_options(frames, image_format, randomize)
     base_camera = sim_camera(width, height)
     folder = Path(out)
     if folder.exists() and any(folder.iterdir()):
         raise ScenarioError(f"{folder} exists and is not empty")
     for sub in ("images", "labels", "corridor"):
         (folder / sub).mkdir(parents=True, exist_ok=True)
-    from superlane_tools.simulation.render import render
 
     rng = np.random.default_rng(seed)
     rows_px = h_samples(height)
     rows: list[dict[str, object]] = []
     for i in range(frames):
         spec = specs[i % len(specs)]
-        world_seed = int(rng.integers(0, 2**31))
-        world = build_world(spec, world_seed, WORLD_DURATION_S)
-        camera = random_camera(base_camera, rng, randomize)
-        t_s = float(rng.uniform(0.0, WORLD_DURATION_S - 1.0))
-        fw = frame_world(world, t_s, round(t_s * 1e9), camera, int(rng.integers(0, 2**31)))
-        fw = replace(
-            fw,
-            scene=replace(
-                fw.scene, conditions=random_conditions(fw.scene.conditions, rng, randomize)
-            ),
-        )
-        truth = lane_truth(fw)
-        try:
-            frame = render(fw.scene)
-        except Exception as err:  # the renderer is a separate stage; report it as such
-            raise SimulationError(f"renderer failed on sample {i}: {err}") from err
-        name = f"{i:06d}"
-        image_rel = f"images/{name}.{image_format}"
-        if image_format == "jpg":
-            data = encode_jpeg(frame.image_bgr, fw.scene.conditions.jpeg_quality)
-        else:
-            data = encode_png(frame.image_bgr)
-        write_bytes_atomic(folder / image_rel, data)
-        write_bytes_atomic(folder / "labels" / f"{name}.png", encode_png(frame.labels))
-        write_bytes_atomic(
-            folder / "corridor" / f"{name}.png", encode_png(frame.corridor.astype(np.uint8) * 255)
-        )
-        lanes = tusimple_lanes(fw.scene.road, camera, truth.profile_index, rows_px, frame.labels)
-        k, e = camera.intrinsics, camera.extrinsics
         rows.append(
-            {
-                "sample": i,
-                "image": image_rel,
-                "labels": f"labels/{name}.png",
-                "corridor": f"corridor/{name}.png",
-                "scenario": spec.name,
-                "world_seed": world_seed,
-                "t_s": t_s,
-                "fx": k.fx,
-                "fy": k.fy,
-                "cx": k.cx,
-                "cy": k.cy,
-                "camera_height_m": e.height_m,
-                "pitch_rad": e.pitch_rad,
-                "roll_rad": e.roll_rad,
-                "yaw_rad": e.yaw_rad,
-                "line_offset_m": list(truth.offsets_m),
-                "line_color": list(truth.colors),
-                "line_style": list(truth.styles),
-                "lane_heading_rad": truth.heading_rad,
-                "lane_curvature": truth.curvature,
-                "road_slope": truth.slope,
-                "ego_left_line": truth.ego_left,
-                "ego_right_line": truth.ego_right,
-                "h_samples": rows_px,
-                "tusimple_lanes": lanes,
-            }
+            _write_sample(folder, i, spec, base_camera, rng, randomize, image_format, rows_px)
         )
         if progress is not None:
             progress(i + 1, frames)
@@ -198,3 +137,86 @@ def simulate_dataset(
     )
     index = write_table(table, DatasetLayout(folder).index, provenance)
     return DatasetResult(folder, frames, index)
+
+
+def _check_options(frames: int, image_format: str, randomize: float) -> None:
+    """Raise :class:`ScenarioError` for a sample count, image format or strength out of range."""
+    if frames <= 0:
+        raise ScenarioError(f"frames must be positive, got {frames}")
+    if image_format not in {"jpg", "png"}:
+        raise ScenarioError(f"image format must be jpg or png, got {image_format!r}")
+    if not 0.0 <= randomize <= 1.0:
+        raise ScenarioError(f"randomize must be 0-1, got {randomize}")
+
+
+def _write_sample(
+    folder: Path,
+    i: int,
+    spec: Scenario,
+    base_camera: CameraModel,
+    rng: np.random.Generator,
+    randomize: float,
+    image_format: str,
+    rows_px: list[int],
+) -> dict[str, object]:
+    """Draw sample ``i`` (world, camera, time, conditions), render and write it; return its row.
+
+    Raises:
+        SimulationError: If the renderer fails.
+    """
+    from superlane_tools.simulation.render import render
+
+    world_seed = int(rng.integers(0, 2**31))
+    world = build_world(spec, world_seed, WORLD_DURATION_S)
+    camera = random_camera(base_camera, rng, randomize)
+    t_s = float(rng.uniform(0.0, WORLD_DURATION_S - 1.0))
+    fw = frame_world(world, t_s, round(t_s * 1e9), camera, int(rng.integers(0, 2**31)))
+    fw = replace(
+        fw,
+        scene=replace(fw.scene, conditions=random_conditions(fw.scene.conditions, rng, randomize)),
+    )
+    truth = lane_truth(fw)
+    try:
+        frame = render(fw.scene)
+    except Exception as err:  # the renderer is a separate stage; report it as such
+        raise SimulationError(f"renderer failed on sample {i}: {err}") from err
+    name = f"{i:06d}"
+    image_rel = f"images/{name}.{image_format}"
+    if image_format == "jpg":
+        data = encode_jpeg(frame.image_bgr, fw.scene.conditions.jpeg_quality)
+    else:
+        data = encode_png(frame.image_bgr)
+    write_bytes_atomic(folder / image_rel, data)
+    write_bytes_atomic(folder / "labels" / f"{name}.png", encode_png(frame.labels))
+    write_bytes_atomic(
+        folder / "corridor" / f"{name}.png", encode_png(frame.corridor.astype(np.uint8) * 255)
+    )
+    lanes = tusimple_lanes(fw.scene.road, camera, truth.profile_index, rows_px, frame.labels)
+    k, e = camera.intrinsics, camera.extrinsics
+    return {
+        "sample": i,
+        "image": image_rel,
+        "labels": f"labels/{name}.png",
+        "corridor": f"corridor/{name}.png",
+        "scenario": spec.name,
+        "world_seed": world_seed,
+        "t_s": t_s,
+        "fx": k.fx,
+        "fy": k.fy,
+        "cx": k.cx,
+        "cy": k.cy,
+        "camera_height_m": e.height_m,
+        "pitch_rad": e.pitch_rad,
+        "roll_rad": e.roll_rad,
+        "yaw_rad": e.yaw_rad,
+        "line_offset_m": list(truth.offsets_m),
+        "line_color": list(truth.colors),
+        "line_style": list(truth.styles),
+        "lane_heading_rad": truth.heading_rad,
+        "lane_curvature": truth.curvature,
+        "road_slope": truth.slope,
+        "ego_left_line": truth.ego_left,
+        "ego_right_line": truth.ego_right,
+        "h_samples": rows_px,
+        "tusimple_lanes": lanes,
+    }

@@ -16,6 +16,9 @@ from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+from numpy.typing import NDArray
+
 from superlane_tools.camera.metadata import METADATA_NAME, camera_metadata, camera_quaternion_xyzw
 from superlane_tools.camera.model import CameraModel
 from superlane_tools.reporting import ParquetStreamWriter, Provenance, atomic_path
@@ -27,7 +30,7 @@ from superlane_tools.simulation.groundtruth import (
     lane_truth,
     tusimple_lanes,
 )
-from superlane_tools.simulation.scenarios import get_scenario
+from superlane_tools.simulation.scenarios import Scenario, get_scenario
 from superlane_tools.simulation.sensors import (
     MobileyeParams,
     RtkParams,
@@ -38,7 +41,7 @@ from superlane_tools.simulation.sensors import (
     rtk_fixes,
     vehicle_can,
 )
-from superlane_tools.simulation.world import build_world, frame_world, rng_streams
+from superlane_tools.simulation.world import World, build_world, frame_world, rng_streams
 
 DEFAULT_START_NS = 1_700_000_000_000_000_000
 """Time of the first frame, ns since the epoch (2023-11-14T22:13:20Z); fixed for determinism."""
@@ -190,82 +193,181 @@ def simulate_drive(
         SimulationError: If the renderer or an encoder fails.
         RecordingError: If the recording cannot be written (e.g. it exists).
     """
-    from superlane_tools.recording import open_writer
-
     spec = get_scenario(scenario)
     _check_options(fmt, fps, jpeg_quality, camera_roll_rad)
-    camera = sim_camera(width, height)
-    if camera_roll_rad:
-        camera = replace(camera, extrinsics=replace(camera.extrinsics, roll_rad=camera_roll_rad))
-    encoder = _video_encoder(video, width, height, fps)
-    rtk = rtk or RtkParams()
-    rtk.validate()
+    request = _DriveRequest(
+        scenario,
+        duration_s,
+        seed,
+        fmt,
+        width,
+        height,
+        fps,
+        jpeg_quality if jpeg_quality is not None else spec.conditions.jpeg_quality,
+        video,
+        start_ns,
+        rtk or RtkParams(),
+        vehicle or VehicleOptions(),
+        camera_roll_rad,
+    )
+    plan = _plan_drive(spec, request)
     outputs = DriveOutputs.beside(Path(out))
-    world = build_world(spec, seed, duration_s)
-
-    rng = rng_streams(seed)
-    n_frames = max(1, round(duration_s * fps))
-    frame_seeds = rng["render"].integers(0, 2**31, n_frames)
-    quality = jpeg_quality if jpeg_quality is not None else spec.conditions.jpeg_quality
-    vehicle = vehicle or VehicleOptions()
-    events = _SensorEvents()
-    _schedule_sensors(events, world, camera, vehicle, rtk, start_ns, rng["sensors"], seed)
     provenance = Provenance(
         command=command or f"simulate_drive({scenario!r}, seed={seed})",
-        config={
-            "scenario": scenario,
-            "duration_s": duration_s,
-            "seed": seed,
-            "format": fmt,
-            "width": width,
-            "height": height,
-            "fps": fps,
-            "jpeg_quality": quality,
-            "video": video,
-            "start_ns": start_ns,
-            "rtk": asdict(rtk),
-            "vehicle": asdict(vehicle),
-            "camera": camera.to_dict(),
-            "recording": outputs.recording.name,
-        },
+        config=request.config(plan.camera, outputs.recording.name),
     )
+    frames = _write_drive(plan, outputs, labels, provenance, progress)
+    return DriveResult(outputs, plan.n_frames, frames.written, frames.seconds)
+
+
+@dataclass(frozen=True)
+class _DriveRequest:
+    """The options of one :func:`simulate_drive` call, defaults filled in (see its arguments).
+
+    ``quality`` is the JPEG quality used (the override or the scenario's).
+    """
+
+    scenario: str
+    duration_s: float
+    seed: int
+    fmt: str
+    width: int
+    height: int
+    fps: float
+    quality: int
+    video: str | None
+    start_ns: int
+    rtk: RtkParams
+    vehicle: VehicleOptions
+    camera_roll_rad: float
+
+    def config(self, camera: CameraModel, recording: str) -> dict[str, Any]:
+        """Return the provenance config: every option, the camera and the recording's name."""
+        return {
+            "scenario": self.scenario,
+            "duration_s": self.duration_s,
+            "seed": self.seed,
+            "format": self.fmt,
+            "width": self.width,
+            "height": self.height,
+            "fps": self.fps,
+            "jpeg_quality": self.quality,
+            "video": self.video,
+            "start_ns": self.start_ns,
+            "rtk": asdict(self.rtk),
+            "vehicle": asdict(self.vehicle),
+            "camera": camera.to_dict(),
+            "recording": recording,
+        }
+
+
+@dataclass(frozen=True)
+class _DrivePlan:
+    """A checked drive before anything is written: world, camera, frame seeds, sensor messages.
+
+    Attributes:
+        request: The options.
+        world: The scenario's world.
+        camera: The camera (with its roll).
+        encoder: The video encoder, None for JPEG images.
+        lane_quality: The scenario's nominal Mobileye lane quality 0-3.
+        frame_seeds: Render seed of each frame.
+        events: The queued transform, vehicle CAN, IMU and GNSS messages (more are pushed).
+        sensor_rng: The sensors' random stream (the Mobileye messages draw from it per frame).
+    """
+
+    request: _DriveRequest
+    world: World
+    camera: CameraModel
+    encoder: Any
+    lane_quality: int
+    frame_seeds: NDArray[np.int64]
+    events: _SensorEvents
+    sensor_rng: np.random.Generator
+
+    @property
+    def n_frames(self) -> int:
+        """Number of camera frames."""
+        return len(self.frame_seeds)
+
+
+def _plan_drive(spec: Scenario, request: _DriveRequest) -> _DrivePlan:
+    """Check the size, video and GNSS options, build the world and queue the sensor messages.
+
+    Raises:
+        ScenarioError: For an impossible image size, video format or GNSS option.
+    """
+    r = request
+    camera = sim_camera(r.width, r.height)
+    if r.camera_roll_rad:
+        camera = replace(camera, extrinsics=replace(camera.extrinsics, roll_rad=r.camera_roll_rad))
+    encoder = _video_encoder(r.video, r.width, r.height, r.fps)
+    r.rtk.validate()
+    world = build_world(spec, r.seed, r.duration_s)
+    rng = rng_streams(r.seed)
+    n_frames = max(1, round(r.duration_s * r.fps))
+    frame_seeds = rng["render"].integers(0, 2**31, n_frames)
+    events = _SensorEvents()
+    _schedule_sensors(events, world, camera, r.vehicle, r.rtk, r.start_ns, rng["sensors"], r.seed)
+    return _DrivePlan(
+        r, world, camera, encoder, spec.lane_quality, frame_seeds, events, rng["sensors"]
+    )
+
+
+def _write_drive(
+    plan: _DrivePlan,
+    outputs: DriveOutputs,
+    labels: bool,
+    provenance: Provenance,
+    progress: ProgressFn | None,
+) -> _FrameWriter:
+    """Write the recording, ground truth, TuSimple lines and labels, frame by frame.
+
+    Returns:
+        The frame writer, with the messages written and the seconds per stage.
+    """
+    from superlane_tools.recording import open_writer
+
+    r, camera, events = plan.request, plan.camera, plan.events
     if labels:
         for sub in ("frames", "labels", "corridor"):
             (outputs.labels_dir / sub).mkdir(parents=True, exist_ok=True)
     with (
-        open_writer(outputs.recording, fmt) as writer,  # type: ignore[arg-type]
+        open_writer(outputs.recording, r.fmt) as writer,  # type: ignore[arg-type]
         ParquetStreamWriter(outputs.groundtruth, GT_SCHEMA, provenance) as gt_writer,
         atomic_path(outputs.tusimple) as tus_tmp,
         tus_tmp.open("w", encoding="utf-8") as tus,
     ):
-        _add_topics(writer, fmt, camera, encoder is not None, vehicle)
+        _add_topics(writer, r.fmt, camera, plan.encoder is not None, r.vehicle)
         frames = _FrameWriter(
             writer,
             gt_writer,
             tus,
             events,
             camera,
-            encoder,
-            quality,
+            plan.encoder,
+            r.quality,
             outputs.labels_dir if labels else None,
-            h_samples(height),
+            h_samples(r.height),
         )
-        me_params = MobileyeParams(quality=spec.lane_quality, latency_s=vehicle.mobileye_latency_s)
-        me_topic = TOPIC_CAN2 if vehicle.second_bus else TOPIC_CAN
-        for i in range(n_frames):
-            t_ns = start_ns + round(i * 1e9 / fps)
+        me_params = MobileyeParams(
+            quality=plan.lane_quality, latency_s=r.vehicle.mobileye_latency_s
+        )
+        me_topic = TOPIC_CAN2 if r.vehicle.second_bus else TOPIC_CAN
+        for i in range(plan.n_frames):
+            t_ns = r.start_ns + round(i * 1e9 / r.fps)
             t0 = time.perf_counter()
-            fw = frame_world(world, i / fps, t_ns, camera, int(frame_seeds[i]))
+            fw = frame_world(plan.world, i / r.fps, t_ns, camera, int(plan.frame_seeds[i]))
             truth = lane_truth(fw)
-            for c in mobileye_can(truth, t_ns, me_params, rng["sensors"]):
+            for c in mobileye_can(truth, t_ns, me_params, plan.sensor_rng):
                 events.push(c.log_time_ns, me_topic, ("can", c.can_id, c.data))
             frames.seconds["world"] += time.perf_counter() - t0
             frames.add(i, t_ns, fw, truth)
             if progress is not None:
-                progress(i + 1, n_frames)
-        frames.written += events.write_until(writer, start_ns + round(duration_s * 1e9))
+                progress(i + 1, plan.n_frames)
+        frames.written += events.write_until(writer, r.start_ns + round(r.duration_s * 1e9))
         frames.flush()
-    return DriveResult(outputs, n_frames, frames.written, frames.seconds)
+    return frames
 
 
 def _check_options(fmt: str, fps: float, jpeg_quality: int | None, roll_rad: float) -> None:
@@ -351,8 +453,6 @@ def _schedule_sensors(
         for c in heartbeat_can(world, start_ns):
             events.push(c.log_time_ns, TOPIC_CAN2, ("can", c.can_id, c.data))
     if vehicle.imu:  # its own generator: the other sensors' draws stay the same
-        import numpy as np
-
         imu_rng = np.random.default_rng(np.random.SeedSequence(seed).spawn(64)[-1])
         for t_imu, gyro in imu_gyro(world, start_ns, imu_rng):
             events.push(t_imu, TOPIC_IMU, ("imu", gyro))

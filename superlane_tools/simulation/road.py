@@ -294,18 +294,59 @@ def build_road(recipe: RoadRecipe, length_m: float, rng: np.random.Generator) ->
     grade = np.interp(s, sg, gg)
     z = np.concatenate([[0.0], np.cumsum(0.5 * (grade[1:] + grade[:-1]) * np.diff(s))])
 
+    crosswalks, stop_lines, gaps = _intersections(rng, length_m, recipe.intersection_spacing_m)
+    lines, slots_out = _painted_lines(recipe, length_m, gaps, rng)
+    return Road(
+        s_m=s,
+        x_m=x,
+        y_m=y,
+        z_m=z,
+        heading_rad=heading,
+        curvature=k,
+        grade=grade,
+        lines=tuple(lines),
+        line_slots=tuple(slots_out),
+        lane_widths_m=recipe.lane_widths_m,
+        recipe=recipe,
+        crosswalks_s_m=tuple(crosswalks),
+        stop_lines_s_m=tuple(stop_lines),
+    )
+
+
+def _intersections(
+    rng: np.random.Generator, length_m: float, spacing_m: float
+) -> tuple[list[tuple[float, float]], list[float], list[tuple[float, float]]]:
+    """Draw urban intersections every ``spacing_m`` (+-25 %) metres (none for 0).
+
+    Returns:
+        ``(crosswalks, stop_lines, gaps)``: the crosswalk ``[start, end)`` ranges and stop-line
+        arc lengths, and the ranges where the longitudinal lines stop, metres.
+    """
     crosswalks: list[tuple[float, float]] = []
     stop_lines: list[float] = []
     gaps: list[tuple[float, float]] = []
-    if recipe.intersection_spacing_m > 0:
+    if spacing_m > 0:
         s_int = float(rng.uniform(60.0, 120.0))
         while s_int < length_m - 30.0:
             stop_lines.append(s_int)
             crosswalks.append((s_int + 1.5, s_int + 5.5))
             crosswalks.append((s_int + 21.5, s_int + 25.5))
             gaps.append((s_int, s_int + 27.0))
-            s_int += recipe.intersection_spacing_m * float(rng.uniform(0.8, 1.25))
+            s_int += spacing_m * float(rng.uniform(0.8, 1.25))
+    return crosswalks, stop_lines, gaps
 
+
+def _painted_lines(
+    recipe: RoadRecipe,
+    length_m: float,
+    gaps: list[tuple[float, float]],
+    rng: np.random.Generator,
+) -> tuple[list[LaneLine], list[int]]:
+    """Return the painted line pieces and the slot of each, interrupted at the ``gaps``.
+
+    With ``recipe.merge`` the right edge tapers in over a lane drop and out again over a lane
+    split, and the line left of the rightmost lane stops between the two.
+    """
     widths = recipe.lane_widths_m
     lines: list[LaneLine] = []
     slots_out: list[int] = []
@@ -349,21 +390,7 @@ def build_road(recipe: RoadRecipe, length_m: float, rng: np.random.Generator) ->
                 continue
             lines.append(piece)
             slots_out.append(slot)
-    return Road(
-        s_m=s,
-        x_m=x,
-        y_m=y,
-        z_m=z,
-        heading_rad=heading,
-        curvature=k,
-        grade=grade,
-        lines=tuple(lines),
-        line_slots=tuple(slots_out),
-        lane_widths_m=widths,
-        recipe=recipe,
-        crosswalks_s_m=tuple(crosswalks),
-        stop_lines_s_m=tuple(stop_lines),
-    )
+    return lines, slots_out
 
 
 def _replace_span(line: LaneLine, start: float, end: float) -> LaneLine:

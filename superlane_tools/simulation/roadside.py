@@ -68,96 +68,159 @@ _GREENS = ((40, 90, 50), (30, 110, 60), (50, 120, 90), (35, 75, 45), (60, 130, 1
 _FACADES = ((150, 160, 170), (110, 120, 140), (90, 100, 120), (170, 180, 190), (80, 90, 130))
 
 
+_Row = tuple[str, str, float, float, float, float, float, float, tuple[int, int, int]]
+"""One object: kind, style, ``s``, ``l``, ``z`` (m), length, width, height (m), colour."""
+
+
 def build_roadside(road: Road, recipe: RoadsideRecipe, rng: np.random.Generator) -> Roadside:
     """Place roadside objects along the whole road."""
-    rows: list[tuple[str, str, float, float, float, float, float, float, tuple[int, int, int]]] = []
+    rows: list[_Row] = []
     length = road.length_m
     curb = road.recipe.sidewalk_m
     left_edge, right_edge = road.left_edge_m + curb, road.right_edge_m - curb
-
-    def pick(options: tuple[tuple[int, int, int], ...]) -> tuple[int, int, int]:
-        return options[int(rng.integers(len(options)))]
-
     for side in (1.0, -1.0):
         edge = left_edge if side > 0 else right_edge
-        for _ in range(int(rng.poisson(recipe.trees_per_100m * length / 100.0))):
-            s = float(rng.uniform(0.0, length))
-            dist = float(rng.uniform(*recipe.tree_distance_m))
-            h = float(rng.uniform(4.0, 12.0))
-            w = float(rng.uniform(2.0, 5.0))
-            rows.append(
-                ("vegetation", "tree", s, edge + side * (dist + w / 2), 0.0, w, w, h, pick(_GREENS))
-            )
-        for _ in range(int(rng.poisson(recipe.bushes_per_100m * length / 100.0))):
-            s = float(rng.uniform(0.0, length))
-            near = min(1.5, recipe.tree_distance_m[0])
-            dist = float(rng.uniform(near, max(near + 0.5, recipe.tree_distance_m[1] * 0.5)))
-            w = float(rng.uniform(1.0, 3.0))
-            rows.append(
-                (
-                    "vegetation",
-                    "bush",
-                    s,
-                    edge + side * (dist + w / 2),
-                    0.0,
-                    w * 1.5,
-                    w,
-                    float(rng.uniform(0.6, 1.8)),
-                    pick(_GREENS),
-                )
-            )
+        rows += _vegetation(recipe, length, edge, side, rng)
         if recipe.guard_rails:
-            rows.extend(
-                (
-                    "building_wall_fence",
-                    "guard_rail",
-                    float(s) + 4.0,
-                    edge + side * 0.6,
-                    0.0,
-                    8.0,
-                    0.3,
-                    0.75,
-                    (150, 150, 150),
-                )
-                for s in np.arange(0.0, length, 8.0)
-            )
+            rows += _guard_rails(length, edge, side)
         if recipe.buildings:
-            s = float(rng.uniform(0.0, 10.0))
-            while s < length:
-                blen = float(rng.uniform(10.0, 30.0))
-                depth = float(rng.uniform(8.0, 15.0))
-                setback = float(rng.uniform(1.0, 6.0))
-                rows.append(
-                    (
-                        "building_wall_fence",
-                        "building",
-                        s + blen / 2,
-                        edge + side * (setback + depth / 2),
-                        0.0,
-                        blen,
-                        depth,
-                        float(rng.uniform(6.0, 25.0)),
-                        pick(_FACADES),
-                    )
-                )
-                s += blen + float(rng.uniform(2.0, 15.0))
+            rows += _buildings(length, edge, side, rng)
         if recipe.pole_spacing_m > 0:
-            first = float(rng.uniform(0.0, recipe.pole_spacing_m))
-            rows.extend(
-                (
-                    "pole_sign_utility",
-                    "pole",
-                    float(s),
-                    edge + side * 0.8,
-                    0.0,
-                    0.25,
-                    0.25,
-                    8.0,
-                    (120, 120, 120),
-                )
-                for s in np.arange(first, length, recipe.pole_spacing_m)
+            rows += _poles(recipe.pole_spacing_m, length, edge, side, rng)
+    rows += _signs(recipe.signs_per_km, length, right_edge, rng)
+    rows.sort(key=lambda r: (r[2], r[3]))
+    return Roadside(
+        kind=tuple(r[0] for r in rows),
+        style=tuple(r[1] for r in rows),
+        s_m=np.array([r[2] for r in rows], dtype=np.float64),
+        l_m=np.array([r[3] for r in rows], dtype=np.float64),
+        z_m=np.array([r[4] for r in rows], dtype=np.float64),
+        size_m=np.array([[r[5], r[6], r[7]] for r in rows], dtype=np.float64).reshape(-1, 3),
+        color_bgr=np.array([r[8] for r in rows], dtype=np.int64).reshape(-1, 3),
+    )
+
+
+def _pick(
+    rng: np.random.Generator, options: tuple[tuple[int, int, int], ...]
+) -> tuple[int, int, int]:
+    """Draw one of ``options``."""
+    return options[int(rng.integers(len(options)))]
+
+
+def _vegetation(
+    recipe: RoadsideRecipe, length: float, edge: float, side: float, rng: np.random.Generator
+) -> list[_Row]:
+    """Return trees, then bushes, beyond the paved ``edge`` on one ``side`` (+1 left, -1 right)."""
+    rows: list[_Row] = []
+    for _ in range(int(rng.poisson(recipe.trees_per_100m * length / 100.0))):
+        s = float(rng.uniform(0.0, length))
+        dist = float(rng.uniform(*recipe.tree_distance_m))
+        h = float(rng.uniform(4.0, 12.0))
+        w = float(rng.uniform(2.0, 5.0))
+        rows.append(
+            (
+                "vegetation",
+                "tree",
+                s,
+                edge + side * (dist + w / 2),
+                0.0,
+                w,
+                w,
+                h,
+                _pick(rng, _GREENS),
             )
-    for _ in range(int(rng.poisson(recipe.signs_per_km * length / 1000.0))):
+        )
+    for _ in range(int(rng.poisson(recipe.bushes_per_100m * length / 100.0))):
+        s = float(rng.uniform(0.0, length))
+        near = min(1.5, recipe.tree_distance_m[0])
+        dist = float(rng.uniform(near, max(near + 0.5, recipe.tree_distance_m[1] * 0.5)))
+        w = float(rng.uniform(1.0, 3.0))
+        rows.append(
+            (
+                "vegetation",
+                "bush",
+                s,
+                edge + side * (dist + w / 2),
+                0.0,
+                w * 1.5,
+                w,
+                float(rng.uniform(0.6, 1.8)),
+                _pick(rng, _GREENS),
+            )
+        )
+    return rows
+
+
+def _guard_rails(length: float, edge: float, side: float) -> list[_Row]:
+    """Return 8 m guard-rail pieces along the whole paved ``edge``."""
+    return [
+        (
+            "building_wall_fence",
+            "guard_rail",
+            float(s) + 4.0,
+            edge + side * 0.6,
+            0.0,
+            8.0,
+            0.3,
+            0.75,
+            (150, 150, 150),
+        )
+        for s in np.arange(0.0, length, 8.0)
+    ]
+
+
+def _buildings(length: float, edge: float, side: float, rng: np.random.Generator) -> list[_Row]:
+    """Return a row of buildings of random length, depth, setback and height along ``edge``."""
+    rows: list[_Row] = []
+    s = float(rng.uniform(0.0, 10.0))
+    while s < length:
+        blen = float(rng.uniform(10.0, 30.0))
+        depth = float(rng.uniform(8.0, 15.0))
+        setback = float(rng.uniform(1.0, 6.0))
+        rows.append(
+            (
+                "building_wall_fence",
+                "building",
+                s + blen / 2,
+                edge + side * (setback + depth / 2),
+                0.0,
+                blen,
+                depth,
+                float(rng.uniform(6.0, 25.0)),
+                _pick(rng, _FACADES),
+            )
+        )
+        s += blen + float(rng.uniform(2.0, 15.0))
+    return rows
+
+
+def _poles(
+    spacing_m: float, length: float, edge: float, side: float, rng: np.random.Generator
+) -> list[_Row]:
+    """Return light/utility poles every ``spacing_m`` metres from a random start along ``edge``."""
+    first = float(rng.uniform(0.0, spacing_m))
+    return [
+        (
+            "pole_sign_utility",
+            "pole",
+            float(s),
+            edge + side * 0.8,
+            0.0,
+            0.25,
+            0.25,
+            8.0,
+            (120, 120, 120),
+        )
+        for s in np.arange(first, length, spacing_m)
+    ]
+
+
+def _signs(
+    signs_per_km: float, length: float, right_edge: float, rng: np.random.Generator
+) -> list[_Row]:
+    """Return traffic signs (a sign on a pole, 1.5 m right of ``right_edge``) at random places."""
+    rows: list[_Row] = []
+    for _ in range(int(rng.poisson(signs_per_km * length / 1000.0))):
         s = float(rng.uniform(0.0, length))
         l_sign = right_edge - 1.5
         rows.append(("pole_sign_utility", "pole", s, l_sign, 0.0, 0.1, 0.1, 2.2, (140, 140, 140)))
@@ -171,19 +234,10 @@ def build_roadside(road: Road, recipe: RoadsideRecipe, rng: np.random.Generator)
                 0.1,
                 1.2,
                 1.0,
-                pick(((40, 120, 30), (30, 30, 200), (200, 200, 200), (180, 100, 20))),
+                _pick(rng, ((40, 120, 30), (30, 30, 200), (200, 200, 200), (180, 100, 20))),
             )
         )
-    rows.sort(key=lambda r: (r[2], r[3]))
-    return Roadside(
-        kind=tuple(r[0] for r in rows),
-        style=tuple(r[1] for r in rows),
-        s_m=np.array([r[2] for r in rows], dtype=np.float64),
-        l_m=np.array([r[3] for r in rows], dtype=np.float64),
-        z_m=np.array([r[4] for r in rows], dtype=np.float64),
-        size_m=np.array([[r[5], r[6], r[7]] for r in rows], dtype=np.float64).reshape(-1, 3),
-        color_bgr=np.array([r[8] for r in rows], dtype=np.int64).reshape(-1, 3),
-    )
+    return rows
 
 
 def road_objects(

@@ -47,7 +47,7 @@ from superlane_tools.training.lite_seg_net import (
     LiteHierarchicalSegNet,
     check_input_size,
 )
-from superlane_tools.training.loop import Note, Progress, exported_module, fit
+from superlane_tools.training.loop import Fitted, Note, Progress, exported_module, fit
 from superlane_tools.training.seg_net import HierarchicalSegNet
 
 TASKS = ("segmentation", "corridor")
@@ -316,6 +316,51 @@ def train(
     Raises:
         TrainingError: If the parameters or the dataset are invalid, or export fails.
     """
+    _check(params)
+    width, height = params.input_size
+    model = _model(params)
+    sets = _load_all(params, (width, height))
+    torch.manual_seed(params.seed)
+    gen = torch.Generator().manual_seed(params.seed)
+    with _torch_threads(params.threads):
+        model = _model(params)
+        start = time.perf_counter()
+        spec = _input_spec(params.task, (width, height), _normalisation(params))
+        fitted = fit(model, sets, params, gen, spec, progress, note)
+        seconds = time.perf_counter() - start
+        model = model.cpu()
+        outputs = _outputs(params.task)
+        exported = exported_module(model)
+        max_diff = export_onnx(
+            exported, spec.shape, params.out, spec.name, [o.name for o in outputs], params.seed
+        )
+    card = ModelCard(
+        name=params.name or params.out.name.removesuffix(".onnx"),
+        task=params.task,
+        input=spec,
+        outputs=outputs,
+        sha256=file_sha256(params.out),
+        parameters=count_parameters(model),
+        description=_DESCRIPTIONS.get(params.architecture)
+        or (variant.description if (variant := LITE_VARIANTS.get(params.architecture)) else "")
+        or _DESCRIPTIONS[params.task],
+        training=_training_record(params, sets, fitted, seconds, max_diff),
+    )
+    card_path = write_card(card, card_path_for(params.out))
+    return TrainResult(
+        params.out,
+        card_path,
+        card,
+        fitted.step_losses,
+        fitted.epoch_losses,
+        seconds,
+        fitted.seconds_per_step,
+        fitted.validation,
+    )
+
+
+def _check(params: TrainParams) -> None:
+    """Raise :class:`TrainingError` for parameters no training can run with."""
     if params.task not in TASKS:
         raise TrainingError(f"unknown task {params.task!r} (known: {', '.join(TASKS)})")
     if params.epochs < 1 or params.batch < 1 or params.lr <= 0:
@@ -331,89 +376,60 @@ def train(
             check_input_size(*params.crop, params.architecture)
     if params.budget_s is not None and params.budget_s <= 0:
         raise TrainingError("the time budget must be > 0 seconds")
-    model = _model(params)
-    sets = _load_all(params, (width, height))
-    torch.manual_seed(params.seed)
-    gen = torch.Generator().manual_seed(params.seed)
-    with _torch_threads(params.threads):
-        model = _model(params)
-        start = time.perf_counter()
-        spec = _input_spec(params.task, (width, height), _normalisation(params))
-        fitted = fit(model, sets, params, gen, spec, progress, note)
-        step_losses, epoch_losses = fitted.step_losses, fitted.epoch_losses
-        seconds = time.perf_counter() - start
-        model = model.cpu()
-        outputs = _outputs(params.task)
-        exported = exported_module(model)
-        max_diff = export_onnx(
-            exported, spec.shape, params.out, spec.name, [o.name for o in outputs], params.seed
-        )
+
+
+def _training_record(
+    params: TrainParams,
+    sets: Sequence[LoadedSet],
+    fitted: Fitted,
+    seconds: float,
+    max_diff: float,
+) -> dict[str, Any]:
+    """The model card's ``training`` section: data, commands, settings, losses, machine."""
     folders = [s.spec.folder for s in sets]
-    card = ModelCard(
-        name=params.name or params.out.name.removesuffix(".onnx"),
-        task=params.task,
-        input=spec,
-        outputs=outputs,
-        sha256=file_sha256(params.out),
-        parameters=count_parameters(model),
-        description=_DESCRIPTIONS.get(params.architecture)
-        or (variant.description if (variant := LITE_VARIANTS.get(params.architecture)) else "")
-        or _DESCRIPTIONS[params.task],
-        training={
-            "data": [str(d) for d in folders],
-            "datasets": _dataset_rows(sets),
-            "frames": sum(len(s.names) for s in sets),
-            "dataset_command": " ; ".join(
-                _dataset_command(d) or f"none for {d} (not a simulator folder)" for d in folders
-            ),
-            "training_command": params.command or "library call",
-            "init": "random (seeded)" if params.init is None else str(params.init),
-            "architecture": params.architecture,
-            **(
-                {
-                    "encoder": ENCODER_ORIGIN,
-                    "encoder_lr": params.encoder_lr,
-                    "variant": LITE_VARIANTS[params.architecture].summary,
-                }
-                if params.architecture in LITE_VARIANTS
-                else {}
-            ),
-            **(
-                {CANONICAL_CARD_KEY: CanonicalCamera.for_input(width, height).to_dict()}
-                if params.canonical_camera
-                else {}
-            ),
-            **({"budget_s": params.budget_s} if params.budget_s is not None else {}),
-            "adapter": params.adapter if params.task == "segmentation" else "n/a",
-            "seed": params.seed,
-            "steps": len(step_losses),
-            "epochs": params.epochs if params.steps is None else "n/a (steps)",
-            "batch": params.batch,
-            "lr": params.lr,
-            "augmentation": "none" if params.augment is None else str(params.augment),
-            "crop": "full frames" if params.crop is None else list(params.crop),
-            "loss": _loss_text(params),
-            "final_epoch_loss": round(epoch_losses[-1], 5),
-            "train_seconds": round(seconds, 1),
-            "seconds_per_step": round(fitted.seconds_per_step, 3),
-            **({"validation": fitted.validation} if fitted.validation is not None else {}),
-            "torch_version": str(torch.__version__),
-            "opset": OPSET,
-            "onnx_vs_torch_max_abs_diff": float(f"{max_diff:.3g}"),
-            "machine": f"{platform.machine()} {params.device} {params.threads} threads",
-        },
-    )
-    card_path = write_card(card, card_path_for(params.out))
-    return TrainResult(
-        params.out,
-        card_path,
-        card,
-        step_losses,
-        epoch_losses,
-        seconds,
-        fitted.seconds_per_step,
-        fitted.validation,
-    )
+    return {
+        "data": [str(d) for d in folders],
+        "datasets": _dataset_rows(sets),
+        "frames": sum(len(s.names) for s in sets),
+        "dataset_command": " ; ".join(
+            _dataset_command(d) or f"none for {d} (not a simulator folder)" for d in folders
+        ),
+        "training_command": params.command or "library call",
+        "init": "random (seeded)" if params.init is None else str(params.init),
+        "architecture": params.architecture,
+        **(
+            {
+                "encoder": ENCODER_ORIGIN,
+                "encoder_lr": params.encoder_lr,
+                "variant": LITE_VARIANTS[params.architecture].summary,
+            }
+            if params.architecture in LITE_VARIANTS
+            else {}
+        ),
+        **(
+            {CANONICAL_CARD_KEY: CanonicalCamera.for_input(*params.input_size).to_dict()}
+            if params.canonical_camera
+            else {}
+        ),
+        **({"budget_s": params.budget_s} if params.budget_s is not None else {}),
+        "adapter": params.adapter if params.task == "segmentation" else "n/a",
+        "seed": params.seed,
+        "steps": len(fitted.step_losses),
+        "epochs": params.epochs if params.steps is None else "n/a (steps)",
+        "batch": params.batch,
+        "lr": params.lr,
+        "augmentation": "none" if params.augment is None else str(params.augment),
+        "crop": "full frames" if params.crop is None else list(params.crop),
+        "loss": _loss_text(params),
+        "final_epoch_loss": round(fitted.epoch_losses[-1], 5),
+        "train_seconds": round(seconds, 1),
+        "seconds_per_step": round(fitted.seconds_per_step, 3),
+        **({"validation": fitted.validation} if fitted.validation is not None else {}),
+        "torch_version": str(torch.__version__),
+        "opset": OPSET,
+        "onnx_vs_torch_max_abs_diff": float(f"{max_diff:.3g}"),
+        "machine": f"{platform.machine()} {params.device} {params.threads} threads",
+    }
 
 
 def _loss_text(params: TrainParams) -> str:

@@ -13,7 +13,7 @@ from pyarrow.parquet import read_table
 from typer.testing import CliRunner
 
 from superlane_tools.cli import reprocess, tables
-from superlane_tools.commands.reprocess import ReprocessConfig
+from superlane_tools.drive.config import ReprocessConfig
 from superlane_tools.reporting import read_provenance
 from superlane_tools.reporting.layout import DERIVED_TABLES, RunLayout, checked_table
 from superlane_tools.simulation.drive import simulate_drive
@@ -51,7 +51,7 @@ def test_print_config_round_trips() -> None:
     data = yaml.safe_load(out)
     assert data["kpi"]["min_width_m"] == 2.0
     assert data["corridor"]["mean_frames"] == 3
-    from superlane_tools.commands.reprocess import config_from_mapping
+    from superlane_tools.drive.config import config_from_mapping
 
     assert config_from_mapping(data) == ReprocessConfig()
 

@@ -11,8 +11,7 @@ import pytest
 from superlane_tools.camera.metadata import camera_quaternion_xyzw, extrinsics_from_tf
 from superlane_tools.camera.profiles import load_camera
 from superlane_tools.can import mobileye_table
-from superlane_tools.commands.reprocess import ReprocessConfig, load_config
-from superlane_tools.drive.config import RtkConfig
+from superlane_tools.drive.config import ReprocessConfig, RtkConfig, load_config
 from superlane_tools.drive.signals import rtk_truth
 from superlane_tools.errors import ConfigError
 from superlane_tools.reporting.gnss_fixes import GnssFixes

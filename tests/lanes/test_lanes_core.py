@@ -54,9 +54,9 @@ def test_batch_cost_equals_single_evaluations() -> None:
 def test_entropy_is_lowest_at_true_parameters(camera_factory, renderer, jacobian: bool) -> None:
     cam = camera_factory()
     lane_uv, _ = renderer(cam, [-1.8, 1.9, 5.6], 0.02, 0.001, 0.02)
-    from superlane_tools.lanes.multilane_fit import _Points
+    from superlane_tools.lanes._rays import RayPoints
 
-    pts = _Points(cam, lane_uv, FitParams())
+    pts = RayPoints(cam, lane_uv, FitParams())
     cost = CostFunction(
         pts.iq, pts.r, 1.5, 200.0, Histogram.symmetric(15, 0.1), 2.0, jacobian=jacobian
     )

@@ -17,9 +17,9 @@ from superlane_tools.lanes import (
     columns_at_rows,
     fit_frame,
 )
+from superlane_tools.lanes._rays import RayPoints
 from superlane_tools.lanes._refit import SharedModel, refit_shared
 from superlane_tools.lanes.cost import ray_points, road_den
-from superlane_tools.lanes.multilane_fit import _Points
 
 OFFSETS = (-5.4, -1.8, 1.8, 5.4)
 
@@ -50,7 +50,7 @@ def test_ray_meets_the_curved_road_at_the_nearer_root(camera_factory) -> None:
         y = np.array([1.0, -2.0, 3.5, 0.5])
         uv, front = cam.project(np.stack([x, y, x * (b + c * x)], axis=1))
         assert front.all()
-        pts = _Points(cam, uv, FitParams(vertical_curvature_bound=5e-4, max_range_m=200.0))
+        pts = RayPoints(cam, uv, FitParams(vertical_curvature_bound=5e-4, max_range_m=200.0))
         assert pts.size == x.size
         xr, yr, ok = ray_points(pts.iq, pts.r, b, h, 200.0, c)
         assert ok.all()
@@ -105,7 +105,7 @@ def test_refit_backends_agree_with_vertical_curvature(camera_factory) -> None:
     cam = camera_factory()
     uv = _render(cam, 0.01, 1.0 / 800, 0.01, -3e-4)
     p = FitParams(vertical_curvature_bound=5e-4)
-    pts = _Points(cam, uv, p)
+    pts = RayPoints(cam, uv, p)
     x, y, _ = ray_points(pts.iq, pts.r, 0.0, 1.5, 200.0)
     labels = np.argmin(np.abs((y - x * 0.01)[:, None] - np.array(OFFSETS)[None, :]), axis=1)
     start = SharedModel(0.0, 0.0, 0.0, np.array(OFFSETS), 0.0)

@@ -10,7 +10,8 @@ from pathlib import Path
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from superlane_tools.commands.reprocess import ReprocessConfig, reprocess
+from superlane_tools.commands.reprocess import reprocess
+from superlane_tools.drive.config import ReprocessConfig
 from superlane_tools.simulation.drive import simulate_drive
 
 SCRIPT = Path(__file__).resolve().parents[2] / "pipelines" / "compare_runs.py"

@@ -9,7 +9,8 @@ import pandas as pd
 import pytest
 
 from superlane_tools.commands.extract import ExtractConfig, extract
-from superlane_tools.commands.reprocess import ReprocessConfig, reprocess
+from superlane_tools.commands.reprocess import reprocess
+from superlane_tools.drive.config import ReprocessConfig
 from superlane_tools.recording import messages as m
 from superlane_tools.recording import open_recording
 from superlane_tools.recording.video import (

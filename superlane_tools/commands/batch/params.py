@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -55,6 +55,34 @@ class BatchProgress(NamedTuple):
     total: int
     counts: Mapping[str, int]
     last: JobOutcome | None
+
+
+@dataclass
+class Tally:
+    """Recordings per status so far and why each failed one failed; tells the progress callback.
+
+    Attributes:
+        progress: Called with a :class:`BatchProgress` on every :meth:`tell` (None: nobody).
+        counts: Status -> recordings (``ok``, ``partial``, ``failed``, ``skipped``, in order).
+        failures: Recording id -> one-line reason, of each failed recording.
+    """
+
+    progress: Callable[[BatchProgress], None] | None = None
+    counts: dict[str, int] = field(
+        default_factory=lambda: dict.fromkeys(("ok", "partial", "failed", "skipped"), 0)
+    )
+    failures: dict[str, str] = field(default_factory=dict)
+
+    def count(self, status: str, recording_id: str, error: str = "") -> None:
+        """Count one recording's final status (and the reason, when it failed)."""
+        self.counts[status] += 1
+        if status == "failed":
+            self.failures[recording_id] = error
+
+    def tell(self, phase: str, done: int, total: int, last: JobOutcome | None = None) -> None:
+        """Report the progress of a phase, with the counts so far."""
+        if self.progress is not None:
+            self.progress(BatchProgress(phase, done, total, dict(self.counts), last))
 
 
 @dataclass(frozen=True)

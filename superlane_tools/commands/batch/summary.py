@@ -56,7 +56,8 @@ def fleet_status(status: pd.DataFrame) -> pd.DataFrame:
 
 def _done(root: Path, status: pd.DataFrame) -> pd.DataFrame:
     ok = status["result"].isin(["ok", "partial"])
-    return status[ok & status["recording_id"].map(lambda r: (root / r).is_dir())]
+    folder = status["recording_id"].map(lambda r: (root / r).is_dir()).astype(bool)  # empty too
+    return status[ok & folder]
 
 
 def availability_by_category(root: Path, status: pd.DataFrame) -> pd.DataFrame:

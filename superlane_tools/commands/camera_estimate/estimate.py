@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from itertools import pairwise
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from superlane_tools.camera.extrinsics_estimate import (
     ExtrinsicsEstimate,
+    FrameLines,
     estimate_extrinsics,
     frame_intrinsics,
     frame_lines,
@@ -16,6 +18,7 @@ from superlane_tools.camera.extrinsics_estimate import (
 from superlane_tools.camera.focal_motion import (
     MAX_DISTANCE_M,
     SampledLines,
+    Track,
     focal_from_frame_pairs,
     too_far,
 )
@@ -25,6 +28,9 @@ from superlane_tools.errors import UsageError
 from superlane_tools.lanes import FitParams
 from superlane_tools.lanes.fit_height import LanePixels, fit_height
 from superlane_tools.lanes.points import lane_points
+
+if TYPE_CHECKING:
+    from superlane_tools.scene.recording_frames import RecordingFrames
 
 
 @dataclass(frozen=True)
@@ -79,7 +85,6 @@ def estimate_camera(
         CameraError: If too few frames show both ego lines.
     """
     from superlane_tools.recording.gnss_track import gnss_track
-    from superlane_tools.scene.onnx_backend import OnnxSegmentationBackend
     from superlane_tools.scene.recording_frames import RecordingFrames
 
     if sum(v is not None for v in (intrinsics, focal_px, hfov_deg)) > 1:
@@ -90,69 +95,125 @@ def estimate_camera(
     # dashes' motion between the two measures the focal length (given a GNSS track)
     lens_known = intrinsics is not None or focal_px is not None or hfov_deg is not None
     track = None if lens_known else gnss_track(recording)
-    backend = OnnxSegmentationBackend(threads=1)
-    sampled: list[SampledLines] = []
-    pixels: list[LanePixels] = []
-    successors: dict[int, SampledLines] = {}
-    used_k: Intrinsics | None = None
-    source = ""
-    previous_time: int | None = None
-    first_ns: int | None = None
-    last_ns: int | None = None
-    want_pairs = track is not None
-    for index, frame in enumerate(frames):
-        first_ns = frame.log_time_ns if first_ns is None else first_ns
-        last_ns = frame.log_time_ns
-        offset = index % step
-        if frame.image is None or len(sampled) >= max_frames:
-            continue
-        if offset == 0:
-            previous_time = frame.log_time_ns
-        if offset and not (want_pairs and offset == 1 and step > 1):
-            continue
-        if offset and too_far(track, previous_time, frame.log_time_ns):
-            want_pairs = bool(successors)  # at a low frame rate, stop segmenting twice
-            continue
-        height, width = frame.image.shape[:2]
-        if used_k is None:
-            used_k, source = frame_intrinsics(width, height, intrinsics, focal_px, hfov_deg)
-        # the lane fit's own lane-marking pixels
-        uv, codes = lane_points(backend.segment(frame.image), seed=index)
-        item = SampledLines(index, frame.log_time_ns, uv)
-        if offset:
-            successors[index - 1] = item
-        else:
-            sampled.append(item)
-            pixels.append((uv, codes))
+    got = _sample_frames(frames, step, max_frames, track, (intrinsics, focal_px, hfov_deg))
+    used_k, source = got.intrinsics, got.source
     if used_k is None:
         raise UsageError(f"{recording.name}: no decodable camera frame")
-    lines = [frame_lines(f.uv, used_k, seed=f.frame) for f in sampled]
+    lines = [frame_lines(f.uv, used_k, seed=f.frame) for f in got.sampled]
     est = estimate_extrinsics(lines, used_k, lane_width_m, roll_rad)
     if track is not None:
         if step == 1:  # every frame is sampled: each one's successor is the next sampled one
-            successors = {a.frame: b for a, b in pairwise(sampled) if b.frame == a.frame + 1}
-        focal = (
-            focal_from_frame_pairs(sampled, lines, successors, track, used_k, est.extrinsics)
-            if want_pairs
-            else f"consecutive frames more than {MAX_DISTANCE_M:g} m apart; a higher frame rate "
-            "or a slower drive is needed"
-        )
-        if isinstance(focal, str):
-            source += f"; focal length not measurable from motion ({focal})"
+            got.successors = {
+                a.frame: b for a, b in pairwise(got.sampled) if b.frame == a.frame + 1
+            }
+        measured = _focal_from_motion(got, lines, track, used_k, est)
+        if isinstance(measured, str):
+            source += f"; focal length not measurable from motion ({measured})"
         else:
-            k = replace(used_k, fx=focal.focal_px, fy=focal.focal_px)
-            lines = [frame_lines(f.uv, k, seed=f.frame) for f in sampled]
-            est = estimate_extrinsics(lines, k, lane_width_m, roll_rad)
-            used_k = k
-            source = (
-                f"focal length {focal.focal_px:.1f} px MEASURED from the dashed markings' motion "
-                f"at GNSS speed ({focal.pairs} line pairs, mean correlation "
-                f"{focal.mean_correlation:.2f}); principal point at the centre"
-            )
+            used_k, source = measured
+            lines = [frame_lines(f.uv, used_k, seed=f.frame) for f in got.sampled]
+            est = estimate_extrinsics(lines, used_k, lane_width_m, roll_rad)
     elif not lens_known:
         source += "; focal length not measurable from motion (no GNSS track)"
     # the height the lane fit of `slt reprocess` (its default parameters) needs for this width
     fit_params = FitParams.from_dict(dict(DEFAULT_FIT))
-    est = fit_height(pixels, CameraModel(used_k, est.extrinsics), est, lane_width_m, fit_params)
-    span_s = (last_ns - first_ns) / 1e9 if first_ns is not None and last_ns is not None else 0.0
-    return CameraEstimate(CameraModel(used_k, est.extrinsics, name=name), est, source, span_s)
+    est = fit_height(got.pixels, CameraModel(used_k, est.extrinsics), est, lane_width_m, fit_params)
+    return CameraEstimate(CameraModel(used_k, est.extrinsics, name=name), est, source, got.span_s)
+
+
+@dataclass
+class _Samples:
+    """What the sampled frames (and their successors) show, and the intrinsics they took."""
+
+    sampled: list[SampledLines] = field(default_factory=list)
+    pixels: list[LanePixels] = field(default_factory=list)
+    successors: dict[int, SampledLines] = field(default_factory=dict)
+    intrinsics: Intrinsics | None = None
+    source: str = ""
+    first_ns: int | None = None
+    last_ns: int | None = None
+    want_pairs: bool = False
+    """Whether successors were segmented to the end (False: consecutive frames too far apart)."""
+
+    @property
+    def span_s(self) -> float:
+        """Seconds between the first and the last frame looked at."""
+        if self.first_ns is None or self.last_ns is None:
+            return 0.0
+        return (self.last_ns - self.first_ns) / 1e9
+
+
+def _sample_frames(
+    frames: RecordingFrames,
+    step: int,
+    max_frames: int,
+    track: Track | None,
+    lens: tuple[Intrinsics | None, float | None, float | None],
+) -> _Samples:
+    """Segment every ``step``-th frame (and, for the focal length, its successor) for lines.
+
+    Args:
+        frames: The recording's camera frames.
+        step: Frames between two sampled ones.
+        max_frames: Frames sampled at most.
+        track: The GNSS track that makes successors worth segmenting, or None.
+        lens: The intrinsics options ``(intrinsics, focal_px, hfov_deg)``.
+    """
+    from superlane_tools.scene.onnx_backend import OnnxSegmentationBackend
+
+    backend = OnnxSegmentationBackend(threads=1)
+    got = _Samples(want_pairs=track is not None)
+    previous_time: int | None = None
+    for index, frame in enumerate(frames):
+        got.first_ns = frame.log_time_ns if got.first_ns is None else got.first_ns
+        got.last_ns = frame.log_time_ns
+        offset = index % step
+        if frame.image is None or len(got.sampled) >= max_frames:
+            continue
+        if offset == 0:
+            previous_time = frame.log_time_ns
+        if offset and not (got.want_pairs and offset == 1 and step > 1):
+            continue
+        if offset and too_far(track, previous_time, frame.log_time_ns):
+            got.want_pairs = bool(got.successors)  # at a low frame rate, stop segmenting twice
+            continue
+        height, width = frame.image.shape[:2]
+        if got.intrinsics is None:
+            got.intrinsics, got.source = frame_intrinsics(width, height, *lens)
+        # the lane fit's own lane-marking pixels
+        uv, codes = lane_points(backend.segment(frame.image), seed=index)
+        item = SampledLines(index, frame.log_time_ns, uv)
+        if offset:
+            got.successors[index - 1] = item
+        else:
+            got.sampled.append(item)
+            got.pixels.append((uv, codes))
+    return got
+
+
+def _focal_from_motion(
+    got: _Samples,
+    lines: list[FrameLines | None],
+    track: Track,
+    k: Intrinsics,
+    est: ExtrinsicsEstimate,
+) -> tuple[Intrinsics, str] | str:
+    """Intrinsics with the focal length measured from the dashes' motion, and their source.
+
+    Returns:
+        The intrinsics and where they came from, or why the focal length was not measurable.
+    """
+    if not got.want_pairs:
+        return (
+            f"consecutive frames more than {MAX_DISTANCE_M:g} m apart; a higher frame rate "
+            "or a slower drive is needed"
+        )
+    focal = focal_from_frame_pairs(got.sampled, lines, got.successors, track, k, est.extrinsics)
+    if isinstance(focal, str):
+        return focal
+    measured = replace(k, fx=focal.focal_px, fy=focal.focal_px)
+    return measured, (
+        f"focal length {focal.focal_px:.1f} px MEASURED from the dashed markings' motion "
+        f"at GNSS speed ({focal.pairs} line pairs, mean correlation "
+        f"{focal.mean_correlation:.2f}); principal point at the centre"
+    )

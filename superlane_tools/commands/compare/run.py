@@ -3,34 +3,30 @@
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
-
-import pandas as pd
+from typing import TYPE_CHECKING
 
 from superlane_tools.fleet import (
     BootstrapParams,
     Comparison,
-    DriveKpis,
-    DriveRun,
-    FleetError,
     GateResult,
     GateRule,
+    LoadedFleets,
     SpanParams,
     compare_fleets,
     compare_sections,
-    disagreement_spans,
-    find_drives,
-    frame_disagreement,
+    drives_table,
     judge_gate,
-    read_tables,
-    run_differences,
-    sequence_kpis,
+    load,
 )
 from superlane_tools.records import Skipped
 from superlane_tools.reporting import Provenance, write_table
-from superlane_tools.reporting.layout import COMPARE_DRIVES_TABLE, CompareLayout
+from superlane_tools.reporting.layout import CompareLayout
 from superlane_tools.reporting.report import write_report
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 DELTA_PLOT_KPIS = (
     "availability_frames.super",
@@ -71,57 +67,13 @@ class CompareResult:
         return self.gate.regressions
 
 
-def _read(
-    base: tuple[DriveRun, ...], candidate: tuple[DriveRun, ...], params: SpanParams
-) -> tuple[list[DriveKpis], list[DriveKpis], pd.DataFrame]:
-    """Read every drive's tables once: its sequence KPIs, and the spans of matched drives."""
-    others = {d.key: d for d in candidate}
-    kb, kc, parts = [], [], []
-    for drive in base:
-        tables = read_tables(drive)
-        cand = others.pop(drive.key, None)
-        if cand is None:
-            kb.append((drive, sequence_kpis(tables)))
-            continue
-        cand_tables = read_tables(cand)  # conditional KPIs: on frames both runs produced
-        kb.append((drive, sequence_kpis(tables, cand_tables)))
-        kc.append((cand, sequence_kpis(cand_tables, tables)))
-        spans = disagreement_spans(
-            drive.drive, frame_disagreement(tables, cand_tables, params), params
-        )
-        parts.append(
-            spans.assign(
-                recording=drive.recording,
-                base_annotations=str(drive.annotations),
-                candidate_annotations=str(cand.annotations),
-            )
-        )
-    kc += [(d, sequence_kpis(read_tables(d))) for d in others.values()]
-    if not parts:
-        return kb, kc, pd.DataFrame()
-    spans = pd.concat(parts, ignore_index=True).sort_values("score", ascending=False)
-    return kb, kc, spans.head(params.max_spans).reset_index(drop=True)
-
-
-def _plots(out: Path, result: CompareResult, params: CompareParams) -> list[Path]:
+def _plots(layout: CompareLayout, result: CompareResult, fleets: LoadedFleets) -> list[Path]:
     from superlane_tools.reporting.compare_plots import plot_deltas, plot_timelines
 
-    layout = CompareLayout(out)
     pngs = [plot_deltas(result.comparison.table, DELTA_PLOT_KPIS, layout.deltas_plot())]
-    pairs = (*result.comparison.matched, *result.comparison.unaligned)
-    matched = {b.drive: (b, c) for b, c in pairs}
-    worst = list(dict.fromkeys(result.spans["drive"])) if not result.spans.empty else []
-    for k, drive in enumerate(worst[: params.timelines]):
-        base, cand = matched[drive]
-        pngs.append(
-            plot_timelines(
-                drive,
-                read_tables(base).availability_frames,
-                read_tables(cand).availability_frames,
-                result.spans[result.spans["drive"] == drive],
-                layout.timeline_plot(k),
-            )
-        )
+    for k, (drive, (base, candidate)) in enumerate(fleets.timelines.items()):
+        spans = result.spans[result.spans["drive"] == drive]
+        pngs.append(plot_timelines(drive, base, candidate, spans, layout.timeline_plot(k)))
     return pngs
 
 
@@ -132,21 +84,13 @@ def compare_runs(base: Path, candidate: Path, out: Path, params: CompareParams) 
         FleetError: If an input is not a run or batch root, a fleet has no drive, or tables of
             a run are incompatible with this tool version.
     """
-    fleets = find_drives(base), find_drives(candidate)
-    for fleet in fleets:
-        if not fleet.drives:
-            raise FleetError(f"{fleet.root}: empty fleet: no drive with a reprocess run")
-    differences = run_differences(fleets[0].drives, fleets[1].drives)
-    kpis_base, kpis_cand, spans = _read(fleets[0].drives, fleets[1].drives, params.spans)
-    comparison = compare_fleets(kpis_base, kpis_cand, params.bootstrap, params.margins)
-    skipped = [*fleets[0].skipped, *fleets[1].skipped]
-    skipped += [Skipped("drive only in the base", d.drive) for d in comparison.only_base]
-    skipped += [Skipped("drive only in the candidate", d.drive) for d in comparison.only_candidate]
-    skipped += [
-        Skipped("drive whose sequences do not line up", b.drive) for b, _ in comparison.unaligned
-    ]
+    fleets = load(base, candidate, params.spans, params.timelines if params.plots else 0)
+    comparison = compare_fleets(
+        fleets.kpis_base, fleets.kpis_candidate, params.bootstrap, params.margins
+    )
+    gate = judge_gate(comparison, params.gate)
     result = CompareResult(
-        comparison, differences, spans, judge_gate(comparison, params.gate), tuple(skipped)
+        comparison, fleets.differences, fleets.spans, gate, fleets.skipped(comparison)
     )
     provenance = Provenance(
         command=params.command or "slt compare",
@@ -162,40 +106,16 @@ def compare_runs(base: Path, candidate: Path, out: Path, params: CompareParams) 
     written = [
         write_table(comparison.table, layout.compare, provenance),
         write_table(result.spans, layout.spans, provenance),
-        write_table(_drives(comparison), layout.drives, provenance),
+        write_table(drives_table(comparison), layout.drives, provenance),
     ]
-    images = _plots(out, result, params) if params.plots else []
-    written += images
-    title = f"slt compare: {candidate.name} (candidate) against {base.name} (base)"
+    images = _plots(layout, result, fleets) if params.plots else []
     sections = compare_sections(
         comparison,
-        differences,
+        result.differences,
         result.spans,
-        result.gate if params.gate else None,
+        gate if params.gate else None,
         [p.relative_to(out).as_posix() for p in images],
     )
-    written += write_report(layout.report, title, sections)
-    return CompareResult(
-        result.comparison,
-        differences,
-        result.spans,
-        result.gate,
-        result.skipped,
-        tuple(written),
-    )
-
-
-def _drives(comparison: Comparison) -> pd.DataFrame:
-    rows: list[tuple[str, DriveRun, Path | None, Path | None]]
-    rows = [("matched", b, b.folder, c.folder) for b, c in comparison.matched]
-    rows += [("only in the base", b, b.folder, None) for b in comparison.only_base]
-    rows += [("only in the candidate", c, None, c.folder) for c in comparison.only_candidate]
-    rows += [("sequences do not line up", b, b.folder, c.folder) for b, c in comparison.unaligned]
-    columns = list(COMPARE_DRIVES_TABLE.columns)
-    return pd.DataFrame(
-        [
-            (d.drive, status, d.recording, d.category, str(fb or ""), str(fc or ""))
-            for status, d, fb, fc in rows
-        ],
-        columns=columns,
-    )
+    title = f"slt compare: {candidate.name} (candidate) against {base.name} (base)"
+    written += [*images, *write_report(layout.report, title, sections)]
+    return replace(result, outputs=tuple(written))

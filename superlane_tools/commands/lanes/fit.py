@@ -16,12 +16,14 @@ from typing import Any
 
 import numpy as np
 import pyarrow as pa
+from numpy.typing import NDArray
 
 from superlane_tools.camera.model import CameraModel
 from superlane_tools.commands.errors import PipelineError
 from superlane_tools.lanes import FitParams, LaneFit, fit_frame
 from superlane_tools.lanes.attributes import colour_codes_from_image
 from superlane_tools.lanes.class_map import ClassMap, mask_points
+from superlane_tools.lanes.points import LabelPoints
 from superlane_tools.lanes.table import fit_row
 from superlane_tools.records import Skipped
 from superlane_tools.reporting import (
@@ -121,19 +123,8 @@ def fit_masks(
             height, width = mask.shape
             cam = cameras.get((width, height))
             if cam is None:
-                cam = (
-                    camera
-                    if camera.width == width and camera.height == height
-                    else (camera.resized(width, height))
-                )
-                cameras[(width, height)] = cam
-            pts = mask_points(mask, classes, p.seed)
-            if images_dir is not None and not np.any(pts.codes > 0):
-                image = read_camera_image(Path(images_dir), path.relative_to(root), (width, height))
-                if isinstance(image, str):
-                    skipped.append(Skipped("image", f"{name}: {image}", 1))
-                else:
-                    pts = pts._replace(codes=colour_codes_from_image(image, pts.lane_uv))
+                cam = cameras[(width, height)] = _camera_at(camera, width, height)
+            pts = _mask_lane_points(mask, classes, p.seed, images_dir, (root, path), skipped)
             init = previous if sequential and previous is not None and previous.ok else None
             fit = fit_frame(pts.lane_uv, pts.road_uv, cam, p, init=init, attributes=pts.codes)
             previous = fit
@@ -143,17 +134,44 @@ def fit_masks(
             progress(done, len(paths))
     if not rows:
         raise PipelineError(f"none of the {len(paths)} masks under {root} could be read")
-    table = pa.Table.from_pylist(rows, schema=LANES_FIT_SCHEMA)
-    provenance = Provenance(
-        command=command,
-        inputs=(input_identity(root),),
-        config={
-            "fit_params": p.to_dict(),
-            "camera": camera.to_dict(),
-            "classes": classes._asdict(),
-            "sequential": sequential,
-        },
-    )
-    path_out = write_table(table, out, provenance)
+    config = {
+        "fit_params": p.to_dict(),
+        "camera": camera.to_dict(),
+        "classes": classes._asdict(),
+        "sequential": sequential,
+    }
+    provenance = Provenance(command=command, inputs=(input_identity(root),), config=config)
+    path_out = write_table(pa.Table.from_pylist(rows, schema=LANES_FIT_SCHEMA), out, provenance)
     n_fitted = sum(1 for row in rows if row["offsets"])
     return LanesFitResult(path_out, len(rows), n_fitted, tuple(skipped))
+
+
+def _camera_at(camera: CameraModel, width: int, height: int) -> CameraModel:
+    """The camera for masks of ``width`` x ``height`` pixels (resized when they differ)."""
+    if camera.width == width and camera.height == height:
+        return camera
+    return camera.resized(width, height)
+
+
+def _mask_lane_points(
+    mask: NDArray[Any],
+    classes: ClassMap,
+    seed: int,
+    images_dir: str | os.PathLike[str] | None,
+    where: tuple[Path, Path],
+    skipped: list[Skipped],
+) -> LabelPoints:
+    """The mask's lane and road pixels; lane colour from the camera image when it has none.
+
+    ``where`` is ``(root, path)`` of the mask; an unreadable image is added to ``skipped``.
+    """
+    root, path = where
+    pts = mask_points(mask, classes, seed)
+    if images_dir is not None and not np.any(pts.codes > 0):
+        height, width = mask.shape
+        image = read_camera_image(Path(images_dir), path.relative_to(root), (width, height))
+        if isinstance(image, str):
+            skipped.append(Skipped("image", f"{path.relative_to(root).as_posix()}: {image}", 1))
+        else:
+            pts = pts._replace(codes=colour_codes_from_image(image, pts.lane_uv))
+    return pts

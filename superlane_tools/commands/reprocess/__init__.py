@@ -1,5 +1,8 @@
 """``slt reprocess``: the end-to-end offline pipeline from a drive to tables, plots and reports.
 
+Its configuration lives in the drive layer (:mod:`superlane_tools.drive.config`), imported from
+there only.
+
 The names below load their module on first use (PEP 562), so that ``slt reprocess`` starts the
 lane-fit kernels' compiler (:mod:`superlane_tools.commands.reprocess.entry`) before the
 pipeline's imports, as it did from ``cli/``.
@@ -15,37 +18,9 @@ if TYPE_CHECKING:
     from superlane_tools.commands.reprocess.publish import reprocess_run
     from superlane_tools.commands.reprocess.result import ReprocessResult
     from superlane_tools.commands.reprocess.run import reprocess
-    from superlane_tools.drive.config import (
-        BACKENDS,
-        CanConfig,
-        CorridorConfig,
-        KpiConfig,
-        OutputConfig,
-        ReprocessConfig,
-        RtkConfig,
-        SegmentationConfig,
-        TopicsConfig,
-        TrackingConfig,
-        config_from_mapping,
-        default_config_yaml,
-        load_config,
-    )
 
 _HOMES = {
-    "BACKENDS": "superlane_tools.drive.config",
-    "CanConfig": "superlane_tools.drive.config",
-    "CorridorConfig": "superlane_tools.drive.config",
-    "KpiConfig": "superlane_tools.drive.config",
-    "OutputConfig": "superlane_tools.drive.config",
-    "ReprocessConfig": "superlane_tools.drive.config",
     "ReprocessResult": "superlane_tools.commands.reprocess.result",
-    "RtkConfig": "superlane_tools.drive.config",
-    "SegmentationConfig": "superlane_tools.drive.config",
-    "TopicsConfig": "superlane_tools.drive.config",
-    "TrackingConfig": "superlane_tools.drive.config",
-    "config_from_mapping": "superlane_tools.drive.config",
-    "default_config_yaml": "superlane_tools.drive.config",
-    "load_config": "superlane_tools.drive.config",
     "reprocess": "superlane_tools.commands.reprocess.run",
     "reprocess_run": "superlane_tools.commands.reprocess.publish",
 }
@@ -55,20 +30,7 @@ __getattr__ = lazy_attributes(__name__, globals(), _HOMES)
 
 
 __all__ = [
-    "BACKENDS",
-    "CanConfig",
-    "CorridorConfig",
-    "KpiConfig",
-    "OutputConfig",
-    "ReprocessConfig",
     "ReprocessResult",
-    "RtkConfig",
-    "SegmentationConfig",
-    "TopicsConfig",
-    "TrackingConfig",
-    "config_from_mapping",
-    "default_config_yaml",
-    "load_config",
     "reprocess",
     "reprocess_run",
 ]

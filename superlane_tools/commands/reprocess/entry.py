@@ -81,7 +81,8 @@ def run(options: ReprocessOptions, progress: ProgressOpener) -> ReprocessOutcome
 
     o = options
     with compiling() as compiler:  # first: on a cold cache it is this run's critical path
-        from superlane_tools.commands.reprocess import ReprocessConfig, load_config, reprocess_run
+        from superlane_tools.commands.reprocess import reprocess_run
+        from superlane_tools.drive.config import ReprocessConfig, load_config
 
         cfg = load_config(o.config) if o.config is not None else ReprocessConfig()
         cfg = cfg.with_overrides(_overrides(o))
@@ -112,6 +113,13 @@ def run(options: ReprocessOptions, progress: ProgressOpener) -> ReprocessOutcome
         times_line(result.timings, result.frames_per_s),
         report_line(o.target, result.availability),
     )
+
+
+def default_config() -> str:
+    """Return the default configuration as YAML (``slt reprocess --print-config``)."""
+    from superlane_tools.drive.config import default_config_yaml
+
+    return default_config_yaml()
 
 
 def _signals_line(added: dict[str, int] | None) -> str | None:

@@ -10,7 +10,8 @@ from typing import TYPE_CHECKING, NamedTuple
 from superlane_tools.drive.config import ReprocessConfig
 from superlane_tools.drive.examples import example_indices
 from superlane_tools.drive.finalize import DerivedTables, report_sections
-from superlane_tools.drive.loop import DrivePass, DriveTopics, FrameSink
+from superlane_tools.drive.loop import FrameSink
+from superlane_tools.drive.reprocess_pass import DriveOutcome, PassSetup
 from superlane_tools.drive.run_facts import run_header
 from superlane_tools.drive.selfcheck import SelfCheck
 from superlane_tools.drive.sinks import AnnotationSink, ExampleSink, FrameTablesSink, VideoSink
@@ -24,7 +25,6 @@ from superlane_tools.reporting.report import write_report
 if TYPE_CHECKING:
     import pyarrow as pa
 
-    from superlane_tools.camera.model import CameraModel
     from superlane_tools.corridor import TimeSegment
 
 
@@ -32,10 +32,9 @@ def run_provenance(
     src: Path,
     dbc_paths: Sequence[Path],
     config: ReprocessConfig,
-    resolved: tuple[DriveTopics, CameraModel, FrameStages],
+    setup: PassSetup,
     segments: Sequence[TimeSegment] | None,
     command: str,
-    check: SelfCheck | str = "",
 ) -> Provenance:
     """Return the provenance of every output: inputs, the configuration and what it resolved to.
 
@@ -43,12 +42,15 @@ def run_provenance(
         src: The recording.
         dbc_paths: The DBC files used.
         config: The configuration.
-        resolved: The topics read, the camera and the stages built from the configuration.
-        segments: KPI sequences given by the caller (recorded when given).
+        setup: What the drive resolved to (without a camera: the configuration alone).
+        segments: KPI sequences given by the caller (recorded when given, with a camera).
         command: Command line (default: ``reprocess('<name>')``).
-        check: The segmentation self-check, or why it was skipped.
     """
-    topics, camera, stages = resolved
+    inputs = (input_identity(src), *(input_identity(p) for p in dbc_paths))
+    command = command or f"reprocess({src.name!r})"
+    topics, camera, stages, check = setup.topics, setup.camera, setup.stages, setup.check
+    if camera is None or stages is None:
+        return Provenance(command=command, inputs=inputs, config=config.to_dict())
     config_data = config.to_dict()
     config_data["resolved"] = {
         "streams": topics.streams._asdict(),
@@ -59,12 +61,52 @@ def run_provenance(
     }
     if segments is not None:
         config_data["resolved"]["segments"] = [s._asdict() for s in segments]
-    return Provenance(
-        command=command or f"reprocess({src.name!r})",
-        inputs=(input_identity(src), *(input_identity(p) for p in dbc_paths)),
-        config=config_data,
-        models=stages.models,
-    )
+    return Provenance(command=command, inputs=inputs, config=config_data, models=stages.models)
+
+
+class RunOutputs:
+    """The files of one run: the frame sinks, opened once the drive is resolved, then the rest.
+
+    :meth:`open` is the :data:`~superlane_tools.drive.reprocess_pass.SinkOpener` of the pass;
+    :meth:`write` writes the derived tables, the plots and the report of its outcome.
+    """
+
+    def __init__(
+        self,
+        out: Path,
+        config: ReprocessConfig,
+        inputs: tuple[Path, Sequence[Path]],
+        segments: Sequence[TimeSegment] | None,
+        command: str,
+    ) -> None:
+        self.out, self.config, self.inputs = out, config, inputs
+        self.segments, self.command = segments, command
+        self.sinks: PassSinks | None = None
+        self.provenance: Provenance | None = None
+
+    def _provenance(self, setup: PassSetup) -> Provenance:
+        src, dbc_paths = self.inputs
+        return run_provenance(src, dbc_paths, self.config, setup, self.segments, self.command)
+
+    def open(self, setup: PassSetup) -> list[FrameSink]:
+        """Open the frame sinks of a resolved drive with a camera."""
+        assert setup.stages is not None
+        self.provenance = self._provenance(setup)
+        self.out.mkdir(parents=True, exist_ok=True)
+        self.sinks = open_sinks(
+            self.out, self.config, setup.stages, setup.topics.frames, self.provenance, setup.total
+        )
+        return self.sinks.all()
+
+    def write(self, outcome: DriveOutcome) -> list[Path]:
+        """Write the derived tables, the plots and the report; return every file written."""
+        provenance = self.provenance or self._provenance(outcome.setup)
+        written, rendered = self.sinks.written(outcome.files) if self.sinks else ([], [])
+        self.out.mkdir(parents=True, exist_ok=True)
+        written += write_outputs(
+            self.out, outcome.derived, provenance, self.config, [], outcome.facts, rendered
+        )
+        return written
 
 
 class PassSinks(NamedTuple):
@@ -82,10 +124,13 @@ class PassSinks(NamedTuple):
         """Return every sink, in the order :func:`~superlane_tools.drive.run_frames` takes."""
         return [*self.outputs, self.examples]
 
-    def written(self, drive: DrivePass) -> tuple[list[Path], list[Path]]:
-        """Return the files the output sinks wrote, and the example plots, of a pass."""
+    def written(self, files: Sequence[Sequence[Path]]) -> tuple[list[Path], list[Path]]:
+        """Return the files the output sinks wrote, and the example plots, of a pass.
+
+        ``files``: per sink, in :meth:`all`'s order, the files its ``close`` returned.
+        """
         n = len(self.outputs)
-        return [p for files in drive.files[:n] for p in files], list(drive.files[n])
+        return [p for group in files[:n] for p in group], list(files[n])
 
 
 def open_sinks(

@@ -5,9 +5,11 @@ from __future__ import annotations
 import os
 import subprocess
 
-from superlane_tools.commands.reprocess.result import Phase, Progress, ReprocessResult
+from superlane_tools.commands.reprocess.result import ReprocessResult
 from superlane_tools.commands.reprocess.run import reprocess
 from superlane_tools.drive.config import ReprocessConfig
+from superlane_tools.drive.reprocess_pass import Phase
+from superlane_tools.records import Progress
 
 
 def reprocess_run(

@@ -125,54 +125,7 @@ def example_scene(
         shoulder_m=2.5,
         surface="concrete" if kind == "straight" else "asphalt",
     )
-    objects: tuple[SceneObject, ...] = ()
-    if with_objects:
-
-        def on_road(d: float, lat: float) -> tuple[float, float, float, float]:
-            i = int(np.clip(np.searchsorted(s, s0_m + d), 0, s.size - 1))
-            c, sn = np.cos(hd[i]), np.sin(hd[i])
-            return x[i] - sn * lat, y[i] + c * lat, z[i], hd[i]
-
-        objs = []
-        for d, lat, col, style, dims in (
-            (28.0, 0.1, (40, 40, 40), "car", (4.6, 1.85, 1.45)),
-            (55.0, 3.7, (190, 190, 195), "car", (4.5, 1.8, 1.5)),
-            (80.0, 7.2, (200, 200, 200), "truck", (12.0, 2.5, 3.6)),
-        ):
-            px, py, pz, ph = on_road(d, lat)
-            objs.append(SceneObject("vehicle", px, py, pz, *dims, ph, col, style))
-        for d in range(8, 240, 4):
-            px, py, pz, ph = on_road(float(d), road.right_edge_m - 0.6)
-            objs.append(
-                SceneObject(
-                    "building_wall_fence",
-                    px,
-                    py,
-                    pz,
-                    4.0,
-                    0.3,
-                    0.8,
-                    ph,
-                    (150, 155, 160),
-                    "guard_rail",
-                )
-            )
-        rng = np.random.default_rng(seed)
-        for d in range(20, 260, 9):
-            px, py, pz, ph = on_road(
-                float(d) + rng.uniform(0, 5), road.right_edge_m - 6 - rng.uniform(0, 8)
-            )
-            hgt = rng.uniform(6, 14)
-            objs.append(
-                SceneObject(
-                    "vegetation", px, py, pz, hgt * 0.6, hgt * 0.6, hgt, 0.0, (45, 90, 60), "tree"
-                )
-            )
-        px, py, pz, ph = on_road(70.0, road.right_edge_m - 1.5)
-        objs.append(
-            SceneObject("pole_sign_utility", px, py, pz, 0.2, 2.4, 3.8, ph, (70, 120, 20), "sign")
-        )
-        objects = tuple(objs)
+    objects = _example_objects(road, s0_m, seed) if with_objects else ()
     return FrameScene(
         t_ns=0,
         camera=camera,
@@ -185,3 +138,60 @@ def example_scene(
         world_seed=seed,
         frame_seed=seed,
     )
+
+
+def _example_objects(road: RoadProfile, s0_m: float, seed: int) -> tuple[SceneObject, ...]:
+    """Return a preceding car, a car and a truck in the next lanes, a guard rail, trees, a sign.
+
+    The trees' places and heights are drawn from ``seed``.
+    """
+    objs = []
+    for d, lat, col, style, dims in (
+        (28.0, 0.1, (40, 40, 40), "car", (4.6, 1.85, 1.45)),
+        (55.0, 3.7, (190, 190, 195), "car", (4.5, 1.8, 1.5)),
+        (80.0, 7.2, (200, 200, 200), "truck", (12.0, 2.5, 3.6)),
+    ):
+        px, py, pz, ph = _on_road(road, s0_m, d, lat)
+        objs.append(SceneObject("vehicle", px, py, pz, *dims, ph, col, style))
+    for d in range(8, 240, 4):
+        px, py, pz, ph = _on_road(road, s0_m, float(d), road.right_edge_m - 0.6)
+        objs.append(
+            SceneObject(
+                "building_wall_fence",
+                px,
+                py,
+                pz,
+                4.0,
+                0.3,
+                0.8,
+                ph,
+                (150, 155, 160),
+                "guard_rail",
+            )
+        )
+    rng = np.random.default_rng(seed)
+    for d in range(20, 260, 9):
+        px, py, pz, ph = _on_road(
+            road, s0_m, float(d) + rng.uniform(0, 5), road.right_edge_m - 6 - rng.uniform(0, 8)
+        )
+        hgt = rng.uniform(6, 14)
+        objs.append(
+            SceneObject(
+                "vegetation", px, py, pz, hgt * 0.6, hgt * 0.6, hgt, 0.0, (45, 90, 60), "tree"
+            )
+        )
+    px, py, pz, ph = _on_road(road, s0_m, 70.0, road.right_edge_m - 1.5)
+    objs.append(
+        SceneObject("pole_sign_utility", px, py, pz, 0.2, 2.4, 3.8, ph, (70, 120, 20), "sign")
+    )
+    return tuple(objs)
+
+
+def _on_road(
+    road: RoadProfile, s0_m: float, d: float, lat: float
+) -> tuple[float, float, float, float]:
+    """Return ``(x, y, z, heading)`` of the road sample ``d`` m ahead, ``lat`` m left of it."""
+    s, x, y, z, hd = road.s_m, road.x_m, road.y_m, road.z_m, road.heading_rad
+    i = int(np.clip(np.searchsorted(s, s0_m + d), 0, s.size - 1))
+    c, sn = np.cos(hd[i]), np.sin(hd[i])
+    return x[i] - sn * lat, y[i] + c * lat, z[i], hd[i]

@@ -3,17 +3,25 @@
 from __future__ import annotations
 
 import time
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
 from superlane_tools.simulation.errors import ScenarioError
 from superlane_tools.simulation.render import weather
-from superlane_tools.simulation.render._rays import camera_rays
-from superlane_tools.simulation.render.objects import draw_objects, shadow_factor
-from superlane_tools.simulation.render.raycast import cast_road, road_coordinates, road_tables
+from superlane_tools.simulation.render._rays import CameraRays, camera_rays
+from superlane_tools.simulation.render.objects import Layers, draw_objects, shadow_factor
+from superlane_tools.simulation.render.raycast import (
+    RoadHit,
+    RoadTables,
+    cast_road,
+    road_coordinates,
+    road_tables,
+)
 from superlane_tools.simulation.render.road_shading import (
     DRIVABLE_IDS,
+    Ground,
     GroundLight,
     line_offset,
     shade_ground,
@@ -22,7 +30,7 @@ from superlane_tools.simulation.render.sensor import finish, look_for
 from superlane_tools.simulation.render.sky import add_sun, hazed_sky
 from superlane_tools.simulation.render.textures import road_textures
 from superlane_tools.simulation.render.tunnel import WALL, draw_tunnel
-from superlane_tools.simulation.scene import FrameScene, RenderedFrame, SceneObject
+from superlane_tools.simulation.scene import Conditions, FrameScene, RenderedFrame, SceneObject
 
 F32 = NDArray[np.float32]
 
@@ -58,16 +66,9 @@ def render(scene: FrameScene, stage_ms: dict[str, float] | None = None) -> Rende
     Raises:
         ScenarioError: If the scene is inconsistent (bad profile, ego line indices).
     """
-    import cv2
-
     clock = _StageClock(stage_ms)
     road, cond, cam = scene.road, scene.conditions, scene.camera
-    n_lines = len(road.lines)
-    if not (0 <= scene.ego_left_line < n_lines and 0 <= scene.ego_right_line < n_lines):
-        raise ScenarioError(
-            f"ego lines {scene.ego_left_line}, {scene.ego_right_line} out of range "
-            f"for {n_lines} lines"
-        )
+    _check_ego_lines(scene)
     rng = np.random.default_rng([scene.world_seed, scene.frame_seed, 0xF7A3E])
     look = look_for(cond, rng)
     rays = camera_rays(cam)
@@ -76,13 +77,10 @@ def render(scene: FrameScene, stage_ms: dict[str, float] | None = None) -> Rende
     clock("ray_cast")
     tex = road_textures(scene.world_seed)
     row0 = hit.row0
-    h, w = cam.height, cam.width
 
     night = cond.daylight < 0.25 or cond.tunnel
     vis = weather.visibility_m(cond.fog, cond.rain)
-    base = (205.0, 200.0, 196.0) if not night else (30.0, 28.0, 28.0)
-    dim = 0.5 + 0.5 * min(1.0, cond.daylight)
-    hz = (base[0] * dim, base[1] * dim, base[2] * dim)
+    hz = _haze_bgr(cond, night)
     sky = hazed_sky(cam, scene.world_seed, night, cond.fog, hz, vis)
     img = sky.color.copy()
     sun_uv = (
@@ -90,14 +88,73 @@ def render(scene: FrameScene, stage_ms: dict[str, float] | None = None) -> Rende
         if night
         else add_sun(img, cam, cond.sun_elevation_deg, cond.sun_azimuth_rad, vis, row0 + 8)
     )
-    labels = sky.labels.copy()
-    range_m = sky.range_m.copy()
+    canvas = _Canvas(img, sky.labels.copy(), sky.range_m.copy())
     clock("composite")
     layers = draw_objects(cam, scene.objects, cond.daylight, scene.world_seed, hz, vis)
     clock("objects")
 
-    # Ground light on the half grid: daylight ambient, headlights at night, object contact
-    # shadows, then haze; the ground is shaded straight into the frame's rows below row0.
+    light = _ground_light(scene, rays, hit, layers, night, hz, vis)
+    # Raised pavement markers (Botts' dots) are a property of the world: half of them have them.
+    dots = scene.world_seed % 2 == 1
+    ground = shade_ground(
+        hit, road, tex, look.palette, cond.cracks, cond.tar_seams, cond.wet, light, img[row0:], dots
+    )
+    clock("road_shading")
+    gh = _paste_ground(canvas, sky.color, ground, hit)
+    if cond.tunnel:
+        gh = _paste_tunnel(canvas, scene, rays, tables, hit, hz, vis)
+    _paste_objects(canvas, scene, layers, ground, gh, rays, row0)
+    corridor = _corridor(scene, tables, hit, gh, canvas.labels)
+
+    # Lights, weather, sensor.
+    clock("composite")
+    _add_effects(img, scene, layers, sun_uv, night, rng)
+    clock("effects")
+    image = finish(img, rays.vignette, cond, look, rng)
+    clock("sensor")
+    return RenderedFrame(image_bgr=image, labels=canvas.labels, corridor=corridor)
+
+
+class _Canvas(NamedTuple):
+    """The full frame being composited: BGR image, leaf-id labels and range (m) per pixel."""
+
+    img: F32
+    labels: NDArray[np.uint8]
+    range_m: F32
+
+
+def _check_ego_lines(scene: FrameScene) -> None:
+    """Raise :class:`ScenarioError` unless the ego lane's line indices exist in the road."""
+    n_lines = len(scene.road.lines)
+    if not (0 <= scene.ego_left_line < n_lines and 0 <= scene.ego_right_line < n_lines):
+        raise ScenarioError(
+            f"ego lines {scene.ego_left_line}, {scene.ego_right_line} out of range "
+            f"for {n_lines} lines"
+        )
+
+
+def _haze_bgr(cond: Conditions, night: bool) -> tuple[float, float, float]:
+    """Return the airlight colour (BGR grey levels), dimmed with the daylight."""
+    base = (205.0, 200.0, 196.0) if not night else (30.0, 28.0, 28.0)
+    dim = 0.5 + 0.5 * min(1.0, cond.daylight)
+    return (base[0] * dim, base[1] * dim, base[2] * dim)
+
+
+def _ground_light(
+    scene: FrameScene,
+    rays: CameraRays,
+    hit: RoadHit,
+    layers: Layers,
+    night: bool,
+    hz: tuple[float, float, float],
+    vis: float,
+) -> GroundLight:
+    """Return the ground light on the half grid.
+
+    Daylight ambient, headlights at night, object contact shadows, then haze; the ground is
+    shaded with it straight into the frame's rows below ``row0``.
+    """
+    cond, row0 = scene.conditions, hit.row0
     range_h, hit_h = hit.range_m[::2, ::2], hit.hit[::2, ::2]
     amb = np.float32(0.4 + 0.6 * min(1.0, cond.daylight)) if not cond.tunnel else np.float32(0.45)
     keep = weather.haze_keep(range_h, vis)
@@ -111,32 +168,68 @@ def render(scene: FrameScene, stage_ms: dict[str, float] | None = None) -> Rende
         keep *= amb
     if scene.objects:
         keep *= shadow_factor(layers.shadow, row0, keep.shape, 0.45 + 0.3 * cond.daylight)
-    light = GroundLight(keep, airlight, hz)
-    # Raised pavement markers (Botts' dots) are a property of the world: half of them have them.
-    dots = scene.world_seed % 2 == 1
-    ground = shade_ground(
-        hit, road, tex, look.palette, cond.cracks, cond.tar_seams, cond.wet, light, img[row0:], dots
-    )
-    clock("road_shading")
+    return GroundLight(keep, airlight, hz)
+
+
+def _paste_ground(canvas: _Canvas, sky_bgr: F32, ground: Ground, hit: RoadHit) -> NDArray[np.bool_]:
+    """Put the ground's labels and ranges below the horizon; return where rays hit the ground.
+
+    The ground colour is already in place (shaded into the image); rows where some rays miss
+    the ground get the sky back there.
+    """
+    import cv2
+
+    img, labels, range_m = canvas
+    row0 = hit.row0
     gh = hit.hit
     misses = np.flatnonzero(~gh.all(axis=1))
     if misses.size:  # rows where some rays miss the ground keep the sky there
         a, b = int(misses[0]), int(misses[-1]) + 1
         miss = (~gh[a:b]).view(np.uint8)
-        cv2.copyTo(sky.color[row0 + a : row0 + b], miss, img[row0 + a : row0 + b])
+        cv2.copyTo(sky_bgr[row0 + a : row0 + b], miss, img[row0 + a : row0 + b])
     gh8 = gh.view(np.uint8)
     cv2.copyTo(ground.labels, gh8, labels[row0:])
     cv2.copyTo(hit.range_m, gh8, range_m[row0:])
+    return gh
 
-    if cond.tunnel:
-        ground_mask = np.zeros((h, w), bool)
-        ground_mask[row0:] = gh
-        draw_tunnel(img, labels, range_m, ground_mask, rays, tables, road, hit)
-        gh = ground_mask[row0:]
-        walls = labels == WALL
-        weather.haze_pixels(img, walls, range_m[walls], hz, vis)
 
-    # Objects composite by depth (the road occludes objects beyond a crest), hazed per pixel.
+def _paste_tunnel(
+    canvas: _Canvas,
+    scene: FrameScene,
+    rays: CameraRays,
+    tables: RoadTables,
+    hit: RoadHit,
+    hz: tuple[float, float, float],
+    vis: float,
+) -> NDArray[np.bool_]:
+    """Draw the tunnel walls and ceiling (hazed); return the ground mask of rows ``row0:`` left."""
+    img, labels, range_m = canvas
+    row0 = hit.row0
+    ground_mask = np.zeros((scene.camera.height, scene.camera.width), bool)
+    ground_mask[row0:] = hit.hit
+    draw_tunnel(img, labels, range_m, ground_mask, rays, tables, scene.road, hit)
+    walls = labels == WALL
+    weather.haze_pixels(img, walls, range_m[walls], hz, vis)
+    return ground_mask[row0:]
+
+
+def _paste_objects(
+    canvas: _Canvas,
+    scene: FrameScene,
+    layers: Layers,
+    ground: Ground,
+    gh: NDArray[np.bool_],
+    rays: CameraRays,
+    row0: int,
+) -> None:
+    """Composite the objects by depth, then the reflections of the uncovered glossy ground.
+
+    The road occludes objects beyond a crest; objects are already hazed per pixel.
+    """
+    import cv2
+
+    img, labels, range_m = canvas
+    cond = scene.conditions
     occl = layers.labels > 0
     occl &= layers.depth < range_m
     if scene.objects:
@@ -152,13 +245,27 @@ def render(scene: FrameScene, stage_ms: dict[str, float] | None = None) -> Rende
             gloss *= np.float32(0.5)
             weather.wet_reflection(img, rays, gloss, row0, 0.3)
 
-    # Corridor: drivable pixels between the ego lane's line centres, up to the corridor length.
+
+def _corridor(
+    scene: FrameScene,
+    tables: RoadTables,
+    hit: RoadHit,
+    gh: NDArray[np.bool_],
+    labels: NDArray[np.uint8],
+) -> NDArray[np.bool_]:
+    """Return the ego corridor: drivable pixels between the ego lane's line centres.
+
+    It ends ``scene.corridor_length_m`` (arc length) ahead of the ego position.
+    """
+    import cv2
+
+    road, row0 = scene.road, hit.row0
     s_ego = float(road_coordinates(tables, np.zeros(1, np.float32), np.zeros(1, np.float32))[0][0])
     lo_line, hi_line = road.lines[scene.ego_right_line], road.lines[scene.ego_left_line]
     lo = line_offset(lo_line, hit.s_m)
     hi = line_offset(hi_line, hit.s_m)
     lo, hi = np.minimum(lo, hi), np.maximum(lo, hi)
-    corridor = np.zeros((h, w), bool)
+    corridor = np.zeros((scene.camera.height, scene.camera.width), bool)
     corridor[row0:] = (
         gh
         & (hit.l_m >= lo)
@@ -167,9 +274,19 @@ def render(scene: FrameScene, stage_ms: dict[str, float] | None = None) -> Rende
         & (hit.x_m > 0)
     )
     corridor &= cv2.LUT(labels, _DRIVABLE_LUT).view(bool)
+    return corridor
 
-    # Lights, weather, sensor.
-    clock("composite")
+
+def _add_effects(
+    img: F32,
+    scene: FrameScene,
+    layers: Layers,
+    sun_uv: tuple[float, float] | None,
+    night: bool,
+    rng: np.random.Generator,
+) -> None:
+    """Add the light sources' glow, spray and rain (draws from ``rng``) and the sun's glare."""
+    cond = scene.conditions
     if night or cond.fog > 0.3 or cond.rain > 0.3:
         weather.add_lights(img, layers.lights, 0.8 if night else 0.4)
     if cond.rain > 0:
@@ -177,10 +294,6 @@ def render(scene: FrameScene, stage_ms: dict[str, float] | None = None) -> Rende
         weather.add_rain(img, rng, cond.rain)
     if cond.glare > 0:
         weather.add_glare(img, sun_uv, cond.glare, cond.sun_elevation_deg)
-    clock("effects")
-    image = finish(img, rays.vignette, cond, look, rng)
-    clock("sensor")
-    return RenderedFrame(image_bgr=image, labels=labels, corridor=corridor)
 
 
 def _lead_box(scene: FrameScene) -> tuple[float, float, float, float] | None:

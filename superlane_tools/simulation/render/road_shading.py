@@ -4,17 +4,25 @@ Everything is evaluated in road coordinates ``(s, l)`` from :mod:`.raycast`, so 
 exactly where the lines are and textures stay fixed on the road while the car moves. Paint is
 anti-aliased with the pixel footprint in metres; labels use the pixel centre (widened to one
 pixel where a line is thinner than a pixel, so far lines stay connected in the masks).
+The unpainted surface is in :mod:`._surface`; this module paints the markings on it.
 """
 
 from __future__ import annotations
 
-import itertools
 from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
 from superlane_tools.hierarchy import LEAF_IDS
+from superlane_tools.simulation.render._surface import (
+    DEFAULT_PALETTE,
+    GroundLight,
+    HalfGrid,
+    Palette,
+    fmod_pos,
+    surface_color,
+)
 from superlane_tools.simulation.render.raycast import (
     MAX_FOOTPRINT_M,
     RoadHit,
@@ -27,6 +35,24 @@ from superlane_tools.simulation.render.textures import (
     RoadTextures,
 )
 from superlane_tools.simulation.scene import LaneLine, LineColor, LineStyle, RoadProfile
+
+__all__ = [
+    "CROSSWALK",
+    "DEFAULT_PALETTE",
+    "DRIVABLE_IDS",
+    "ROAD",
+    "SIDEWALK",
+    "STOP_LINE",
+    "TERRAIN",
+    "Ground",
+    "GroundLight",
+    "Palette",
+    "fmod_pos",
+    "ground_labels",
+    "line_label",
+    "line_offset",
+    "shade_ground",
+]
 
 F32 = NDArray[np.float32]
 F = np.float32
@@ -47,31 +73,6 @@ _DOT_M = 0.12  # raised pavement marker size
 _DOT_BGR = (215.0, 222.0, 228.0)
 
 
-class Palette(NamedTuple):
-    """Base colours (BGR, 0..255 floats) of the ground, possibly randomised."""
-
-    asphalt: tuple[float, float, float]
-    concrete: tuple[float, float, float]
-    white_paint: tuple[float, float, float]
-    yellow_paint: tuple[float, float, float]
-    grass: tuple[float, float, float]
-    dirt: tuple[float, float, float]
-    sidewalk: tuple[float, float, float]
-    seam: tuple[float, float, float]
-
-
-DEFAULT_PALETTE = Palette(
-    asphalt=(92.0, 92.0, 96.0),
-    concrete=(150.0, 152.0, 155.0),
-    white_paint=(228.0, 230.0, 230.0),
-    yellow_paint=(40.0, 175.0, 215.0),
-    grass=(60.0, 112.0, 92.0),
-    dirt=(95.0, 118.0, 130.0),
-    sidewalk=(165.0, 168.0, 170.0),
-    seam=(30.0, 30.0, 32.0),
-)
-
-
 class Ground(NamedTuple):
     """Shaded ground of rows ``hit.row0:``.
 
@@ -84,23 +85,6 @@ class Ground(NamedTuple):
     color: F32
     labels: U8
     gloss: F32
-
-
-class GroundLight(NamedTuple):
-    """Light and haze on the half grid (every second row and column of the ground rows).
-
-    The shaded colour ``c`` becomes ``c * gain + haze * haze_bgr`` (illumination times the
-    transmitted fraction, plus the airlight), both smooth at the pixel scale.
-
-    Attributes:
-        gain: ``(ceil(R / 2), ceil(W / 2))`` illumination times transmission.
-        haze: Same shape, airlight fraction ``1 - transmission``.
-        haze_bgr: Airlight colour, BGR grey levels.
-    """
-
-    gain: F32
-    haze: F32
-    haze_bgr: tuple[float, float, float]
 
 
 def line_label(line: LaneLine) -> int:
@@ -130,38 +114,10 @@ def _stroke(d: F32, half_w: float, foot: F32) -> tuple[F32, NDArray[np.bool_]]:
     return cov, lab
 
 
-def fmod_pos(a: F32, period: float) -> F32:
-    """Return ``a`` modulo ``period`` in ``[0, period)`` (faster than ``np.mod`` for float32)."""
-    p = np.float32(period)
-    out: F32 = a - np.floor(a * np.float32(1.0 / period)) * p
-    return out
-
-
 def _in_ranges(s: F32, ranges: tuple[tuple[float, float], ...]) -> NDArray[np.bool_]:
     out = np.zeros(s.shape, bool)
     for a, b in ranges:
         out |= (s >= a) & (s < b)
-    return out
-
-
-def _tex_levels(foot: F32, texel_m: float, n_levels: int) -> NDArray[np.int32]:
-    """Return the mip level per row (from the footprint at the centre column)."""
-    rows = foot[:, foot.shape[1] // 2] / (2.0 * texel_m)
-    lev = np.floor(np.log2(np.maximum(rows, 1.0))).astype(np.int32)
-    out: NDArray[np.int32] = np.clip(lev, 0, n_levels - 1).astype(np.int32)
-    return out
-
-
-def _sample_mip(mips: F32, texel_m: float, a: F32, b: F32, levels: NDArray[np.int32]) -> F32:
-    """Sample a mip chain at road coordinates ``a`` (along) and ``b`` (across).
-
-    ``levels`` is the mip level per row of 2-D ``a`` (or per element of 1-D ``a``).
-    """
-    n, h, w = mips.shape
-    ia = (a * np.float32(1.0 / texel_m)).astype(np.intp) & (w - 1)
-    ib = (b * np.float32(1.0 / texel_m)).astype(np.intp) & (h - 1)
-    lev = levels[:, None] if a.ndim == 2 else levels
-    out: F32 = mips.reshape(n * h, w)[lev * h + ib, ia]
     return out
 
 
@@ -223,10 +179,10 @@ def shade_ground(
     labels, on_road, side = ground_labels(hit, road)
     hs, hl, hv = s[::2, ::2], l_m[::2, ::2], valid[::2, ::2]
     # Footprints of the half grid: differences over two pixels.
-    half = _Half(
+    half = HalfGrid(
         hs, hl, footprint(hl, hv), footprint(hs, hv), hv, on_road[::2, ::2], side[::2, ::2]
     )
-    color_h, gloss_h = _surface(half, road, tex, palette, cracks, tar_seams, wet, light)
+    color_h, gloss_h = surface_color(half, road, tex, palette, cracks, tar_seams, wet, light)
     color = np.empty((rows, cols, 3), np.float32) if out is None else out
     cv2.resize(color_h, (cols, rows), dst=color, interpolation=cv2.INTER_LINEAR)
     if tar_seams > 0 or wet > 0:
@@ -242,135 +198,12 @@ def shade_ground(
     return Ground(color, labels, gloss)
 
 
-class _Half(NamedTuple):
-    """Road coordinates on every second row and column (footprints of that coarser grid)."""
-
-    s: F32
-    l_m: F32
-    foot_l: F32
-    foot_s: F32
-    valid: NDArray[np.bool_]
-    on_road: NDArray[np.bool_]
-    side: NDArray[np.bool_]
-
-
-def _tyre_profile(road: RoadProfile) -> F32:
-    """Return the lateral shading profile (tyre tracks, slab joints) on a 2 cm grid from -40 m."""
-    offsets = sorted(ln.offset_m for ln in road.lines)
-    prof_l = np.arange(-40.0, 40.0, 0.02, dtype=np.float32)
-    prof = np.ones_like(prof_l)
-    for a, b in itertools.pairwise(offsets):
-        c = 0.5 * (a + b)
-        for wheel in (-0.85, 0.85):
-            prof -= 0.07 * np.exp(-(((prof_l - c - wheel) / 0.35) ** 2))
-        prof -= 0.05 * np.exp(-(((prof_l - c) / 0.25) ** 2))
-    if road.surface == "concrete":  # longitudinal slab joints under the lines, dark hairlines
-        for o in offsets:
-            prof -= 0.25 * np.exp(-(((prof_l - o - 0.12) / 0.02) ** 2))
-    return prof
-
-
-def _surface(
-    g: _Half,
-    road: RoadProfile,
-    tex: RoadTextures,
-    palette: Palette,
-    cracks: float,
-    tar_seams: float,
-    wet: float,
-    light: GroundLight,
-) -> tuple[F32, F32]:
-    """Return the unpainted, lit and hazed ground colour and the gloss of the half grid.
-
-    The colour is one linear map of per-pixel weights (surface shade, seam coverage, airlight)
-    applied with ``cv2.transform``, which is much faster than channel-wise numpy blends.
-    """
-    import cv2
-
-    s, l_m = g.s, g.l_m
-    lev = _tex_levels(g.foot_l, FINE_TEXEL_M, tex.fine.shape[0])
-    grain = _sample_mip(tex.fine, FINE_TEXEL_M, s, l_m, lev)
-    ic = (s * np.float32(1.0 / COARSE_TEXEL_M)).astype(np.int32) & 255
-    jc = (l_m * np.float32(1.0 / COARSE_TEXEL_M)).astype(np.int32) & 255
-    blotch = tex.coarse[jc, ic]
-    surf = palette.concrete if road.surface == "concrete" else palette.asphalt
-    shade = np.float32(1.0) + np.float32(0.07) * grain + np.float32(0.06) * blotch
-    prof = _tyre_profile(road)
-    li = np.clip(((l_m + 40.0) * 50.0).astype(np.int32), 0, prof.size - 1)
-    shade *= prof[li]
-    if road.surface == "concrete":  # transverse slab joints every 4.6 m
-        jm = fmod_pos(s, 4.6)
-        joint = np.clip(np.float32(0.03) / g.foot_s, 0.0, 1.0) * (jm < 0.03 + g.foot_s)
-        shade *= np.float32(1.0) - np.float32(0.25) * joint
-    gloss = np.zeros(s.shape, np.float32)
-    if cracks > 0:
-        crack = _sample_bilinear(tex.cracks, s, l_m, 4.0 / COARSE_TEXEL_M)
-        crack *= np.float32(min(1.0, cracks * 1.5))
-        crack *= np.clip(np.float32(0.1) / g.foot_l, 0.0, 1.0)
-        patch = (blotch > np.float32(2.2 - 1.2 * cracks)).astype(np.float32)
-        shade *= (np.float32(1.0) - np.float32(0.45) * crack) * (
-            np.float32(1.0) - np.float32(0.12) * patch
-        )
-    gain = light.gain * np.float32(1.0 - 0.35 * wet) if wet > 0 else light.gain
-    shade *= gain
-    hz = light.haze_bgr
-    if tar_seams > 0:
-        seam = _sample_bilinear(tex.seams, s, l_m, 1.5 / COARSE_TEXEL_M)
-        seam *= np.float32(min(1.0, 1.3 * tar_seams))
-        seam *= np.clip(np.float32(0.08) / g.foot_l, 0.0, 1.0) * g.on_road
-        np.minimum(seam, np.float32(1.0), out=seam)
-        gloss = np.maximum(gloss, seam)
-        weights = cv2.merge([shade * (np.float32(1.0) - seam), seam * gain, light.haze])
-        mat = np.array([[surf[c], palette.seam[c], hz[c]] for c in range(3)], np.float32)
-    else:
-        weights = cv2.merge([shade, light.haze])
-        mat = np.array([[surf[c], hz[c]] for c in range(3)], np.float32)
-    color = np.asarray(cv2.transform(weights, mat), dtype=np.float32)
-    if wet > 0:
-        gloss = np.maximum(gloss, np.float32(wet) * g.on_road)
-
-    off = np.flatnonzero(g.valid & ~g.on_road)
-    if off.size:  # terrain and sidewalks, evaluated on their own pixels only
-        so, lo = s.reshape(-1)[off], l_m.reshape(-1)[off]
-        glev = _tex_levels(g.foot_l, 4 * FINE_TEXEL_M, tex.grass.shape[0])
-        gr = _sample_mip(tex.grass, 4 * FINE_TEXEL_M, so, lo, glev[off // s.shape[1]])
-        edge_d = np.maximum(lo - np.float32(road.left_edge_m), np.float32(road.right_edge_m) - lo)
-        dirt_w = np.clip(np.float32(1.6) - edge_d, 0.0, 1.0)  # gravel strip next to the asphalt
-        mix = np.clip(np.float32(0.5) + np.float32(0.35) * blotch.reshape(-1)[off] + dirt_w, 0, 1)
-        tshade = np.float32(1.0) + np.float32(0.18) * gr
-        grass = np.array(palette.grass, np.float32)
-        dirt = np.array(palette.dirt, np.float32)
-        terr = (grass + mix[:, None] * (dirt - grass)) * tshade[:, None]
-        side = g.side.reshape(-1)[off]
-        if np.any(side):
-            side_c = (np.float32(1.0) + np.float32(0.05) * grain.reshape(-1)[off])[:, None] * (
-                np.array(palette.sidewalk, np.float32)
-            )
-            terr = np.where(side[:, None], side_c, terr)
-        terr *= gain.reshape(-1)[off, None]
-        terr += light.haze.reshape(-1)[off, None] * np.array(hz, np.float32)
-        color.reshape(-1, 3)[off] = terr
-    return color, gloss
-
-
-def _sample_bilinear(tex: F32, s: F32, l_m: F32, texels_per_m: float) -> F32:
-    """Sample a wrapping ``(256, 256)`` texture bilinearly at ``(s, l)`` (smooth up close)."""
-    import cv2
-
-    n = tex.shape[0]
-    k = np.float32(texels_per_m)
-    u = fmod_pos(s * k, n)
-    v = fmod_pos(l_m * k, n)
-    out = cv2.remap(tex, u, v, cv2.INTER_LINEAR, borderMode=cv2.BORDER_WRAP)
-    return np.asarray(out, dtype=np.float32)
-
-
 def _paint_lines(
     hit: RoadHit,
     road: RoadProfile,
     tex: RoadTextures,
     palette: Palette,
-    half: _Half,
+    half: HalfGrid,
     light: GroundLight,
     color: F32,
     labels: U8,
@@ -380,6 +213,19 @@ def _paint_lines(
 
     With ``road_dots``, dashed lines get a raised pavement marker in each gap (appearance only:
     the pixels stay labelled road).
+    """
+    idx = _line_candidates(road, half, color.shape[:2])
+    if idx.size == 0:
+        return
+    px = _line_pixels(hit, road, half, light, color, labels, idx)
+    for line in road.lines:
+        _paint_line(line, px, tex, palette, light.haze_bgr, road_dots)
+    color.reshape(-1, 3)[idx] = px.col
+    labels.reshape(-1)[idx] = px.lab
+
+
+def _line_candidates(road: RoadProfile, half: HalfGrid, shape: tuple[int, ...]) -> NDArray[np.intp]:
+    """Return the flat indices of the full-resolution pixels that may be near a line.
 
     Only pixels within a few footprints of a line on the half grid are evaluated: a full
     resolution pixel lies at most one half-grid footprint from its half-grid sample, so the
@@ -387,7 +233,7 @@ def _paint_lines(
     """
     import cv2
 
-    rows, cols = color.shape[:2]
+    rows, cols = shape
     cand = np.zeros(half.s.shape, bool)
     for line in road.lines:
         d = np.abs(half.l_m - line_offset(line, half.s))
@@ -401,9 +247,39 @@ def _paint_lines(
     cand &= half.valid
     grown = cv2.dilate(cand.view(np.uint8), np.ones((3, 3), np.uint8))
     full = cv2.resize(grown, (cols, rows), interpolation=cv2.INTER_NEAREST)
-    idx = np.flatnonzero(full)
-    if idx.size == 0:
-        return
+    return np.flatnonzero(full)
+
+
+class _LinePixels(NamedTuple):
+    """What the lines are painted from and into, at the candidate pixels (1-D arrays).
+
+    ``col`` and ``lab`` are copies of the frame's colour and labels there, painted in place and
+    written back once; ``cross`` is None without crosswalks.
+    """
+
+    s: F32
+    l_m: F32
+    foot_l: F32
+    foot_s: F32
+    gain: F32
+    airlight: F32
+    in_view: NDArray[np.bool_]
+    cross: NDArray[np.bool_] | None
+    col: F32
+    lab: U8
+
+
+def _line_pixels(
+    hit: RoadHit,
+    road: RoadProfile,
+    half: HalfGrid,
+    light: GroundLight,
+    color: F32,
+    labels: U8,
+    idx: NDArray[np.intp],
+) -> _LinePixels:
+    """Gather road coordinates, footprints, light and the current colour at pixels ``idx``."""
+    cols = color.shape[1]
     s = hit.s_m.reshape(-1)[idx]
     l_m = hit.l_m.reshape(-1)[idx]
     foot_l = footprint_at(hit.l_m, hit.hit, idx)
@@ -417,66 +293,76 @@ def _paint_lines(
     airlight = light.haze.reshape(-1)[hidx]
     in_view_all = valid & (s >= road.s_m[0]) & (s <= road.s_m[-1])
     cross_all = _in_ranges(s, road.crosswalks_s_m) if road.crosswalks_s_m else None
-    for line in road.lines:
-        paint_col = palette.yellow_paint if line.color is LineColor.YELLOW else palette.white_paint
-        hw = 0.5 * line.width_m
-        d_all = np.abs(l_m - line_offset(line, s))
-        if line.style is LineStyle.DOUBLE:
-            d_all = np.abs(d_all - np.float32(hw + 0.5 * _DOUBLE_GAP_M))
-        # This line's own pixels: paint coverage or label needs d < hw + foot / 2.
-        sub = np.flatnonzero(d_all < np.float32(hw) + np.float32(0.5) * foot_l)
-        if sub.size == 0:
-            continue
-        d, fl, ss = d_all[sub], foot_l[sub], s[sub]
-        cov, mark = _stroke(d, hw, fl)
-        span = in_view_all[sub]
-        if np.isfinite(line.start_s_m) or np.isfinite(line.end_s_m):
-            span = span & (ss >= line.start_s_m) & (ss < line.end_s_m)
-        if cross_all is not None:
-            span = span & ~cross_all[sub]
-        if line.style is LineStyle.DASHED:
-            period = line.dash_m + line.gap_m
-            m = fmod_pos(ss - np.float32(line.phase_m), period)
-            along = np.minimum(m, np.float32(line.dash_m) - m)
-            cov = cov * np.clip(along / foot_s[sub] + np.float32(0.5), 0.0, 1.0)
-            mark &= m < line.dash_m
-        mark &= span
-        cov = cov * span
-        if line.wear > 0:
-            wear_tex = _wear_texture(tex, ss, l_m[sub], fl)
-            keep = np.clip(
-                np.float32(1.0 - 1.2 * line.wear) + np.float32(0.45 * line.wear) * wear_tex,
-                0.0,
-                1.0,
-            )
-            cov = cov * keep
-        lit = np.array(paint_col, np.float32) * gain[sub, None]
-        lit += airlight[sub, None] * np.array(light.haze_bgr, np.float32)
-        cs = col[sub]
-        cs += (cov * np.float32(0.92))[:, None] * (lit - cs)
-        if road_dots and line.style is LineStyle.DASHED:
-            # A raised pavement marker (~10 cm reflector) in the middle of each gap.
-            gap_d = np.abs(m - np.float32(line.dash_m + 0.5 * line.gap_m))
-            dot = np.clip((np.float32(_DOT_M / 2) - d) / fl + np.float32(0.5), 0.0, 1.0)
-            dot *= np.clip((np.float32(_DOT_M / 2) - gap_d) / foot_s[sub] + np.float32(0.5), 0, 1)
-            dot *= span
-            shine = np.array(_DOT_BGR, np.float32) * gain[sub, None]
-            shine += airlight[sub, None] * np.array(light.haze_bgr, np.float32)
-            cs += (dot * np.float32(0.9))[:, None] * (shine - cs)
-        col[sub] = cs
-        if line.wear < 0.999:
-            ls = lab[sub]
-            ls[mark] = line_label(line)
-            lab[sub] = ls
-    color.reshape(-1, 3)[idx] = col
-    labels.reshape(-1)[idx] = lab
+    return _LinePixels(s, l_m, foot_l, foot_s, gain, airlight, in_view_all, cross_all, col, lab)
+
+
+def _paint_line(
+    line: LaneLine,
+    px: _LinePixels,
+    tex: RoadTextures,
+    palette: Palette,
+    haze_bgr: tuple[float, float, float],
+    road_dots: bool,
+) -> None:
+    """Paint one line into ``px.col`` and label it in ``px.lab`` (dashes, wear, markers)."""
+    paint_col = palette.yellow_paint if line.color is LineColor.YELLOW else palette.white_paint
+    hw = 0.5 * line.width_m
+    d_all = np.abs(px.l_m - line_offset(line, px.s))
+    if line.style is LineStyle.DOUBLE:
+        d_all = np.abs(d_all - np.float32(hw + 0.5 * _DOUBLE_GAP_M))
+    # This line's own pixels: paint coverage or label needs d < hw + foot / 2.
+    sub = np.flatnonzero(d_all < np.float32(hw) + np.float32(0.5) * px.foot_l)
+    if sub.size == 0:
+        return
+    d, fl, ss, foot_s = d_all[sub], px.foot_l[sub], px.s[sub], px.foot_s[sub]
+    cov, mark = _stroke(d, hw, fl)
+    span = px.in_view[sub]
+    if np.isfinite(line.start_s_m) or np.isfinite(line.end_s_m):
+        span = span & (ss >= line.start_s_m) & (ss < line.end_s_m)
+    if px.cross is not None:
+        span = span & ~px.cross[sub]
+    if line.style is LineStyle.DASHED:
+        period = line.dash_m + line.gap_m
+        m = fmod_pos(ss - np.float32(line.phase_m), period)
+        along = np.minimum(m, np.float32(line.dash_m) - m)
+        cov = cov * np.clip(along / foot_s + np.float32(0.5), 0.0, 1.0)
+        mark &= m < line.dash_m
+    mark &= span
+    cov = cov * span
+    if line.wear > 0:
+        wear_tex = _wear_texture(tex, ss, px.l_m[sub], fl)
+        keep = np.clip(
+            np.float32(1.0 - 1.2 * line.wear) + np.float32(0.45 * line.wear) * wear_tex,
+            0.0,
+            1.0,
+        )
+        cov = cov * keep
+    gain, airlight = px.gain[sub, None], px.airlight[sub, None]
+    lit = np.array(paint_col, np.float32) * gain
+    lit += airlight * np.array(haze_bgr, np.float32)
+    cs = px.col[sub]
+    cs += (cov * np.float32(0.92))[:, None] * (lit - cs)
+    if road_dots and line.style is LineStyle.DASHED:
+        # A raised pavement marker (~10 cm reflector) in the middle of each gap.
+        gap_d = np.abs(m - np.float32(line.dash_m + 0.5 * line.gap_m))
+        dot = np.clip((np.float32(_DOT_M / 2) - d) / fl + np.float32(0.5), 0.0, 1.0)
+        dot *= np.clip((np.float32(_DOT_M / 2) - gap_d) / foot_s + np.float32(0.5), 0, 1)
+        dot *= span
+        shine = np.array(_DOT_BGR, np.float32) * gain
+        shine += airlight * np.array(haze_bgr, np.float32)
+        cs += (dot * np.float32(0.9))[:, None] * (shine - cs)
+    px.col[sub] = cs
+    if line.wear < 0.999:
+        ls = px.lab[sub]
+        ls[mark] = line_label(line)
+        px.lab[sub] = ls
 
 
 def _paint_transverse(
     hit: RoadHit,
     road: RoadProfile,
     palette: Palette,
-    half: _Half,
+    half: HalfGrid,
     light: GroundLight,
     on_road: NDArray[np.bool_],
     color: F32,

@@ -9,7 +9,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from superlane_tools.commands.reprocess import ReprocessConfig, reprocess
+from superlane_tools.commands.reprocess import reprocess
+from superlane_tools.drive.config import ReprocessConfig
 from superlane_tools.simulation.drive import simulate_drive
 from superlane_tools.simulation.sensors import VehicleOptions
 

@@ -15,7 +15,8 @@ import pytest
 from typer.testing import CliRunner
 
 from superlane_tools.cli import app
-from superlane_tools.commands.reprocess import ReprocessConfig, ReprocessResult, reprocess
+from superlane_tools.commands.reprocess import ReprocessResult, reprocess
+from superlane_tools.drive.config import ReprocessConfig
 from superlane_tools.simulation.drive import simulate_drive
 
 FAST = ReprocessConfig().with_overrides({"output.example_frames": 1})

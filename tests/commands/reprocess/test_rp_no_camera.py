@@ -8,7 +8,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from superlane_tools.commands.reprocess import ReprocessConfig, reprocess
+from superlane_tools.commands.reprocess import reprocess
+from superlane_tools.drive.config import ReprocessConfig
 from superlane_tools.geo import trajectory_curvature
 
 pytestmark = pytest.mark.slow  # whole reprocess runs; run with -m slow

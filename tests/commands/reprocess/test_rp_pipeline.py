@@ -10,7 +10,8 @@ import pandas as pd
 import pyarrow.parquet as pq
 import pytest
 
-from superlane_tools.commands.reprocess import ReprocessConfig, reprocess
+from superlane_tools.commands.reprocess import reprocess
+from superlane_tools.drive.config import ReprocessConfig
 from superlane_tools.recording import open_recording
 from superlane_tools.reporting import read_provenance
 from superlane_tools.reporting.layout import (

@@ -17,7 +17,8 @@ from typer.testing import CliRunner
 
 from superlane_tools._version import __version__
 from superlane_tools.cli import app
-from superlane_tools.commands.reprocess import ReprocessConfig, ReprocessResult, reprocess
+from superlane_tools.commands.reprocess import ReprocessResult, reprocess
+from superlane_tools.drive.config import ReprocessConfig
 from superlane_tools.recording.tools import filter_recording
 from superlane_tools.simulation.drive import simulate_drive
 

@@ -15,8 +15,9 @@ import pandas as pd
 import pytest
 
 from superlane_tools.camera.profiles import load_camera
-from superlane_tools.commands.reprocess import ReprocessConfig, reprocess
+from superlane_tools.commands.reprocess import reprocess
 from superlane_tools.corridor import CorridorParams, corridor_from_mask, measurable_range_m
+from superlane_tools.drive.config import ReprocessConfig
 from superlane_tools.errors import ConfigError
 from superlane_tools.recording.images import decode_frame, decode_reduced
 from superlane_tools.records import Message

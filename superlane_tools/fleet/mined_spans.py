@@ -15,7 +15,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from superlane_tools.fleet import DriveRun, FleetError, find_drives
+from superlane_tools.fleet.errors import FleetError
+from superlane_tools.fleet.runs import DriveRun, find_drives
 from superlane_tools.reporting.layout import COMPARE_SPANS_TABLE, CompareLayout
 
 NO_HASH = "folder:"
