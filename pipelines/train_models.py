@@ -47,7 +47,10 @@ it is resampled into the canonical camera; driver 161 is the held-out clip and n
 on), CamVid (0.15, camera unknown: as it is) and the 160 simulator frames (0.3). Torch threads =
 the cores, a budget of ``--budget-s`` seconds capped at ``--steps`` (6000), the checkpoint
 ``checkpoints/super_seg_v6.ckpt.pt`` always resumed (rerun the same command to continue),
-validation every ``--validate-every`` steps on the real dev sets keeping the best-on-worst weights.
+validation every ``--validate-every`` steps on the real dev sets keeping the weights with the best
+worst margin over the shipped default (``--validate-against super_seg_v4``: per set, the score
+minus the default's; a release must not lose on any set, and the hardest set is not where it
+loses).
 
 ``--quick`` runs the same steps on a few frames and steps (CI). ``--device cuda`` trains on a GPU.
 
@@ -259,7 +262,10 @@ def canonical_command(
     args += ["--checkpoint", str(checkpoint), "--resume", "--checkpoint-every-s", "300"]
     realdata, every = val
     if realdata is not None and every > 0:
+        from superlane_tools.scene.onnx_backend import DEFAULT_SEGMENTATION_MODEL
+
         args += ["--val-data", str(realdata.resolve()), "--validate-every", str(every)]
+        args += ["--validate-against", DEFAULT_SEGMENTATION_MODEL]  # the model to beat
     return args
 
 

@@ -29,8 +29,10 @@ def cat_cmd(
         ),
     ],
     topics: Annotated[
-        str | None,
-        typer.Option("--topics", "-t", metavar="REGEX", help="Only topics matching REGEX."),
+        list[str] | None,
+        typer.Option(
+            "--topics", "-t", metavar="REGEX", help="Only topics matching REGEX (repeatable: any)."
+        ),
     ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="One JSON object per line.")] = False,
     start: Annotated[str | None, typer.Option(metavar="TIME", help=f"Start: {TIME_HELP}.")] = None,
@@ -47,7 +49,7 @@ def cat_cmd(
     """Print decoded messages, one per line, in log-time order."""
     from superlane_tools.commands.cat import CatParams, run
 
-    params = CatParams(recording, topics, as_json, start, end, limit, full_bytes)
+    params = CatParams(recording, tuple(topics or ()), as_json, start, end, limit, full_bytes)
     with cli_errors():
         result = run(params, typer.echo)
     exit_with(report_lost(result.skipped, result.nothing_read, recording))
@@ -72,11 +74,14 @@ def filter_cmd(
         ),
     ],
     topics: Annotated[
-        str | None,
-        typer.Option("--topics", "-t", metavar="REGEX", help="Keep topics matching REGEX."),
+        list[str] | None,
+        typer.Option(
+            "--topics", "-t", metavar="REGEX", help="Keep topics matching REGEX (repeatable: any)."
+        ),
     ] = None,
     exclude: Annotated[
-        str | None, typer.Option(metavar="REGEX", help="Drop topics matching REGEX.")
+        list[str] | None,
+        typer.Option(metavar="REGEX", help="Drop topics matching REGEX (repeatable: any)."),
     ] = None,
     start: Annotated[str | None, typer.Option(metavar="TIME", help=f"Start: {TIME_HELP}.")] = None,
     end: Annotated[
@@ -89,7 +94,8 @@ def filter_cmd(
 
     guard = new_output(out, overwrite, [recording])
     with cli_errors():
-        result = run(FilterParams(recording, out, topics, exclude, start, end, guard))
+        patterns = tuple(topics or ()), tuple(exclude or ())
+        result = run(FilterParams(recording, out, *patterns, start, end, guard))
     for topic, count in sorted(result.counts.items()):
         note(f"{topic}: {count} messages")
     kind = {"ros1": "ROS 1 bag", "ros2": "ROS 2 bag"}.get(result.output_format, "MCAP")

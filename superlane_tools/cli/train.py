@@ -109,6 +109,14 @@ _ValData = Annotated[
     Path | None,
     typer.Option("--val-data", help="Real-data folder of the dev sets (validation)."),
 ]
+_ValidateAgainst = Annotated[
+    str | None,
+    typer.Option(
+        "--validate-against",
+        metavar="MODEL",
+        help="Keep the weights with the best worst margin over this model's dev-set scores.",
+    ),
+]
 _CanonicalCamera = Annotated[
     bool,
     typer.Option(
@@ -145,6 +153,7 @@ def train(
     checkpoint_s: _CheckpointS = 300.0,
     validate_every: _ValidateEvery = 300,
     val_data: _ValData = None,
+    validate_against: _ValidateAgainst = None,
     canonical_camera: _CanonicalCamera = False,
     overwrite: _Overwrite = False,
 ) -> None:
@@ -179,6 +188,7 @@ def train(
             checkpoint_s,
             validate_every,
             val_data,
+            validate_against,
             canonical_camera,
             command_line(),
             # --resume continues into the same MODEL.onnx

@@ -16,7 +16,7 @@ class CatParams:
 
     Attributes:
         recording: The recording (any format the readers open).
-        topics: Only topics matching this regular expression, or every one.
+        topics: Only topics matching any of these regular expressions (none: every one).
         as_json: One JSON object per line instead of ``time topic [type] data``.
         start: Start time (``parse_time`` syntax), or None.
         end: End time (exclusive), or None.
@@ -25,7 +25,7 @@ class CatParams:
     """
 
     recording: Path
-    topics: str | None = None
+    topics: tuple[str, ...] = ()
     as_json: bool = False
     start: str | None = None
     end: str | None = None
@@ -65,5 +65,5 @@ def run(params: CatParams, echo: Callable[[str], None]) -> CatResult:
             if params.limit is not None and count >= params.limit:
                 break
         skipped = list(rec.skipped)
-    everything = params.topics is None and params.start is None and params.end is None
+    everything = not params.topics and params.start is None and params.end is None
     return CatResult(count, skipped, everything and count == 0)

@@ -18,8 +18,8 @@ class FilterParams:
     Attributes:
         recording: The recording (MCAP, ROS 1 bag, ROS 2 bag).
         out: The trimmed copy (``.mcap``, ``.bag`` or a ROS 2 bag folder).
-        topics: Keep topics matching this regular expression, or every one.
-        exclude: Drop topics matching this regular expression, or none.
+        topics: Keep topics matching any of these regular expressions (none: every one).
+        exclude: Drop topics matching any of these regular expressions.
         start: Start time (``parse_time`` syntax), or None.
         end: End time (exclusive), or None.
         output_guard: Entered around the writing (the cli's policy for an existing output).
@@ -27,8 +27,8 @@ class FilterParams:
 
     recording: Path
     out: Path
-    topics: str | None = None
-    exclude: str | None = None
+    topics: tuple[str, ...] = ()
+    exclude: tuple[str, ...] = ()
     start: str | None = None
     end: str | None = None
     output_guard: AbstractContextManager[object] = field(default_factory=nullcontext)

@@ -47,6 +47,7 @@ class TrainOptions:
     checkpoint_s: float = 300.0
     validate_every: int = 300
     val_data: Path | None = None
+    validate_against: str | None = None
     canonical_camera: bool = False
     command: str = ""
     output_guard: OutputGuard = field(default_factory=nullcontext)
@@ -127,6 +128,7 @@ def run(
         checkpoint_s=o.checkpoint_s,
         validate_every=o.validate_every,
         val_data=o.val_data,
+        validate_against=o.validate_against,
     )
     if o.threads is not None:
         params = replace(params, threads=o.threads)

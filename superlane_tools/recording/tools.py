@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import base64
 import re
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import fields, is_dataclass
 from pathlib import Path
 from typing import Any
@@ -25,24 +25,40 @@ MAX_INLINE_BYTES = 64
 """Byte arrays longer than this are shown as their length (``--full-bytes`` shows them)."""
 
 
-def topic_matcher(include: str | None, exclude: str | None) -> Any:
+TopicPatterns = str | Sequence[str] | None
+"""One regular expression, several (a topic matching any of them), or none."""
+
+
+def _compiled(patterns: TopicPatterns) -> list[re.Pattern[str]]:
+    items = [patterns] if isinstance(patterns, str) else list(patterns or ())
+    try:
+        return [re.compile(p) for p in items if p]
+    except re.error as err:
+        raise UsageError(f"invalid topic regular expression {err.pattern!r}: {err}") from err
+
+
+def topic_matcher(include: TopicPatterns, exclude: TopicPatterns) -> Any:
     """Return ``f(topic) -> bool`` for ``--topics`` / ``--exclude`` regular expressions.
+
+    A topic is kept when it matches any ``include`` pattern (or there is none) and no
+    ``exclude`` pattern; a repeated option adds a pattern, it never replaces one.
 
     Raises:
         UsageError: For an invalid regular expression.
     """
-    try:
-        inc = re.compile(include) if include else None
-        exc = re.compile(exclude) if exclude else None
-    except re.error as err:
-        raise UsageError(f"invalid topic regular expression {err.pattern!r}: {err}") from err
+    inc, exc = _compiled(include), _compiled(exclude)
 
     def match(topic: str) -> bool:
-        return (inc is None or inc.search(topic) is not None) and (
-            exc is None or exc.search(topic) is None
+        return (not inc or any(p.search(topic) for p in inc)) and not any(
+            p.search(topic) for p in exc
         )
 
     return match
+
+
+def _shown(patterns: TopicPatterns) -> str:
+    items = [patterns] if isinstance(patterns, str) else list(patterns or ())
+    return " or ".join(repr(p) for p in items)
 
 
 def time_range(
@@ -138,7 +154,7 @@ def first_log_time(rec: Recording) -> int | None:
 
 def cat_messages(
     rec: Recording,
-    topics: str | None = None,
+    topics: TopicPatterns = None,
     start: str | None = None,
     end: str | None = None,
 ) -> Iterator[Message]:
@@ -147,7 +163,7 @@ def cat_messages(
     names = [t.topic for t in rec.topics() if match(t.topic)]
     if not names:
         known = ", ".join(t.topic for t in rec.topics()) or "none"
-        raise UsageError(f"no topic matches {topics!r} (topics: {known})")
+        raise UsageError(f"no topic matches {_shown(topics)} (topics: {known})")
     start_ns, end_ns = time_range(first_log_time(rec) if start or end else None, start, end)
     return rec.messages(topics=names, start_ns=start_ns, stop_ns=end_ns)
 
@@ -155,8 +171,8 @@ def cat_messages(
 def filter_recording(
     src: Path,
     out: Path,
-    topics: str | None = None,
-    exclude: str | None = None,
+    topics: TopicPatterns = None,
+    exclude: TopicPatterns = None,
     start: str | None = None,
     end: str | None = None,
 ) -> FilterResult:

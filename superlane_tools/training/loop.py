@@ -15,6 +15,7 @@ import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -222,19 +223,43 @@ def _validator(params: Any, history: Any) -> Any:
     """Return the validator of a segmentation run with dev data, else None."""
     if params.task != "segmentation" or params.val_data is None or params.validate_every <= 0:
         return None
-    from superlane_tools.training.validation import PROTOCOL, Validator, real_dev_sets
+    from superlane_tools.training.validation import (
+        PROTOCOL,
+        Validator,
+        real_dev_sets,
+        reference_scores,
+    )
 
     canonical = None
     if getattr(params, "canonical_camera", False):
         from superlane_tools.camera.canonical import CanonicalCamera
 
         canonical = CanonicalCamera.for_input(*params.input_size)
-    validator = Validator(real_dev_sets(params.val_data), params.best_path, canonical=canonical)
+    sets = real_dev_sets(params.val_data)
+    validator = Validator(sets, params.best_path, canonical=canonical)
+    if against := getattr(params, "validate_against", None):
+        validator.reference = (against, reference_scores(against, sets))
     if isinstance(history, list):  # only entries of this validation protocol compare
         validator.history = [e for e in history if e.get("protocol") == PROTOCOL]
         if validator.history and params.best_path.is_file():  # a clone may hold the checkpoint
-            validator.best = max(validator.history, key=lambda e: e["worst"])
+            validator.best = _kept_entry(params.best_path) or max(
+                validator.history, key=validator.key
+            )
     return validator
+
+
+def _kept_entry(path: Path) -> dict[str, Any] | None:
+    """Return the validation entry stored with the kept weights (None: not readable).
+
+    The kept weights decide, not a recomputation over the history: a resumed run may select by
+    another rule (``--validate-against``) than the run that kept them.
+    """
+    try:
+        state = load_checkpoint(path, "best weights", torch.device("cpu"))
+        entry = json.loads(str(state.get("validation", "")))
+    except (TrainingError, ValueError):
+        return None
+    return entry if isinstance(entry, dict) and "step" in entry else None
 
 
 def _step_loss(
@@ -361,9 +386,10 @@ def _validate(validator: Any, model: nn.Module, spec: InputSpec, step: int, say:
     entry = validator.run(model, exported_module(model), spec, step)
     scores = ", ".join(f"{k} {v:.3f}" for k, v in entry["scores"].items())
     best = validator.best
+    margin = f", worst margin {entry['worst_margin']:+.3f}" if "worst_margin" in entry else ""
     say(
         f"validation at step {step} ({entry['seconds']:.0f} s): {scores}; worst "
-        f"{entry['worst_set']} {entry['worst']:.3f} (best so far: step {best['step']})"
+        f"{entry['worst_set']} {entry['worst']:.3f}{margin} (best so far: step {best['step']})"
     )
 
 
@@ -382,7 +408,8 @@ def _final_validation(
             validator.best_path, "best weights", next(model.parameters()).device
         )
         model.load_state_dict(state["model"])
-        say(f"exporting the weights of step {best['step']}: best on the worst real dev set")
+        rule = "worst margin over the reference" if validator.reference else "worst real dev set"
+        say(f"exporting the weights of step {best['step']}: best on the {rule}")
     return dict(validator.summary())
 
 

@@ -124,6 +124,8 @@ class TrainParams:
         validate_every: Validate on the real dev sets every this many steps (segmentation,
             with ``val_data``; 0 = off) and export the weights best on the worst set.
         val_data: The real-data folder holding the dev sets (``training.validation``).
+        validate_against: A shipped model (name or ONNX file): keep the weights with the best
+            worst margin over its scores on the dev sets (None: the best worst set).
         init: Start from the weights of this checkpoint (fine-tuning; fresh optimiser).
         name: Model name for the card (default: the output file stem).
         command: The command line that started training, recorded in the card.
@@ -156,6 +158,7 @@ class TrainParams:
     checkpoint_s: float = 300.0
     validate_every: int = 300
     val_data: Path | None = None
+    validate_against: str | None = None
     init: Path | None = None
     budget_s: float | None = None
     encoder_lr: float = 0.25

@@ -81,6 +81,29 @@ def test_cat_bad_regex_and_no_match_are_usage_errors(tmp_path: Path) -> None:
     assert json.loads(big.stdout)["data"]["data"] == {"bytes": 500}
 
 
+def test_a_repeated_topic_option_adds_a_pattern(tmp_path: Path) -> None:
+    """``-t A -t B`` keeps topics matching either, ``--exclude`` alike: the last one given
+    must never silently replace the others."""
+    path = _drive(tmp_path / "d.mcap")
+    out = tmp_path / "two.mcap"
+    kept = runner.invoke(app, ["filter", str(path), "-o", str(out), "-t", "^/can$", "-t", "^/fix$"])
+    assert kept.exit_code == 0, kept.output
+    with open_recording(out) as rec:
+        assert {t.topic for t in rec.topics()} == {"/can", "/fix"}
+    out = tmp_path / "one.mcap"
+    args = ["filter", str(path), "-o", str(out), "--exclude", "image", "--exclude", "^/can$"]
+    dropped = runner.invoke(app, args)
+    assert dropped.exit_code == 0, dropped.output
+    with open_recording(out) as rec:
+        assert {t.topic for t in rec.topics()} == {"/fix"}
+    cat = runner.invoke(app, ["cat", str(path), "--json", "-t", "^/can$", "-t", "^/fix$"])
+    assert cat.exit_code == 0, cat.output
+    assert {json.loads(line)["topic"] for line in cat.stdout.splitlines()} == {"/can", "/fix"}
+    none = runner.invoke(app, ["cat", str(path), "-t", "^/a$", "-t", "^/b$"])
+    assert none.exit_code == 2
+    assert "no topic matches '^/a$' or '^/b$'" in none.stderr
+
+
 def test_filter_trims_topics_and_time_and_keeps_metadata(tmp_path: Path) -> None:
     path = _drive(tmp_path / "d.mcap")
     out = tmp_path / "cut.mcap"

@@ -63,10 +63,12 @@ def test_canonical_command_line(tmp_path: Path) -> None:
     assert _values(args, "--steps") == "6000"
     assert _values(args, "--val-data") == str(tmp_path.resolve())
     assert _values(args, "--validate-every") == "250"
+    assert _values(args, "--validate-against") == "super_seg_v4"  # the shipped default to beat
     quiet = tm.canonical_command(
         tmp_path / "d.yaml", tmp_path / "m.onnx", tm.QUICK, "cpu", 60.0, 2, ckpt, (None, 300)
     )
     assert "--val-data" not in quiet
+    assert "--validate-against" not in quiet
     assert _values(quiet, "--max-frames") == "2"
 
 
@@ -78,8 +80,9 @@ def test_recipe_command_parses_through_slt_train(tmp_path: Path) -> None:
 
     args = tm.canonical_command(
         tmp_path / "missing.yaml", tmp_path / "m.onnx", tm.QUICK, "cpu", 60.0, 2,
-        tmp_path / "m.ckpt.pt", (None, 300),
+        tmp_path / "m.ckpt.pt", (tmp_path, 300),
     )  # fmt: skip
+    assert "--validate-against" in args
     result = CliRunner().invoke(app, args)
     assert result.exit_code != 2, result.output
     assert "missing.yaml" in result.output

@@ -1,7 +1,9 @@
-"""Resume with more steps or a longer budget, the timed atomic checkpoint, best-on-worst weights."""
+"""Resume with more steps or a longer budget, the timed atomic checkpoint, best-on-worst weights
+and the best worst margin over a reference model."""
 
 from __future__ import annotations
 
+import json
 import math
 import os
 from collections.abc import Callable
@@ -148,6 +150,69 @@ def test_best_on_worst_weights_are_kept_and_exported(
     spec = _input_spec("segmentation", (64, 32), _normalisation(params))
     again = score_sets(onnx_segmenter(exported_module(net), spec, tmp_path), real_dev_sets(dev))
     assert again == best["scores"]
+
+
+@pytest.mark.skipif(not (REALDATA / "culane").is_dir(), reason="needs the real data")
+def test_against_a_reference_the_best_worst_margin_is_kept(
+    toy_data: Path, tiny_params: Callable[..., TrainParams], tmp_path: Path
+) -> None:
+    from superlane_tools.training.validation import reference_scores
+
+    dev = tmp_path / "dev"
+    (dev / "culane").mkdir(parents=True)
+    (dev / "culane" / "nightblur_0531_2336_0004").symlink_to(
+        REALDATA / "culane" / "nightblur_0531_2336_0004"
+    )
+    (dev / "camvid").symlink_to(REALDATA / "camvid")
+    params = replace(
+        _params(tiny_params, toy_data, tmp_path / "v.onnx", 6),
+        lr=5e-2,
+        validate_every=2,
+        val_data=dev,
+        validate_against="super_seg_v4",
+    )
+    notes: list[str] = []
+    result = train(params, note=notes.append)
+    validation = result.validation
+    assert validation is not None
+    reference = reference_scores("super_seg_v4", real_dev_sets(dev))
+    assert validation["reference"] == {"model": "super_seg_v4", "scores": reference}
+    assert "worst margin over super_seg_v4" in validation["rule"]
+    history = validation["history"]
+    assert [h["step"] for h in history] == [2, 4, 6]
+    for h in history:  # per set the score minus the reference's, the smallest one
+        margins = [h["scores"][k] - reference[k] for k in reference]
+        assert h["worst_margin"] == pytest.approx(min(margins), abs=1e-4)
+    best = validation["best"]
+    assert best == max(history, key=lambda h: h["worst_margin"])
+    assert any("worst margin" in n for n in notes)
+    kept = load_checkpoint(params.best_path, "test")
+    assert json.loads(kept["validation"])["step"] == best["step"]
+
+
+def test_resume_keeps_the_entry_stored_with_the_kept_weights(
+    toy_data: Path, tiny_params: Callable[..., TrainParams], tmp_path: Path
+) -> None:
+    """A resumed run may select by another rule: the weights on disk decide which entry is best."""
+    from superlane_tools.training.checkpoint import save_checkpoint
+    from superlane_tools.training.loop import _validator
+    from superlane_tools.training.validation import PROTOCOL
+
+    dev = tmp_path / "dev"
+    (dev / "culane").mkdir(parents=True)
+    night = REALDATA / "culane" / "nightblur_0531_2336_0004"
+    if not night.is_dir():
+        pytest.skip("needs the real data")
+    (dev / "culane" / night.name).symlink_to(night)
+    params = replace(_params(tiny_params, toy_data, tmp_path / "v.onnx", 4), validate_every=2)
+    params = replace(params, val_data=dev)
+    kept = {"protocol": PROTOCOL, "step": 300, "scores": {"culane_night": 0.4}, "worst": 0.4}
+    later = {**kept, "step": 600, "scores": {"culane_night": 0.9}, "worst": 0.9}
+    params.best_path.parent.mkdir(parents=True, exist_ok=True)
+    save_checkpoint(params.best_path, {"model": {}, "validation": json.dumps(kept)})
+    validator = _validator(params, [kept, later])
+    assert validator is not None
+    assert validator.best == kept  # not the history's maximum: those weights are not on disk
 
 
 @pytest.mark.skipif(not (REALDATA / "culane").is_dir(), reason="needs the real data")
