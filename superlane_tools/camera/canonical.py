@@ -76,14 +76,25 @@ class CanonicalCamera:
             )
 
     @classmethod
-    def for_input(cls, width: int, height: int) -> CanonicalCamera:
+    def for_input(
+        cls, width: int, height: int, near_range_m: float | None = None
+    ) -> CanonicalCamera:
         """Return the canonical camera of a ``width x height`` network input.
 
         The focal length is :data:`FOCAL_PER_WIDTH` x width and the bottom row
         :data:`BAND_ROWS_PER_WIDTH` x width below the horizon (512x160: f 400 px, horizon row
-        24; 512x288: horizon row 152, the extra rows above the horizon).
+        24; 512x288: horizon row 152, the extra rows above the horizon). With
+        ``near_range_m``, the bottom row sees the flat road that far ahead of a camera
+        :data:`REFERENCE_HEIGHT_M` high instead (512x224 at 3.4 m: horizon row 23): a nearer
+        bottom row keeps the near field, where a lane's fit starts.
         """
-        band = BAND_ROWS_PER_WIDTH * width
+        if near_range_m is not None and not near_range_m > 0:
+            raise CameraError(f"canonical near range must be > 0 m, got {near_range_m}")
+        band = (
+            BAND_ROWS_PER_WIDTH * width
+            if near_range_m is None
+            else FOCAL_PER_WIDTH * width * REFERENCE_HEIGHT_M / near_range_m
+        )
         return cls(width, height, FOCAL_PER_WIDTH * width, max(0.0, height - 1 - band))
 
     def model(self, drive: CameraModel) -> CameraModel:

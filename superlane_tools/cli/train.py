@@ -124,6 +124,14 @@ _CanonicalCamera = Annotated[
         help="Resample frames with a known or estimated camera into the canonical camera.",
     ),
 ]
+_CanonicalNearM = Annotated[
+    float | None,
+    typer.Option(
+        "--canonical-near-m",
+        min=0.5,
+        help="The canonical camera's bottom row sees the road this far ahead, m (default 5).",
+    ),
+]
 _Overwrite = Annotated[bool, overwrite_option()]
 
 
@@ -155,6 +163,7 @@ def train(
     val_data: _ValData = None,
     validate_against: _ValidateAgainst = None,
     canonical_camera: _CanonicalCamera = False,
+    canonical_near_m: _CanonicalNearM = None,
     overwrite: _Overwrite = False,
 ) -> None:
     """Train a network on CPU, export it to ONNX (opset 17) and write MODEL.card.yaml."""
@@ -190,6 +199,7 @@ def train(
             val_data,
             validate_against,
             canonical_camera,
+            canonical_near_m,
             command_line(),
             # --resume continues into the same MODEL.onnx
             new_output(out, overwrite or resume, replaces=True),

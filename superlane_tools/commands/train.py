@@ -49,6 +49,7 @@ class TrainOptions:
     val_data: Path | None = None
     validate_against: str | None = None
     canonical_camera: bool = False
+    canonical_near_m: float | None = None
     command: str = ""
     output_guard: OutputGuard = field(default_factory=nullcontext)
 
@@ -116,6 +117,7 @@ def run(
         budget_s=o.budget_s,
         augment=augment,
         canonical_camera=o.canonical_camera,
+        canonical_near_m=o.canonical_near_m,
         batch=o.batch,
         lr=o.lr,
         size=_size(o.size),

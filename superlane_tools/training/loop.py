@@ -230,11 +230,7 @@ def _validator(params: Any, history: Any) -> Any:
         reference_scores,
     )
 
-    canonical = None
-    if getattr(params, "canonical_camera", False):
-        from superlane_tools.camera.canonical import CanonicalCamera
-
-        canonical = CanonicalCamera.for_input(*params.input_size)
+    canonical = params.canonical_for(params.input_size)
     sets = real_dev_sets(params.val_data)
     validator = Validator(sets, params.best_path, canonical=canonical)
     if against := getattr(params, "validate_against", None):

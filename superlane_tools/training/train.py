@@ -113,6 +113,8 @@ class TrainParams:
         encoder_lr: Learning rate of a pretrained encoder as a fraction of ``lr``.
         canonical_camera: Resample every dataset whose camera is known or estimated into the
             canonical camera of the input size (``camera.canonical``; the card records it).
+        canonical_near_m: The canonical camera's bottom row sees the flat road this far ahead
+            (None: ``camera.canonical.NEAR_RANGE_M``'s band).
         device: torch device (``cpu`` or ``cuda``).
         checkpoint_every: Save the resumable checkpoint every this many steps (0: only by
             time and at the end).
@@ -163,6 +165,7 @@ class TrainParams:
     budget_s: float | None = None
     encoder_lr: float = 0.25
     canonical_camera: bool = False
+    canonical_near_m: float | None = None
     name: str = ""
     command: str = ""
 
@@ -175,6 +178,12 @@ class TrainParams:
     def architecture(self) -> str:
         """The network architecture (the task's first one when ``arch`` is empty)."""
         return self.arch or ARCHS[self.task][0]
+
+    def canonical_for(self, size: tuple[int, int]) -> CanonicalCamera | None:
+        """Return the canonical camera of a ``size`` input (None without ``canonical_camera``)."""
+        if not self.canonical_camera:
+            return None
+        return CanonicalCamera.for_input(*size, near_range_m=self.canonical_near_m)
 
     @property
     def checkpoint_path(self) -> Path:
@@ -236,7 +245,7 @@ def _load_all(params: TrainParams, size: tuple[int, int]) -> list[LoadedSet]:
     specs = params.all_datasets()
     if not specs:
         raise TrainingError("no training data: give at least one dataset")
-    canonical = CanonicalCamera.for_input(*size) if params.canonical_camera else None
+    canonical = params.canonical_for(size)
     return [load_set(spec, params.task, size, params.max_frames, canonical) for spec in specs]
 
 
@@ -410,8 +419,8 @@ def _training_record(
             else {}
         ),
         **(
-            {CANONICAL_CARD_KEY: CanonicalCamera.for_input(*params.input_size).to_dict()}
-            if params.canonical_camera
+            {CANONICAL_CARD_KEY: canonical.to_dict()}
+            if (canonical := params.canonical_for(params.input_size)) is not None
             else {}
         ),
         **({"budget_s": params.budget_s} if params.budget_s is not None else {}),

@@ -169,6 +169,13 @@ def test_sizes_and_errors() -> None:
     assert tall.horizon_row == 152.0
     assert CANONICAL.near_range_m(1.7) == pytest.approx(5.04, abs=0.01)
     assert CanonicalCamera.from_dict(tall.to_dict()) == tall
+    near = CanonicalCamera.for_input(512, 224, near_range_m=3.4)  # the near field kept
+    assert near.focal_px == 400.0
+    assert near.horizon_row == pytest.approx(23.0)
+    assert near.near_range_m(1.7) == pytest.approx(3.4)
+    assert CanonicalCamera.for_input(512, 160, near_range_m=None) == CANONICAL
+    with pytest.raises(CameraError, match="near range"):
+        CanonicalCamera.for_input(512, 224, near_range_m=0.0)
     with pytest.raises(CameraError, match="horizon"):
         CanonicalCamera(512, 160, 400.0, 200.0)
     with pytest.raises(CameraError, match="invalid canonical camera"):

@@ -153,3 +153,24 @@ def test_train_a_variant_in_the_canonical_camera_cards_it(realdata: Path, tmp_pa
     assert wrapped.segment(np.zeros((360, 640, 3), np.uint8)).shape == (360, 640)
     with pytest.raises(BackendUnavailableError, match="trained in the canonical camera"):
         backend_from_name("onnx", model=str(out))
+
+
+def test_train_with_a_nearer_canonical_bottom_row(realdata: Path, tmp_path: Path) -> None:
+    """``--canonical-near-m`` trains, validates and cards the taller band (the near field)."""
+    out = tmp_path / "near.onnx"
+    data = realdata / "tusimple" / "train_frames"
+    args = [
+        "train", "segmentation", "--data", f"tusimple={data}", "--out", str(out),
+        "--arch", "lite0-s16", "--size", "256x112", "--steps", "1", "--batch", "2",
+        "--max-frames", "2", "--threads", "1", "--canonical-camera", "--augment", "canonical",
+        "--canonical-near-m", "3.4",
+    ]  # fmt: skip
+    result = CliRunner().invoke(app, args, catch_exceptions=False)
+    assert result.exit_code == 0, result.output
+    card = load_card(out.with_name("near.card.yaml"))
+    near = CanonicalCamera.for_input(256, 112, near_range_m=3.4)
+    assert card.training["canonical_camera"] == near.to_dict()
+    assert near.near_range_m(1.7) == pytest.approx(3.4)
+    wrapped = backend_from_name("onnx", model=str(out), camera=load_camera("tusimple"))
+    assert isinstance(wrapped, CanonicalBackend)
+    assert wrapped.canonical == near
