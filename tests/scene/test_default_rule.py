@@ -74,3 +74,17 @@ def test_auto_tries_every_candidate_that_could_win_fastest_first() -> None:
         ("onnx", "super_seg_v5"),
         ("classical", ""),
     )
+
+
+def test_the_release_chain_measures_every_set_the_shipped_cards_compare() -> None:
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).parents[2] / "pipelines" / "release_eval.py"
+    spec = importlib.util.spec_from_file_location("release_eval", path)
+    assert spec is not None
+    assert spec.loader is not None
+    release_eval = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(release_eval)
+    for name, release in shipped_releases().items():
+        assert set(release["sets"]) == set(release_eval.SETS), name
