@@ -238,9 +238,9 @@ def _validator(params: Any, history: Any) -> Any:
     if isinstance(history, list):  # only entries of this validation protocol compare
         validator.history = [e for e in history if e.get("protocol") == PROTOCOL]
         if validator.history and params.best_path.is_file():  # a clone may hold the checkpoint
-            validator.best = _kept_entry(params.best_path) or max(
-                validator.history, key=validator.key
-            )
+            kept = _kept_entry(params.best_path)
+            ok = kept is not None and kept.get("protocol") == PROTOCOL
+            validator.best = kept if ok else max(validator.history, key=validator.key)
     return validator
 
 
