@@ -52,12 +52,19 @@ worst margin over the shipped default (``--validate-against super_seg_v4``: per 
 minus the default's; a release must not lose on any set, and the hardest set is not where it
 loses).
 
+``--recipe near`` trains ``super_seg_v7``: the canonical recipe's command (same data, validation
+against the shipped default) at 512x224 with ``--canonical-near-m 3.4`` (the bottom row sees the
+road 3.4 m ahead instead of 5 m: the near field, where lanes start, which the 512x160 band cut
+off), ``--lr 0.001``, fine-tuned (``--init``) from the canonical checkpoint
+``checkpoints/super_seg_v6.ckpt.pt`` (step 5118), checkpointing to
+``checkpoints/super_seg_v7.ckpt.pt``. Trained with ``--budget-s 3000``.
+
 ``--quick`` runs the same steps on a few frames and steps (CI). ``--device cuda`` trains on a GPU.
 
 Usage:
     python pipelines/train_models.py [--quick] [--work DIR] [--out DIR] [--ship]
         [--task segmentation|corridor|both] [--no-train] [--no-eval] [--device cpu|cuda]
-        [--realdata DIR] [--json results.json] [--recipe v4|lite0|canonical] [--budget-s S]
+        [--realdata DIR] [--json results.json] [--recipe v4|lite0|canonical|near] [--budget-s S]
         [--steps N] [--validate-every N] [--no-camvid]
 """
 
@@ -87,6 +94,8 @@ LITE_SIM_FRAMES, LITE_STEPS, LITE_BUDGET_S = 160, 6000, 4500.0
 CANON_NAME, CANON_NC_NAME = "super_seg_v6", "super_seg_v6_nc"
 """The canonical recipe's model (lite0-s16, 512x160, canonical camera); _nc: without CamVid."""
 CANON_ARCH, CANON_SIZE = "lite0-s16", "512x160"
+NEAR_NAME, NEAR_SIZE, NEAR_M, NEAR_LR = "super_seg_v7", "512x224", 3.4, 0.001
+"""The near-field recipe's model: the canonical one at 512x224, bottom row 3.4 m ahead."""
 CULANE_TRAIN = "culane/driver_23_05151649_0422"
 """The CULane day clip trained on (pipelines/culane_night.py DAY_TRAIN_FOLDER)."""
 CULANE_HELD_OUT = "culane/driver_161_06030819_0755"
@@ -269,6 +278,21 @@ def canonical_command(
     return args
 
 
+def near_command(canonical: list[str], out: Path, checkpoint: Path, init: Path) -> list[str]:
+    """Return the near-field recipe's ``slt train`` arguments (``super_seg_v7``).
+
+    The canonical recipe's command (same data, validation against the default) at
+    :data:`NEAR_SIZE` with the canonical bottom row :data:`NEAR_M` ahead, fine-tuned from the
+    canonical model's checkpoint ``init`` at :data:`NEAR_LR`.
+    """
+    values = {"--size": NEAR_SIZE, "--lr": f"{NEAR_LR:g}", "--out": str(out)}
+    values["--checkpoint"] = str(checkpoint)
+    args = list(canonical)
+    for flag, value in values.items():
+        args[args.index(flag) + 1] = value
+    return [*args, "--canonical-near-m", f"{NEAR_M:g}", "--init", str(init)]
+
+
 def lite0_command(
     listing: Path,
     out: Path,
@@ -411,7 +435,10 @@ def main(argv: list[str] | None = None) -> int:
     )
     ap.add_argument("--json", type=Path, help="write the results here too")
     ap.add_argument(
-        "--recipe", choices=("v4", "lite0", "canonical"), default="v4", help="segmentation recipe"
+        "--recipe",
+        choices=("v4", "lite0", "canonical", "near"),
+        default="v4",
+        help="segmentation recipe",
     )
     ap.add_argument(
         "--budget-s", type=float, default=LITE_BUDGET_S, help="lite0/canonical time budget, s"
@@ -461,7 +488,7 @@ def main(argv: list[str] | None = None) -> int:
         commands["segmentation"] = [
             lite0_command(listing, seg, plan, args.device, budget, steps, resume)
         ]
-    if args.recipe == "canonical":
+    if args.recipe in ("canonical", "near"):
         seg = args.out / f"{CANON_NC_NAME if args.no_camvid else CANON_NAME}.onnx"
         camera = culane_camera(realdata, args.work) if realdata is not None else None
         listing = canonical_list(realdata, sim, args.work, not args.no_camvid, camera)
@@ -473,6 +500,10 @@ def main(argv: list[str] | None = None) -> int:
                 (realdata, args.validate_every), args.threads,
             )
         ]  # fmt: skip
+    if args.recipe == "near":  # fine-tuned from the canonical recipe's checkpoint
+        init, seg = ckpt, args.out / f"{NEAR_NAME}{'_nc' if args.no_camvid else ''}.onnx"
+        ckpt = ckpt.with_name(f"{seg.stem}.ckpt.pt")
+        commands["segmentation"] = [near_command(commands["segmentation"][0], seg, ckpt, init)]
     commands = {t: c for t, c in commands.items() if args.task in (t, "both")}
     results["commands"].update(
         {t: " && ".join(shlex.join(["slt", *c]) for c in stages) for t, stages in commands.items()}

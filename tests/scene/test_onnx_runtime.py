@@ -130,7 +130,15 @@ def test_shipped_models_match_their_cards() -> None:
 
 
 @pytest.mark.parametrize(
-    "model", ["super_seg_v1", "super_seg_v2", "super_seg_v3", "super_seg_v4", "super_seg_v5"]
+    "model",
+    [
+        "super_seg_v1",
+        "super_seg_v2",
+        "super_seg_v3",
+        "super_seg_v4",
+        "super_seg_v5",
+        "super_seg_v7",
+    ],
 )
 def test_shipped_segmentation_graphs_stop_at_half_resolution(model: str) -> None:
     backend = OnnxSegmentationBackend(model)
@@ -140,8 +148,10 @@ def test_shipped_segmentation_graphs_stop_at_half_resolution(model: str) -> None
     assert [o.shape[1] for o in outputs] == [len(h.classes) for h in heads]
     image, _, _ = toy_frame(np.random.default_rng(2), 640, 360)
     raw = backend.model.session.run(None, {"image": preprocess(image, backend.card.input)})
-    assert {r.shape[2:] for r in raw} == {(144, 256)}  # the runtime upsamples them
-    assert {s.shape[1:] for s in backend.scores(image)} == {(288, 512)}
+    height, width = backend.card.input.height, backend.card.input.width
+    stride = 4 if backend.card.training.get("architecture") == "lite0-s16" else 2  # heads at 1/4
+    assert {r.shape[2:] for r in raw} == {(height // stride, width // stride)}  # upsampled later
+    assert {s.shape[1:] for s in backend.scores(image)} == {(height, width)}
 
 
 def test_upsample_scores_is_torch_bilinear_interpolation() -> None:

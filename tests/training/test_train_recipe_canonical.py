@@ -72,6 +72,27 @@ def test_canonical_command_line(tmp_path: Path) -> None:
     assert _values(quiet, "--max-frames") == "2"
 
 
+def test_near_recipe_fine_tunes_the_canonical_checkpoint_at_the_taller_band(
+    tmp_path: Path,
+) -> None:
+    ckpt = tmp_path / "super_seg_v6.ckpt.pt"
+    canonical = tm.canonical_command(
+        tmp_path / "d.yaml", tmp_path / "super_seg_v6.onnx", tm.FULL, "cpu", 3000.0, 6000, ckpt,
+        (tmp_path, 300),
+    )  # fmt: skip
+    out, near_ckpt = tmp_path / "super_seg_v7.onnx", tmp_path / "super_seg_v7.ckpt.pt"
+    args = tm.near_command(canonical, out, near_ckpt, ckpt)
+    assert _values(args, "--size") == "512x224"
+    assert _values(args, "--canonical-near-m") == "3.4"
+    assert _values(args, "--lr") == "0.001"
+    assert _values(args, "--init") == str(ckpt)  # from the canonical model's weights
+    assert _values(args, "--checkpoint") == str(near_ckpt)  # its own checkpoint
+    assert _values(args, "--out") == str(out)
+    assert _values(args, "--validate-against") == "super_seg_v4"
+    assert _values(args, "--datasets") == _values(canonical, "--datasets")
+    assert canonical[canonical.index("--size") + 1] == "512x160"  # not changed in place
+
+
 def test_recipe_command_parses_through_slt_train(tmp_path: Path) -> None:
     """The CLI accepts every option the recipe passes (an unknown one would exit 2)."""
     from typer.testing import CliRunner
@@ -84,5 +105,11 @@ def test_recipe_command_parses_through_slt_train(tmp_path: Path) -> None:
     )  # fmt: skip
     assert "--validate-against" in args
     result = CliRunner().invoke(app, args)
+    assert result.exit_code != 2, result.output
+    assert "missing.yaml" in result.output
+    near = tm.near_command(
+        args, tmp_path / "n.onnx", tmp_path / "n.ckpt.pt", tmp_path / "m.ckpt.pt"
+    )
+    result = CliRunner().invoke(app, near)
     assert result.exit_code != 2, result.output
     assert "missing.yaml" in result.output
