@@ -117,6 +117,8 @@ def drive_numbers(model: str, recordings: list[Path], runs: Path) -> tuple[float
     """Reprocess the recordings with ``model``; return pooled SUPER availability and RMSE."""
     import pandas as pd
 
+    from superlane_tools.reporting.layout import RunLayout
+
     available, squares, n = [], 0.0, 0
     for recording in recordings:
         out = runs / _name(model) / recording.stem
@@ -124,9 +126,10 @@ def drive_numbers(model: str, recordings: list[Path], runs: Path) -> tuple[float
             SLT, "reprocess", str(recording), "--model", model, "-o", str(out), "--no-plots",
             "--overwrite",
         ])  # fmt: skip
-        frames = pd.read_parquet(out / "availability_frames.parquet")
+        layout = RunLayout(out)
+        frames = pd.read_parquet(layout.availability_frames)
         available += list(frames.loc[frames["method"] == "super", "available"])
-        summary = pd.read_parquet(out / "curvature_summary.parquet")
+        summary = pd.read_parquet(layout.curvature_summary)
         row = summary[(summary["scope"] == "overall") & (summary["source"] == "super_path")]
         squares += float(row["rmse"].iloc[0]) ** 2 * int(row["n"].iloc[0])
         n += int(row["n"].iloc[0])

@@ -25,6 +25,9 @@ OUTPUT_NAME = re.compile(r"^[a-z_]+\.(parquet|mcap|md|html|mp4|json|png)$")
 ELSEWHERE = {
     ("pipelines/real_frames_eval.py", "val_labels.json"),  # a scratch file in its work folder
     ("pipelines/reprocess_challenge.py", "curvature_onnx.md"),  # a page of its report folder
+    ("pipelines/release_eval.py", "real.json"),  # real_frames_eval's numbers in its work folder
+    ("pipelines/release_eval.py", "real.md"),  # and its report
+    ("pipelines/release_eval.py", "sample_drive.mcap"),  # the bundled demo drive: an input
 }
 """Output-shaped names outside the layout that are no output of ``slt``: pipelines' own files."""
 OTHER_SCHEMAS = {
