@@ -377,8 +377,14 @@ def evaluate(
     if "segmentation" in tasks:
         seg_metrics["sim_heldout"] = evaluate_segmentation_on_dataset(seg, test)
         if realdata is not None and tus is not None:
+            from superlane_tools.camera import load_camera
+            from superlane_tools.scene.backends import backend_from_name
+
+            # TuSimple's camera is known: a model trained in the canonical camera runs in it
+            # there (as slt segment --camera tusimple runs it); CamVid's is not: as it is.
+            in_camera = backend_from_name("onnx", model=str(seg), camera=load_camera("tusimple"))
+            seg_metrics["tusimple_frames"] = backend_marking_hit_rate(in_camera, tus / "frames")
             backend = OnnxSegmentationBackend(seg)
-            seg_metrics["tusimple_frames"] = backend_marking_hit_rate(backend, tus / "frames")
             seg_metrics["camvid_val"] = camvid_scores(backend, realdata / "camvid", "val")
     if "corridor" in tasks:
         cor_metrics["sim_heldout"] = evaluate_corridor_on_dataset(cor, test)
