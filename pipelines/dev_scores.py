@@ -21,9 +21,7 @@ from pathlib import Path
 
 def main(argv: list[str] | None = None) -> int:
     """Print each model's dev-set scores as one JSON line."""
-    from superlane_tools.scene.canonical_backend import trained_canonical
-    from superlane_tools.scene.onnx_backend import OnnxSegmentationBackend
-    from superlane_tools.training.validation import PROTOCOL, real_dev_sets, score_sets
+    from superlane_tools.training.validation import PROTOCOL, real_dev_sets, reference_scores
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("models", nargs="+")
@@ -32,8 +30,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     sets = real_dev_sets(args.data)
     for model in args.models:
-        backend = OnnxSegmentationBackend(model)
-        scores = score_sets(backend.segment, sets, trained_canonical(backend.card))
+        scores = reference_scores(model, sets)  # as the runtime runs it, as training validates
         print(json.dumps({"model": model, "protocol": PROTOCOL, "scores": scores}), flush=True)
     return 0
 

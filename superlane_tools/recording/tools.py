@@ -29,10 +29,13 @@ TopicPatterns = str | Sequence[str] | None
 """One regular expression, several (a topic matching any of them), or none."""
 
 
+def _listed(patterns: TopicPatterns) -> list[str]:
+    return [patterns] if isinstance(patterns, str) else list(patterns or ())
+
+
 def _compiled(patterns: TopicPatterns) -> list[re.Pattern[str]]:
-    items = [patterns] if isinstance(patterns, str) else list(patterns or ())
     try:
-        return [re.compile(p) for p in items if p]
+        return [re.compile(p) for p in _listed(patterns) if p]
     except re.error as err:
         raise UsageError(f"invalid topic regular expression {err.pattern!r}: {err}") from err
 
@@ -54,11 +57,6 @@ def topic_matcher(include: TopicPatterns, exclude: TopicPatterns) -> Any:
         )
 
     return match
-
-
-def _shown(patterns: TopicPatterns) -> str:
-    items = [patterns] if isinstance(patterns, str) else list(patterns or ())
-    return " or ".join(repr(p) for p in items)
 
 
 def time_range(
@@ -163,7 +161,8 @@ def cat_messages(
     names = [t.topic for t in rec.topics() if match(t.topic)]
     if not names:
         known = ", ".join(t.topic for t in rec.topics()) or "none"
-        raise UsageError(f"no topic matches {_shown(topics)} (topics: {known})")
+        shown = " or ".join(repr(p) for p in _listed(topics))
+        raise UsageError(f"no topic matches {shown} (topics: {known})")
     start_ns, end_ns = time_range(first_log_time(rec) if start or end else None, start, end)
     return rec.messages(topics=names, start_ns=start_ns, stop_ns=end_ns)
 

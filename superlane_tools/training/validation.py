@@ -311,7 +311,7 @@ def score_sets(
 def reference_scores(model: str, sets: Sequence[DevSet]) -> dict[str, float]:
     """Score a shipped model (a name or an ONNX file with its card) as it runs in the runtime.
 
-    A model trained in the canonical camera runs in it (as ``pipelines/dev_scores.py`` runs it).
+    A model trained in the canonical camera runs in it (``pipelines/dev_scores.py`` prints these).
     """
     from superlane_tools.scene.canonical_backend import trained_canonical
     from superlane_tools.scene.onnx_backend import OnnxSegmentationBackend

@@ -27,6 +27,19 @@ def _params(
     return replace(tiny_params("segmentation", data, out), steps=steps, threads=1)
 
 
+def _dev_folder(tmp_path: Path, camvid: bool = True) -> Path:
+    """A real-data folder with the CULane night dev set (and CamVid): quick to validate on."""
+    night = REALDATA / "culane" / "nightblur_0531_2336_0004"
+    if not night.is_dir():
+        pytest.skip("needs the real data")
+    dev = tmp_path / "dev"
+    (dev / "culane").mkdir(parents=True)
+    (dev / "culane" / night.name).symlink_to(night)
+    if camvid:
+        (dev / "camvid").symlink_to(REALDATA / "camvid")
+    return dev
+
+
 def test_threads_default_to_the_cores(toy_data: Path, tmp_path: Path) -> None:
     params = TrainParams("segmentation", toy_data, tmp_path / "m.onnx")
     assert params.threads == cpu_cores() == len(os.sched_getaffinity(0))
@@ -115,12 +128,7 @@ def test_lite0_checkpoint_fits_one_commit(tmp_path: Path) -> None:
 def test_best_on_worst_weights_are_kept_and_exported(
     toy_data: Path, tiny_params: Callable[..., TrainParams], tmp_path: Path
 ) -> None:
-    dev = tmp_path / "dev"  # two of the real dev sets (all four take longer, same code)
-    (dev / "culane").mkdir(parents=True)
-    (dev / "culane" / "nightblur_0531_2336_0004").symlink_to(
-        REALDATA / "culane" / "nightblur_0531_2336_0004"
-    )
-    (dev / "camvid").symlink_to(REALDATA / "camvid")
+    dev = _dev_folder(tmp_path)  # two of the real dev sets (all four take longer, same code)
     params = replace(
         _params(tiny_params, toy_data, tmp_path / "v.onnx", 4),
         lr=5e-2,
@@ -158,12 +166,7 @@ def test_against_a_reference_the_best_worst_margin_is_kept(
 ) -> None:
     from superlane_tools.training.validation import reference_scores
 
-    dev = tmp_path / "dev"
-    (dev / "culane").mkdir(parents=True)
-    (dev / "culane" / "nightblur_0531_2336_0004").symlink_to(
-        REALDATA / "culane" / "nightblur_0531_2336_0004"
-    )
-    (dev / "camvid").symlink_to(REALDATA / "camvid")
+    dev = _dev_folder(tmp_path)
     params = replace(
         _params(tiny_params, toy_data, tmp_path / "v.onnx", 6),
         lr=5e-2,
@@ -198,12 +201,7 @@ def test_resume_keeps_the_entry_stored_with_the_kept_weights(
     from superlane_tools.training.loop import _validator
     from superlane_tools.training.validation import PROTOCOL
 
-    dev = tmp_path / "dev"
-    (dev / "culane").mkdir(parents=True)
-    night = REALDATA / "culane" / "nightblur_0531_2336_0004"
-    if not night.is_dir():
-        pytest.skip("needs the real data")
-    (dev / "culane" / night.name).symlink_to(night)
+    dev = _dev_folder(tmp_path, camvid=False)
     params = replace(_params(tiny_params, toy_data, tmp_path / "v.onnx", 4), validate_every=2)
     params = replace(params, val_data=dev)
     kept = {"protocol": PROTOCOL, "step": 300, "scores": {"culane_night": 0.4}, "worst": 0.4}
@@ -246,12 +244,7 @@ def test_a_resumed_run_drops_validations_of_another_protocol(
     from superlane_tools.training.loop import _validator
     from superlane_tools.training.validation import PROTOCOL
 
-    dev = tmp_path / "dev"  # one small real set is enough to build the validator
-    (dev / "culane").mkdir(parents=True)
-    night = REALDATA / "culane" / "nightblur_0531_2336_0004"
-    if not night.is_dir():
-        pytest.skip("needs the real data")
-    (dev / "culane" / night.name).symlink_to(night)
+    dev = _dev_folder(tmp_path, camvid=False)  # one small real set is enough to build the validator
     params = replace(_params(tiny_params, toy_data, tmp_path / "v.onnx", 4), validate_every=2)
     params = replace(params, val_data=dev)
     params.best_path.parent.mkdir(parents=True, exist_ok=True)

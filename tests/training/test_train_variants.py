@@ -20,7 +20,7 @@ from superlane_tools.scene.adapters.heads import HEADS
 from superlane_tools.scene.backends import backend_from_name
 from superlane_tools.scene.canonical_backend import CanonicalBackend
 from superlane_tools.scene.errors import BackendUnavailableError
-from superlane_tools.scene.model_card import InputSpec, load_card
+from superlane_tools.scene.model_card import InputSpec, ModelCard, load_card
 from superlane_tools.scene.onnx_backend import OnnxSegmentationBackend, upsample_scores
 from superlane_tools.training.datasets import DatasetSpec, load_set
 from superlane_tools.training.errors import TrainingError
@@ -128,17 +128,23 @@ def test_a_dataset_entry_names_its_camera(realdata: Path, tmp_path: Path) -> Non
         load_set(bad, "segmentation", (256, 80), 1, canonical)
 
 
-def test_train_a_variant_in_the_canonical_camera_cards_it(realdata: Path, tmp_path: Path) -> None:
-    out = tmp_path / "tiny.onnx"
+def _train_canonical(realdata: Path, out: Path, size: str, *extra: str) -> ModelCard:
+    """Train one step of ``lite0-s16`` in the canonical camera; return its card."""
     data = realdata / "tusimple" / "train_frames"
     args = [
         "train", "segmentation", "--data", f"tusimple={data}", "--out", str(out),
-        "--arch", "lite0-s16", "--size", "256x80", "--steps", "1", "--batch", "2",
+        "--arch", "lite0-s16", "--size", size, "--steps", "1", "--batch", "2",
         "--max-frames", "2", "--threads", "1", "--canonical-camera", "--augment", "canonical",
+        *extra,
     ]  # fmt: skip
     result = CliRunner().invoke(app, args, catch_exceptions=False)
     assert result.exit_code == 0, result.output
-    card = load_card(out.with_name("tiny.card.yaml"))
+    return load_card(out.with_name(out.stem + ".card.yaml"))
+
+
+def test_train_a_variant_in_the_canonical_camera_cards_it(realdata: Path, tmp_path: Path) -> None:
+    out = tmp_path / "tiny.onnx"
+    card = _train_canonical(realdata, out, "256x80")
     assert card.training["architecture"] == "lite0-s16"
     assert card.training["canonical_camera"] == CanonicalCamera.for_input(256, 80).to_dict()
     assert card.training["datasets"][0]["canonical_camera"] is True
@@ -156,18 +162,9 @@ def test_train_a_variant_in_the_canonical_camera_cards_it(realdata: Path, tmp_pa
 
 
 def test_train_with_a_nearer_canonical_bottom_row(realdata: Path, tmp_path: Path) -> None:
-    """``--canonical-near-m`` trains, validates and cards the taller band (the near field)."""
+    """``--canonical-near-m`` trains in the taller band (the near field), cards it, runs in it."""
     out = tmp_path / "near.onnx"
-    data = realdata / "tusimple" / "train_frames"
-    args = [
-        "train", "segmentation", "--data", f"tusimple={data}", "--out", str(out),
-        "--arch", "lite0-s16", "--size", "256x112", "--steps", "1", "--batch", "2",
-        "--max-frames", "2", "--threads", "1", "--canonical-camera", "--augment", "canonical",
-        "--canonical-near-m", "3.4",
-    ]  # fmt: skip
-    result = CliRunner().invoke(app, args, catch_exceptions=False)
-    assert result.exit_code == 0, result.output
-    card = load_card(out.with_name("near.card.yaml"))
+    card = _train_canonical(realdata, out, "256x112", "--canonical-near-m", "3.4")
     near = CanonicalCamera.for_input(256, 112, near_range_m=3.4)
     assert card.training["canonical_camera"] == near.to_dict()
     assert near.near_range_m(1.7) == pytest.approx(3.4)
