@@ -6,8 +6,8 @@ is ignored, and so are measured times (``*_ms`` columns: the stage times of ``fr
 and ``fit_time_ms`` of ``lanes.parquet``; wall and CPU time differ from run to run by nature).
 ``annotations.mcap`` is compared message by message (topic, log time, and the payload bytes, or
 the decoded message where the bytes differ: protobuf serialises a ``Struct``'s map fields in no
-fixed order), and ``report.md`` line by line (the self-check's measured wall time and the
-report's date masked).
+fixed order), and ``report.md`` line by line (the self-check's measured wall and CPU time and
+the report's date masked).
 
 Usage:
     python pipelines/compare_runs.py RUN_A RUN_B [--rtol 0]
@@ -33,6 +33,8 @@ TIMING_COLUMN = re.compile(r"_ms$")
 """Measured-time columns (stage times, fit time): never reproducible."""
 REPORT_TIME = re.compile(r"self-check on (\d+) frames \(\d+(?:\.\d+)? s\)")
 """A measured time in ``report.md``: the segmentation self-check's wall time."""
+REPORT_CHECK_CPU = re.compile(r"self-check cost: \d+(?:\.\d+)? s CPU")
+"""The self-check's measured CPU time in ``report.md``."""
 REPORT_DATE = re.compile(r"^- date: .* UTC$")
 """The report's date line (when it was written): never reproducible."""
 REPORT_TIMING = re.compile(r"^- wall: .*$")
@@ -41,6 +43,7 @@ REPORT_TIMING = re.compile(r"^- wall: .*$")
 
 def _masked(line: str) -> str:
     line = REPORT_TIME.sub(r"self-check on \1 frames (measured s)", line)
+    line = REPORT_CHECK_CPU.sub("self-check cost: (measured) s CPU", line)
     line = REPORT_TIMING.sub("- (measured times masked)", line)
     return REPORT_DATE.sub("- date: (masked)", line)
 

@@ -59,13 +59,19 @@ off), ``--lr 0.001``, fine-tuned (``--init``) from the canonical checkpoint
 ``checkpoints/super_seg_v6.ckpt.pt`` (step 5118), checkpointing to
 ``checkpoints/super_seg_v7.ckpt.pt``. Trained with ``--budget-s 3000``.
 
+``--recipe half`` trains ``super_seg_v8``: the near recipe's command with ``--arch
+lite0-s16-half`` (the drivable and lane-marking heads refined at 1/2 of the input: at 1/4, a
+distant dash a few pixels long vanishes, and the fitted lanes end short), fine-tuned from the
+near checkpoint ``checkpoints/super_seg_v7.ckpt.pt`` (the new 1/2 stage starts as a zero
+correction: the same outputs as v7 to start), checkpointing to ``checkpoints/super_seg_v8.ckpt.pt``.
+
 ``--quick`` runs the same steps on a few frames and steps (CI). ``--device cuda`` trains on a GPU.
 
 Usage:
     python pipelines/train_models.py [--quick] [--work DIR] [--out DIR] [--ship]
         [--task segmentation|corridor|both] [--no-train] [--no-eval] [--device cpu|cuda]
-        [--realdata DIR] [--json results.json] [--recipe v4|lite0|canonical|near] [--budget-s S]
-        [--steps N] [--validate-every N] [--no-camvid]
+        [--realdata DIR] [--json results.json] [--recipe v4|lite0|canonical|near|half]
+        [--budget-s S] [--steps N] [--validate-every N] [--no-camvid]
 """
 
 from __future__ import annotations
@@ -96,6 +102,8 @@ CANON_NAME, CANON_NC_NAME = "super_seg_v6", "super_seg_v6_nc"
 CANON_ARCH, CANON_SIZE = "lite0-s16", "512x160"
 NEAR_NAME, NEAR_SIZE, NEAR_M, NEAR_LR = "super_seg_v7", "512x224", 3.4, 0.001
 """The near-field recipe's model: the canonical one at 512x224, bottom row 3.4 m ahead."""
+HALF_NAME, HALF_ARCH = "super_seg_v8", "lite0-s16-half"
+"""The half recipe's model: the near one with its fine heads refined at 1/2 of the input."""
 CULANE_TRAIN = "culane/driver_23_05151649_0422"
 """The CULane day clip trained on (pipelines/culane_night.py DAY_TRAIN_FOLDER)."""
 CULANE_HELD_OUT = "culane/driver_161_06030819_0755"
@@ -293,6 +301,20 @@ def near_command(canonical: list[str], out: Path, checkpoint: Path, init: Path) 
     return [*args, "--canonical-near-m", f"{NEAR_M:g}", "--init", str(init)]
 
 
+def half_command(near: list[str], out: Path, checkpoint: Path, init: Path) -> list[str]:
+    """Return the half recipe's ``slt train`` arguments (``super_seg_v8``).
+
+    The near recipe's command with :data:`HALF_ARCH`, fine-tuned from the near model's
+    checkpoint ``init`` (its weights fit every module but the new 1/2 stage).
+    """
+    values = {"--arch": HALF_ARCH, "--out": str(out), "--checkpoint": str(checkpoint)}
+    values["--init"] = str(init)
+    args = list(near)
+    for flag, value in values.items():
+        args[args.index(flag) + 1] = value
+    return args
+
+
 def lite0_command(
     listing: Path,
     out: Path,
@@ -442,7 +464,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--json", type=Path, help="write the results here too")
     ap.add_argument(
         "--recipe",
-        choices=("v4", "lite0", "canonical", "near"),
+        choices=("v4", "lite0", "canonical", "near", "half"),
         default="v4",
         help="segmentation recipe",
     )
@@ -494,7 +516,7 @@ def main(argv: list[str] | None = None) -> int:
         commands["segmentation"] = [
             lite0_command(listing, seg, plan, args.device, budget, steps, resume)
         ]
-    if args.recipe in ("canonical", "near"):
+    if args.recipe in ("canonical", "near", "half"):
         seg = args.out / f"{CANON_NC_NAME if args.no_camvid else CANON_NAME}.onnx"
         camera = culane_camera(realdata, args.work) if realdata is not None else None
         listing = canonical_list(realdata, sim, args.work, not args.no_camvid, camera)
@@ -506,10 +528,14 @@ def main(argv: list[str] | None = None) -> int:
                 (realdata, args.validate_every), args.threads,
             )
         ]  # fmt: skip
-    if args.recipe == "near":  # fine-tuned from the canonical recipe's checkpoint
+    if args.recipe in ("near", "half"):  # fine-tuned from the canonical recipe's checkpoint
         init, seg = ckpt, args.out / f"{NEAR_NAME}{'_nc' if args.no_camvid else ''}.onnx"
         ckpt = ckpt.with_name(f"{seg.stem}.ckpt.pt")
         commands["segmentation"] = [near_command(commands["segmentation"][0], seg, ckpt, init)]
+    if args.recipe == "half":  # fine-tuned from the near recipe's checkpoint
+        init, seg = ckpt, args.out / f"{HALF_NAME}{'_nc' if args.no_camvid else ''}.onnx"
+        ckpt = ckpt.with_name(f"{seg.stem}.ckpt.pt")
+        commands["segmentation"] = [half_command(commands["segmentation"][0], seg, ckpt, init)]
     commands = {t: c for t, c in commands.items() if args.task in (t, "both")}
     results["commands"].update(
         {t: " && ".join(shlex.join(["slt", *c]) for c in stages) for t, stages in commands.items()}

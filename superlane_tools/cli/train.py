@@ -66,7 +66,7 @@ _Arch = Annotated[
     str,
     typer.Option(
         "--arch",
-        help="Network: super, lite0, lite0-slim, lite0-s16 or lite0-s16-tiny "
+        help="Network: super, lite0, lite0-slim, lite0-s16, lite0-s16-half or lite0-s16-tiny "
         "(segmentation); fast or paper (corridor).",
     ),
 ]

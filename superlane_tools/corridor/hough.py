@@ -47,6 +47,9 @@ from numpy.typing import NDArray
 from superlane_tools.camera.model import CameraModel
 from superlane_tools.corridor.geometry import width_distance
 
+HOUGH_SEED = 0x5EED
+"""Seed of OpenCV's RNG before each probabilistic Hough transform (reproducible per frame)."""
+
 FloatArray = NDArray[np.float64]
 
 
@@ -180,6 +183,10 @@ def edges_and_segments(
     blurred = cv2.GaussianBlur(grey, (p.blur_ksize, p.blur_ksize), 0)
     edges = np.asarray(cv2.Canny(blurred, p.canny_low, p.canny_high), dtype=np.uint8)
     edges &= _roi_mask(height, width, camera, p)
+    # the probabilistic transform samples edge points with the calling thread's RNG, whose
+    # state depends on what that thread ran before: seed it, so a frame's segments do not
+    # depend on which worker took it (or on the frames before it)
+    cv2.setRNGSeed(HOUGH_SEED)
     found = cv2.HoughLinesP(
         edges,
         rho=1,

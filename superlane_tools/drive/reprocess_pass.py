@@ -221,7 +221,10 @@ def reprocess_pass(
     total = frame_total(recording, topics.frames)
     say(self_check_label(config, total))
     check = drive_self_check(recording, topics.frames, config, camera)
-    stages = FrameStages(check.config(config) if isinstance(check, SelfCheck) else config, camera)
+    if isinstance(check, SelfCheck):  # its chosen backend, loaded, and its sample's labels
+        stages = FrameStages(check.config(config), camera, reuse=check.stages)
+    else:
+        stages = FrameStages(config, camera)
     setup = PassSetup(topics, camera, stages, check, total)
     opened = sinks(setup)
     say("pass")
@@ -246,7 +249,7 @@ def reprocess_pass(
         length_cap_m=measurable_range_m(at_size),
         camera_facts=camera_facts(config.camera, camera_source, source),
     )
-    checked = check.lines() if isinstance(check, SelfCheck) else [check]
+    checked = check.lines(stages.reused) if isinstance(check, SelfCheck) else [check]
     implausible = "" if not isinstance(check, SelfCheck) or check.plausible else check.reason
     notes = (*topics.streams.notes, f"camera: {camera_source}", *checked, *stages.notes)
     notes += (*derived.notes, *([unlike_training_data(implausible)] if implausible else []))

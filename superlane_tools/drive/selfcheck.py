@@ -18,7 +18,11 @@ early (a slower candidate could at best tie on what the drive needs, and a tie k
 
 Cost: the sample is read from the drive's open recording through the one frame reader
 (``recording.camera_frames``), seeking to each run (video from the keyframe before it); each
-frame is decoded once for every candidate.
+frame is decoded once for every candidate. The chosen candidate's stages go to the pass
+(``SelfCheck.stages``): its loaded backend runs the drive, and the sample frames it segmented
+are not segmented again (``FrameStages(reuse=...)``: reused when the pass decodes the same
+pixels), so what the check adds to a drive is the other candidates, the sample's reading and
+its fits.
 """
 
 from __future__ import annotations
@@ -26,7 +30,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -93,6 +97,8 @@ class SelfCheck:
         n_frames: Frames in the sample.
         seconds: Wall time of the self-check, seconds.
         cpu_s: CPU time of the self-check (this process, every thread), seconds.
+        stages: The chosen candidate's lane stages (``drive.stages.FrameStages``, with its
+            sample's label images) for the pass to reuse; None when none was chosen.
     """
 
     backend: str
@@ -103,6 +109,7 @@ class SelfCheck:
     n_frames: int
     seconds: float
     cpu_s: float = math.nan
+    stages: Any = field(default=None, compare=False, repr=False)
 
     @property
     def label(self) -> str:
@@ -119,9 +126,18 @@ class SelfCheck:
         seg = replace(config.segmentation, backend=self.backend, model=self.model)
         return replace(config, segmentation=seg)
 
-    def lines(self) -> list[str]:
-        """Return the report's lines: :meth:`reason_line`, then one line per candidate."""
-        return [self.reason_line(), *(f"self-check {trial.line()}" for trial in self.trials)]
+    def lines(self, reused: int = 0) -> list[str]:
+        """Return the report's lines: :meth:`reason_line`, one line per candidate, the cost.
+
+        ``reused``: sample frames whose label images the pass took from the check.
+        """
+        trials = [f"self-check {trial.line()}" for trial in self.trials]
+        if math.isnan(self.cpu_s):
+            return [self.reason_line(), *trials]
+        cost = f"self-check cost: {self.cpu_s:.2f} s CPU"
+        if reused:
+            cost += f"; the pass reused {reused} of its segmented sample frames"
+        return [self.reason_line(), *trials, cost]
 
     def to_dict(self) -> dict[str, Any]:
         """Return the self-check as a JSON-ready mapping (for the provenance)."""
@@ -183,21 +199,30 @@ def sample_frames(
 
 
 Sample = Sequence[Sequence[tuple[int, Any]]]
-"""Runs of consecutive frames ``(index, BGR image or (source size, BGR image))``."""
+"""Runs of consecutive frames ``(key, BGR image or (source size, BGR image))``; a drive's key is
+the frame's log time (ns: the pass finds the sample's label images by it), a folder's the
+image's index."""
 
 
-def try_backend(config: ReprocessConfig, camera: CameraModel, runs: Sample) -> Plausibility:
-    """Run the lane stages with ``config``'s backend on the runs; score the fits and reach."""
+def try_backend(
+    config: ReprocessConfig, camera: CameraModel, runs: Sample
+) -> tuple[Plausibility, Any]:
+    """Run the lane stages with ``config``'s backend on the runs; score the fits and reach.
+
+    Returns:
+        The scores, and the stages (``drive.stages.FrameStages``, holding the sample's label
+        images by key) for the pass to reuse.
+    """
     from superlane_tools.corridor.availability import frame_availability
     from superlane_tools.drive.stages import FrameStages, Prepared
 
     stages = FrameStages(config, camera, lanes_only=True)
 
-    def prepare(index: int, frame: Any) -> Prepared:
+    def prepare(key: int, frame: Any) -> Prepared:
         if isinstance(frame, np.ndarray):
-            return stages.prepare_image(Prepared(index, 0, None), frame)
+            return stages.prepare_image(Prepared(key, key, None), frame)
         size, image = frame
-        out = Prepared(index, 0, None)
+        out = Prepared(key, key, None)
         out.source_size = size
         return stages.prepare_image(out, image)
 
@@ -213,7 +238,7 @@ def try_backend(config: ReprocessConfig, camera: CameraModel, runs: Sample) -> P
     rule = config.kpi.availability_params(15.0)
     available = frame_availability(widths, lengths, SAMPLE_SPEED_MPS, rule).available
     reach = Reach(lengths, available.tolist(), SAMPLE_SPEED_MPS * rule.time_gap_s)
-    return plausibility(clips, reach=reach)
+    return plausibility(clips, reach=reach), stages
 
 
 def self_check(
@@ -237,11 +262,14 @@ def self_check(
     t0, c0 = time.perf_counter(), time.process_time()
     n_frames = sum(len(run) for run in runs)
     trials: list[Trial] = []
+    stages: dict[str, Any] = {}  # by trial label: the chosen one's goes to the pass
     for backend, model in candidates:
         seg = replace(config.segmentation, backend=backend, model=model)
         c1 = time.process_time()
         try:
-            scores = try_backend(replace(config, segmentation=seg), camera, runs)
+            scores, stages[f"{backend}:{model}"] = try_backend(
+                replace(config, segmentation=seg), camera, runs
+            )
         except SltError as err:
             trials.append(Trial(backend, model, None, str(err)))
             continue
@@ -259,8 +287,9 @@ def self_check(
         why += f"; {', '.join(untried)} not tried (every sample frame was available)"
     backend, model = (best.backend, best.model) if best is not None else pick
     cpu_s = time.process_time() - c0
+    chosen = stages.get(f"{backend}:{model}")
     return SelfCheck(
-        backend, model, tuple(trials), best is not None, why, n_frames, _since(t0), cpu_s
+        backend, model, tuple(trials), best is not None, why, n_frames, _since(t0), cpu_s, chosen
     )
 
 
@@ -357,7 +386,7 @@ def drive_self_check(
 def _read_sample(
     recording: Recording, topic: str, times: Sequence[int], process_width: int
 ) -> list[list[tuple[int, Any]]]:
-    """Read each sampled run and decode its frames once: ``(index, (size, image))``."""
+    """Read each sampled run and decode its frames once: ``(log time, (size, image))``."""
     from superlane_tools.recording.camera_frames import camera_frames
 
     runs = []
@@ -365,8 +394,8 @@ def _read_sample(
         stop = min(start + CLIP_FRAMES, len(times))
         frames = camera_frames(recording, topic, times[start:stop], process_width)
         run = [
-            (index, (frame.size, frame.image))
-            for index, frame in zip(range(start, stop), frames, strict=False)
+            (frame.log_time_ns, (frame.size, frame.image))
+            for frame in frames
             if frame.image is not None  # a corrupt frame: the pass counts it
         ]
         if run:

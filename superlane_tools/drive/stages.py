@@ -142,14 +142,22 @@ class FrameStages:
         config: The run's configuration.
         camera: Camera of the recorded frames (resized to each frame's size as needed).
         lanes_only: Run only the stages of the lane fit (decode, segmentation, points, fit;
-            no corridor network, no Hough), as the per-drive self-check does.
+            no corridor network, no Hough), as the per-drive self-check does. Such stages keep
+            every label image they compute (:attr:`sampled`), by log time.
+        reuse: The self-check's stages of the backend chosen for the drive: their loaded
+            backend runs the pass, and a frame they segmented is not segmented again when its
+            image is the same (pixel for pixel: the labels are then the same).
 
     Raises:
         UsageError: If a requested backend or model cannot be used.
     """
 
     def __init__(
-        self, config: ReprocessConfig, camera: CameraModel, lanes_only: bool = False
+        self,
+        config: ReprocessConfig,
+        camera: CameraModel,
+        lanes_only: bool = False,
+        reuse: FrameStages | None = None,
     ) -> None:
         self.config = config
         self.camera = camera
@@ -160,7 +168,20 @@ class FrameStages:
         self.models: dict[str, str] = {}
         self._cameras: dict[tuple[int, int], CameraModel] = {}
         self._oracle: OracleLabels | None = None
-        self.backend_name, self._backend = self._segmentation_backend()
+        self.sampled: dict[int, tuple[NDArray[np.uint8], NDArray[np.uint8]]] = {}
+        """Label images computed with ``lanes_only``: log time -> (image, labels)."""
+        self._reusable: dict[int, tuple[NDArray[np.uint8], NDArray[np.uint8]]] = {}
+        self.reused = 0
+        """Frames whose label image came from :attr:`sampled` of the ``reuse`` stages."""
+        self.backend_name: str
+        self._backend: Any
+        if reuse is not None and _same_segmentation(reuse, config, camera):
+            self.backend_name, self._backend = reuse.backend_name, reuse._backend
+            self.models.update(reuse.models)
+            self.notes += reuse.notes
+            self._reusable, reuse.sampled = reuse.sampled, {}  # handed over, not copied
+        else:
+            self.backend_name, self._backend = self._segmentation_backend()
         self.corridor_unavailable = ""
         self._corridor = None if lanes_only else self._corridor_model()
         self._smoother: Any = None
@@ -290,7 +311,7 @@ class FrameStages:
         out.image = image
         cam = self.camera_for(pw, ph)
         clock.lap("decode")
-        out.labels = self._segment(index, image)
+        out.labels = self._segment(out, image)
         clock.lap("segmentation")
         seed = self.fit_params.seed
         out.lane_uv, out.codes = lane_points(out.labels, seed=seed)
@@ -309,10 +330,16 @@ class FrameStages:
         clock.lap("hough")
         return out
 
-    def _segment(self, index: int, image: NDArray[np.uint8]) -> NDArray[np.uint8]:
+    def _segment(self, out: Prepared, image: NDArray[np.uint8]) -> NDArray[np.uint8]:
         if self._oracle is not None:
-            return self._oracle.labels(index, image.shape[1], image.shape[0])
+            return self._oracle.labels(out.index, image.shape[1], image.shape[0])
+        known = self._reusable.pop(out.log_time_ns, None)  # atomic: frames run on a pool
+        if known is not None and known[0].shape == image.shape and np.array_equal(known[0], image):
+            self.reused += 1
+            return known[1]
         labels: NDArray[np.uint8] = self._backend.segment(image)
+        if self.lanes_only:
+            self.sampled[out.log_time_ns] = (image, labels)
         return labels
 
     def due(self, pending: deque[Future[Prepared]], workers: int) -> Iterator[Prepared]:
@@ -404,3 +431,8 @@ class FrameStages:
         )
         clock.lap("lane_fit")
         return Finished(prep, fit, super_corr, net, prep.net_mask, cam)
+
+
+def _same_segmentation(stages: FrameStages, config: ReprocessConfig, camera: CameraModel) -> bool:
+    """Return True when ``stages`` segment as ``config`` would, for frames of ``camera``."""
+    return stages.config.segmentation == config.segmentation and stages.camera == camera

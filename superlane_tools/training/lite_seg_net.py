@@ -117,6 +117,12 @@ class LiteVariant:
         fine_at_half: The drivable and lane-marking heads read a 1/2 map (else every head reads
             the 1/4 map and the graph ends at 1/4 resolution).
         summary: One line for the model card and docs.
+        refine_half: The fine heads are the 1/4 map's fine heads, upsampled, plus a correction
+            read from the 1/2 map (a zero-initialised ``fine_half`` classifier): the network of
+            the same variant without the 1/2 stage (``refines``) is its exact starting point,
+            so its weights initialise this one (``slt train --init``) and the new stage learns
+            only what the finer scale adds (thin, distant markings).
+        refines: The variant whose weights initialise this one ("" for none).
     """
 
     name: str
@@ -124,6 +130,8 @@ class LiteVariant:
     decoder: tuple[int, ...]
     fine_at_half: bool
     summary: str
+    refine_half: bool = False
+    refines: str = ""
 
     @property
     def stride(self) -> int:
@@ -168,6 +176,16 @@ LITE_VARIANTS: dict[str, LiteVariant] = {
             (64, 48),
             False,
             "encoder to 1/16 (blocks 0-10), decoder 64-48, every head at 1/4",
+        ),
+        LiteVariant(
+            "lite0-s16-half",
+            10,
+            (64, 48, 24),
+            True,
+            "encoder to 1/16 (blocks 0-10), decoder 64-48-24, coarse heads at 1/4, the drivable "
+            "and lane-marking heads refined at 1/2",
+            refine_half=True,
+            refines="lite0-s16",
         ),
         LiteVariant(
             "lite0-s16-tiny",
@@ -239,8 +257,21 @@ class LiteHierarchicalSegNet(nn.Module):
             )
         d_quarter = spec.decoder[self.scales.index(4)]
         self.head_sizes = tuple(len(h.classes) for h in HEADS)
+        n_fine = sum(self.head_sizes[COARSE_HEADS:])
         self.coarse = nn.Conv2d(d_quarter, sum(self.head_sizes[:COARSE_HEADS]), 1)
-        self.fine = nn.Conv2d(spec.decoder[-1], sum(self.head_sizes[COARSE_HEADS:]), 1)
+        self.fine = nn.Conv2d(d_quarter if spec.refine_half else spec.decoder[-1], n_fine, 1)
+        if spec.refine_half:  # starts as the 1/4 network exactly: the correction is zero
+            self.fine_half = nn.Conv2d(spec.decoder[-1], n_fine, 1)
+            nn.init.zeros_(self.fine_half.weight)
+            nn.init.zeros_(self.fine_half.bias)  # type: ignore[arg-type]
+
+    def new_on_init(self) -> tuple[str, ...]:
+        """Return the modules absent from the weights of the variant this one refines.
+
+        ``slt train --init`` with a checkpoint of :attr:`LiteVariant.refines` loads every other
+        weight and leaves these as built (the zero correction: the same outputs to start).
+        """
+        return ("up1.", "fine_half.") if self.variant.refine_half else ()
 
     def train(self, mode: bool = True) -> LiteHierarchicalSegNet:
         """Switch to training mode, the encoder's batch norms excepted (fixed statistics)."""
@@ -284,8 +315,13 @@ class LiteHierarchicalSegNet(nn.Module):
         coarse = self.coarse(quarter)
         if coarse.shape[-2:] != x.shape[-2:]:
             coarse = F.interpolate(coarse, size=x.shape[-2:], mode="bilinear")
+        if self.variant.refine_half:
+            fine = F.interpolate(self.fine(quarter), size=x.shape[-2:], mode="bilinear")
+            fine = fine + self.fine_half(x)
+        else:
+            fine = self.fine(x)
         coarse_heads = torch.split(coarse, list(self.head_sizes[:COARSE_HEADS]), dim=1)
-        fine_heads = torch.split(self.fine(x), list(self.head_sizes[COARSE_HEADS:]), dim=1)
+        fine_heads = torch.split(fine, list(self.head_sizes[COARSE_HEADS:]), dim=1)
         return (*coarse_heads, *fine_heads)
 
     def half_resolution_logits(self, image: torch.Tensor) -> tuple[torch.Tensor, ...]:

@@ -191,13 +191,27 @@ def _restore(
         return run
     if params.init is not None:
         state = load_checkpoint(params.init, f"--init {params.init}", device)
-        try:
-            model.load_state_dict(state["model"])
-        except (RuntimeError, TypeError, ValueError) as err:
-            raise TrainingError(
-                f"--init {params.init}: weights do not fit this {params.task} model"
-            ) from err
+        error = f"--init {params.init}: weights do not fit this {params.task} model"
+        _load_init(model, state, error)
     return _Run([], 0, 0.0)
+
+
+def _load_init(model: nn.Module, state: dict[str, Any], error: str) -> None:
+    """Load ``--init`` weights: every tensor, except the modules a refining variant adds.
+
+    A variant that refines another (``lite_seg_net.LiteVariant.refines``) keeps its new modules
+    (:meth:`~superlane_tools.training.lite_seg_net.LiteHierarchicalSegNet.new_on_init`) as built
+    when the checkpoint is the other variant's; anything else missing or left over is an error.
+    """
+    new = model.new_on_init() if isinstance(model, LiteHierarchicalSegNet) else ()
+    try:
+        result = model.load_state_dict(state["model"], strict=False)
+    except (KeyError, RuntimeError, TypeError, ValueError) as err:
+        raise TrainingError(error) from err
+    missing = [key for key in result.missing_keys if not key.startswith(new)]
+    if missing or result.unexpected_keys:
+        extra = [*missing, *result.unexpected_keys]
+        raise TrainingError(f"{error} ({len(extra)} tensors differ, e.g. {extra[0]})")
 
 
 def _save(model: nn.Module, optimizer: Any, gen: torch.Generator, run: _Run, params: Any) -> None:

@@ -105,8 +105,8 @@ class TrainParams:
         corridor_dice: Weight of the Dice loss added to the corridor BCE (0 = BCE only).
         arch: Network: segmentation ``super`` (default), ``lite0`` (ImageNet-pretrained
             EfficientNet-Lite0 encoder) or a faster lite0 variant (``lite_seg_net.LITE_VARIANTS``:
-            ``lite0-slim``, ``lite0-s16``, ``lite0-s16-tiny``); corridor ``fast`` (default) or
-            ``paper``.
+            ``lite0-slim``, ``lite0-s16``, ``lite0-s16-half``, ``lite0-s16-tiny``); corridor
+            ``fast`` (default) or ``paper``.
         budget_s: Wall-clock budget of the training loop, seconds: the learning-rate schedule
             follows the larger of the step fraction and the elapsed-time fraction, and training
             ends when either is spent (the card records the steps run). None = steps only.

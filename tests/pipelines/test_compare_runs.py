@@ -46,6 +46,9 @@ def test_reprocess_is_reproducible_and_a_changed_cell_is_found(tmp_path: Path) -
     report = (timed / "report.md").read_text(encoding="utf-8")
     retimed = re.sub(r"(self-check on \d+ frames \()\d+(?:\.\d+)? s\)", r"\g<1>99.9 s)", report)
     assert retimed != report
+    recosted = re.sub(r"(self-check cost: )\d+(?:\.\d+)? s CPU", r"\g<1>99.99 s CPU", retimed)
+    assert recosted != retimed
+    retimed = recosted
     (timed / "report.md").write_text(retimed, encoding="utf-8")
     assert compare(tmp_path / "a", timed)[1] == []
     (timed / "report.md").write_text(report.replace("Run", "Ran", 1), encoding="utf-8")

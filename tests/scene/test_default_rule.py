@@ -66,12 +66,15 @@ def test_the_shipped_default_is_the_rules_pick() -> None:
         assert any(name.startswith("culane_day") for name in release["sets"])
     assert choose_default(releases) == DEFAULT_SEGMENTATION_MODEL == "super_seg_v4"
     assert not judge("super_seg_v5", releases).passes
+    newest = judge("super_seg_v8", releases)  # 100 % on the demo drive, not better everywhere
+    assert not newest.passes
+    assert "kitti_um_000000_f" in newest.line()
 
 
 def test_auto_tries_every_candidate_that_could_win_fastest_first() -> None:
     assert auto_candidates() == (
         ("onnx", "super_seg_v4"),
-        ("onnx", "super_seg_v7"),  # the newest model, not the default: it may win a drive
+        ("onnx", "super_seg_v8"),  # the newest model, not the default: it may win a drive
         ("classical", ""),
     )
 

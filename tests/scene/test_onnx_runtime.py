@@ -138,6 +138,7 @@ def test_shipped_models_match_their_cards() -> None:
         "super_seg_v4",
         "super_seg_v5",
         "super_seg_v7",
+        "super_seg_v8",
     ],
 )
 def test_shipped_segmentation_graphs_stop_at_half_resolution(model: str) -> None:

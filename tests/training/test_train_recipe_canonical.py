@@ -93,6 +93,25 @@ def test_near_recipe_fine_tunes_the_canonical_checkpoint_at_the_taller_band(
     assert canonical[canonical.index("--size") + 1] == "512x160"  # not changed in place
 
 
+def test_half_recipe_fine_tunes_the_near_checkpoint_with_heads_at_half(tmp_path: Path) -> None:
+    ckpt = tmp_path / "super_seg_v6.ckpt.pt"
+    canonical = tm.canonical_command(
+        tmp_path / "d.yaml", tmp_path / "super_seg_v6.onnx", tm.FULL, "cpu", 4800.0, 6000, ckpt,
+        (tmp_path, 300),
+    )  # fmt: skip
+    near_ckpt = tmp_path / "super_seg_v7.ckpt.pt"
+    near = tm.near_command(canonical, tmp_path / "super_seg_v7.onnx", near_ckpt, ckpt)
+    out, half_ckpt = tmp_path / "super_seg_v8.onnx", tmp_path / "super_seg_v8.ckpt.pt"
+    args = tm.half_command(near, out, half_ckpt, near_ckpt)
+    assert _values(args, "--arch") == "lite0-s16-half"
+    assert _values(args, "--init") == str(near_ckpt)  # from the near model's weights
+    assert _values(args, "--checkpoint") == str(half_ckpt)
+    assert _values(args, "--out") == str(out)
+    for flag in ("--size", "--canonical-near-m", "--lr", "--datasets", "--validate-against"):
+        assert _values(args, flag) == _values(near, flag)  # the near recipe otherwise
+    assert _values(near, "--arch") == "lite0-s16"  # not changed in place
+
+
 def test_recipe_command_parses_through_slt_train(tmp_path: Path) -> None:
     """The CLI accepts every option the recipe passes (an unknown one would exit 2)."""
     from typer.testing import CliRunner
@@ -111,5 +130,11 @@ def test_recipe_command_parses_through_slt_train(tmp_path: Path) -> None:
         args, tmp_path / "n.onnx", tmp_path / "n.ckpt.pt", tmp_path / "m.ckpt.pt"
     )
     result = CliRunner().invoke(app, near)
+    assert result.exit_code != 2, result.output
+    assert "missing.yaml" in result.output
+    half = tm.half_command(
+        near, tmp_path / "h.onnx", tmp_path / "h.ckpt.pt", tmp_path / "n.ckpt.pt"
+    )
+    result = CliRunner().invoke(app, half)
     assert result.exit_code != 2, result.output
     assert "missing.yaml" in result.output

@@ -128,18 +128,51 @@ def test_a_dataset_entry_names_its_camera(realdata: Path, tmp_path: Path) -> Non
         load_set(bad, "segmentation", (256, 80), 1, canonical)
 
 
-def _train_canonical(realdata: Path, out: Path, size: str, *extra: str) -> ModelCard:
-    """Train one step of ``lite0-s16`` in the canonical camera; return its card."""
+def _train_canonical(
+    realdata: Path, out: Path, size: str, *extra: str, arch: str = "lite0-s16"
+) -> ModelCard:
+    """Train one step of ``arch`` in the canonical camera; return its card."""
     data = realdata / "tusimple" / "train_frames"
     args = [
         "train", "segmentation", "--data", f"tusimple={data}", "--out", str(out),
-        "--arch", "lite0-s16", "--size", size, "--steps", "1", "--batch", "2",
+        "--arch", arch, "--size", size, "--steps", "1", "--batch", "2",
         "--max-frames", "2", "--threads", "1", "--canonical-camera", "--augment", "canonical",
         *extra,
     ]  # fmt: skip
     result = CliRunner().invoke(app, args, catch_exceptions=False)
     assert result.exit_code == 0, result.output
     return load_card(out.with_name(out.stem + ".card.yaml"))
+
+
+def test_the_half_variant_starts_from_the_quarter_one(realdata: Path, tmp_path: Path) -> None:
+    """``lite0-s16-half`` takes a ``lite0-s16`` checkpoint: its 1/2 correction starts at zero."""
+    ckpt = tmp_path / "quarter.ckpt.pt"
+    _train_canonical(realdata, tmp_path / "quarter.onnx", "256x80", "--checkpoint", str(ckpt))
+    card = _train_canonical(
+        realdata, tmp_path / "half.onnx", "256x80", "--init", str(ckpt), arch="lite0-s16-half"
+    )
+    assert card.training["architecture"] == "lite0-s16-half"
+    half = LiteHierarchicalSegNet(pretrained=False, variant="lite0-s16-half").eval()
+    assert half.new_on_init() == ("up1.", "fine_half.")
+    assert not half.fine_half.weight.any()
+    quarter = LiteHierarchicalSegNet(pretrained=False, variant="lite0-s16").eval()
+    state = {k: v for k, v in half.state_dict().items() if not k.startswith(half.new_on_init())}
+    quarter.load_state_dict(state)  # every other weight is the quarter network's
+    image = torch.randn(1, 3, 64, 128)
+    with torch.no_grad():
+        fine_quarter = quarter.export_logits(image)[3:]
+        fine_half = half.export_logits(image)[3:]
+    for q, h in zip(fine_quarter, fine_half, strict=True):
+        up = torch.nn.functional.interpolate(q, size=h.shape[-2:], mode="bilinear")
+        torch.testing.assert_close(h, up)  # the same lanes to start, at twice the resolution
+    args = [
+        "train", "segmentation", "--data", f"tusimple={realdata / 'tusimple' / 'train_frames'}",
+        "--out", str(tmp_path / "full.onnx"), "--arch", "lite0", "--size", "256x96",
+        "--steps", "1", "--max-frames", "2", "--init", str(ckpt),
+    ]  # fmt: skip
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code != 0
+    assert "weights do not fit this segmentation model" in result.output
 
 
 def test_train_a_variant_in_the_canonical_camera_cards_it(realdata: Path, tmp_path: Path) -> None:

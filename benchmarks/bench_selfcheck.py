@@ -1,0 +1,141 @@
+"""Benchmark what the segmentation self-check adds to a drive: ``auto`` against its own pick.
+
+Usage::
+
+    python benchmarks/bench_selfcheck.py [--recording PATH] [--repeats R] [--out FILE.json]
+
+Runs ``reprocess`` on the recording (default: the README's demo drive,
+``fixtures/sample_drive.mcap``) once untimed (kernels, page cache), reads which backend the
+self-check chose, then times ``R`` pairs, alternating:
+
+* baseline: ``reprocess`` with that backend and model given explicitly (no self-check);
+* auto: ``reprocess`` with the default ``auto`` backend (the self-check, then the same pass).
+
+The self-check's cost to the drive is the difference of the two runs' process CPU time (all
+threads), per pair; the JSON holds its median, the self-check's own CPU (``cpu_s`` in the
+provenance: what it spent, before the pass reused its sample), the frames the pass reused, the
+whole runs' CPU and their ratio, and whether the two runs' tables are the same (the reuse must
+change no result). CPU time depends on the load far less than wall time; the load is recorded.
+Writes ``benchmarks/results/selfcheck.json`` (``--out``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import tempfile
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+REPO = Path(__file__).resolve().parents[1]
+RESULTS = Path(__file__).resolve().parent / "results" / "selfcheck.json"
+
+
+def _uptime() -> str:
+    try:
+        return subprocess.run(
+            ["uptime"], capture_output=True, text=True, check=False
+        ).stdout.strip()
+    except OSError:
+        return ""
+
+
+def _check(run: Path) -> dict[str, Any]:
+    from superlane_tools.reporting import read_provenance
+    from superlane_tools.reporting.layout import RunLayout
+
+    check = read_provenance(RunLayout(run).frames)["config"]["resolved"]["segmentation_self_check"]
+    return check if isinstance(check, dict) else {}
+
+
+def _tables(run: Path) -> dict[str, bytes]:
+    """Every table of a run, serialised without its metadata and measured times (``*_ms``).
+
+    Bytes compare NaN with NaN (``Table.equals`` does not).
+    """
+    import io
+
+    import pyarrow.parquet as pq
+
+    tables = {}
+    for path in sorted(run.glob("*.parquet")):
+        table = pq.read_table(path).replace_schema_metadata(None)
+        buffer = io.BytesIO()
+        pq.write_table(table.drop([c for c in table.column_names if c.endswith("_ms")]), buffer)
+        tables[path.name] = buffer.getvalue()
+    return tables
+
+
+def main() -> None:
+    """Run the benchmark and write the JSON results."""
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--recording", type=Path, default=REPO / "fixtures" / "sample_drive.mcap")
+    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--out", type=Path, default=RESULTS, help="results JSON")
+    args = parser.parse_args()
+    from superlane_tools.commands.reprocess import reprocess
+    from superlane_tools.drive.config import ReprocessConfig
+
+    auto = ReprocessConfig()
+    uptime_before = _uptime()
+    print(uptime_before, flush=True)
+    with tempfile.TemporaryDirectory() as tmp:
+        reprocess(args.recording, Path(tmp) / "warmup", auto)
+        chosen = _check(Path(tmp) / "warmup")
+        seg = replace(auto.segmentation, backend=chosen["backend"], model=chosen["model"])
+        explicit = replace(auto, segmentation=seg)
+        added, check_cpu, base_cpu, auto_cpu, loads, same = [], [], [], [], [], True
+        for k in range(args.repeats):
+            loads.append(round(os.getloadavg()[0], 2))
+            base = reprocess(args.recording, Path(tmp) / f"base{k}", explicit)
+            run = reprocess(args.recording, Path(tmp) / f"auto{k}", auto)
+            base_cpu.append(base.timings["cpu_total"])
+            auto_cpu.append(run.timings["cpu_total"])
+            added.append(auto_cpu[-1] - base_cpu[-1])
+            check_cpu.append(float(_check(Path(tmp) / f"auto{k}")["cpu_s"]))
+            same = same and _tables(Path(tmp) / f"base{k}") == _tables(Path(tmp) / f"auto{k}")
+            print(
+                f"pair {k}: explicit {base_cpu[-1]:.2f} s CPU, auto {auto_cpu[-1]:.2f} s CPU "
+                f"(+{added[-1]:.2f} s; self-check {check_cpu[-1]:.2f} s)",
+                flush=True,
+            )
+        loads.append(round(os.getloadavg()[0], 2))
+        frames = run.frames
+    out = {
+        "recording": str(args.recording.relative_to(REPO))
+        if args.recording.is_relative_to(REPO)
+        else str(args.recording),
+        "frames": frames,
+        "chosen": f"{chosen['backend']}:{chosen['model']}"
+        if chosen["model"]
+        else chosen["backend"],
+        "candidates_tried": [t["model"] or t["backend"] for t in chosen.get("trials", [])],
+        "cpus": os.cpu_count(),
+        "uptime_before": uptime_before,
+        "uptime_after": _uptime(),
+        "load_average_1min": loads,
+        "added_cpu_s_median": round(statistics.median(added), 3),
+        "added_cpu_s_all": [round(a, 3) for a in added],
+        "self_check_cpu_s_median": round(statistics.median(check_cpu), 3),
+        "explicit_cpu_s_median": round(statistics.median(base_cpu), 3),
+        "auto_cpu_s_median": round(statistics.median(auto_cpu), 3),
+        "cpu_ratio_auto_to_explicit": round(
+            statistics.median(auto_cpu) / statistics.median(base_cpu), 4
+        ),
+        "tables_identical": same,
+        "note": "added_cpu_s = process CPU of reprocess with the auto backend minus that of the "
+        "same run with the chosen backend given explicitly (the self-check's cost to the drive, "
+        "after the pass reused the chosen candidate's loaded model and segmented sample frames); "
+        "self_check_cpu_s = the check's own CPU (provenance cpu_s), before that reuse.",
+    }
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(json.dumps(out, indent=2) + "\n", encoding="utf-8")
+    print(json.dumps(out, indent=2))
+
+
+if __name__ == "__main__":
+    main()
