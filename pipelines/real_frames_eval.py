@@ -168,12 +168,28 @@ def marking_support(seg_dir: Path, labels_json: Path) -> tuple[float, float]:
     return found / max(total, 1), near / max(marked, 1)
 
 
+CANONICAL = "@canonical"
+"""Suffix of ``onnx=MODEL@canonical``: the model run in the canonical camera (``slt segment
+--canonical-camera``), for a model trained without it (with and without, on every set)."""
+
+
 def backend_args(spec: str) -> tuple[str, list[str]]:
-    """Return (label, ``slt segment`` options) of ``classical``, ``onnx`` or ``onnx=MODEL``."""
+    """Return (label, ``slt segment`` options) of ``classical``, ``onnx`` or ``onnx=MODEL``.
+
+    ``onnx=MODEL@canonical`` runs the model in the canonical camera (label ``..._canonical``).
+    """
     name, _, model = spec.partition("=")
     if not model:
         return name, ["--backend", name]
-    return f"{name}_{Path(model).name.removesuffix('.onnx')}", ["--backend", name, "--model", model]
+    model, canonical = model.removesuffix(CANONICAL), model.endswith(CANONICAL)
+    label = f"{name}_{Path(model).name.removesuffix('.onnx')}" + ("_canonical" if canonical else "")
+    return label, [
+        "--backend",
+        name,
+        "--model",
+        model,
+        *(["--canonical-camera"] if canonical else []),
+    ]
 
 
 def tusimple_chain(
@@ -457,7 +473,7 @@ def update_cards(results: dict[str, Any], specs: list[str]) -> list[str]:
     written = []
     for spec in specs:
         name, _, model = spec.partition("=")
-        if name != "onnx":
+        if name != "onnx" or model.endswith(CANONICAL):  # a card holds the model as trained
             continue
         path = resolve_model(model or DEFAULT_SEGMENTATION_MODEL)[0]
         metrics = card_metrics(results[backend_args(spec)[0]], results["classical"])
@@ -529,7 +545,7 @@ def main(argv: list[str] | None = None) -> int:
             day = culane_chain(options, backend, args.data, work, day_camera, slt,
                                DAY_DEV_FOLDER, "culane_day")  # fmt: skip
             results[backend] = {"tusimple": tus, "kitti": kit, "culane": cul, "culane_day": day}
-            if spec.startswith("onnx"):
+            if spec.startswith("onnx") and not spec.endswith(CANONICAL):  # CamVid: camera unknown
                 results[backend]["camvid"] = camvid_val(spec, args.data)
             off = tus["official"]
             print(

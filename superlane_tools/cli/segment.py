@@ -49,12 +49,22 @@ def segment(
         bool, typer.Option("--overlay", help="Also write colour overlays to OUT/overlays/*.jpg.")
     ] = False,
     overwrite: Annotated[bool, overwrite_option()] = False,
+    canonical_camera: Annotated[
+        bool,
+        typer.Option(
+            "--canonical-camera",
+            help="Run a network trained without the canonical virtual camera in it too "
+            "(needs --camera; a network trained in it always runs in it).",
+        ),
+    ] = False,
 ) -> None:
     """Segment images into SUPER hierarchy leaf ids (label PNGs readable by `slt lanes fit`)."""
     from superlane_tools.commands.segment import SegmentParams, run
 
     guard = new_output(out, overwrite, [input_path])
-    params = SegmentParams(input_path, out, backend, model, camera, overlays, guard)
+    params = SegmentParams(
+        input_path, out, backend, model, camera, overlays, guard, canonical_camera
+    )
     with cli_errors():
         result = run(params, note, lambda total: progress("segment", total, "images"))
     note(

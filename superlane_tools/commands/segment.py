@@ -24,6 +24,8 @@ class SegmentParams:
         model: An ONNX model file or shipped model name, or None.
         camera: A camera profile name or YAML, or None.
         overlays: Also write colour overlays.
+        canonical_camera: Run a network trained without the canonical camera in it too
+            (needs ``camera``; ``scene.canonical_backend``).
         output_guard: Entered around all the work (the cli's policy for an existing output).
     """
 
@@ -34,6 +36,7 @@ class SegmentParams:
     camera: str | None = None
     overlays: bool = False
     output_guard: OutputGuard = field(default_factory=nullcontext)
+    canonical_camera: bool = False
 
 
 @dataclass(frozen=True)
@@ -66,7 +69,9 @@ def run(
     with p.output_guard:
         frames = InputFrames(p.input_path, p.out)
         cam = load_camera(p.camera) if p.camera else None
-        seg_backend, chosen = segment_backend(p.input_path, p.out, p.backend, p.model, cam)
+        seg_backend, chosen = segment_backend(
+            p.input_path, p.out, p.backend, p.model, cam, p.canonical_camera
+        )
         for line in chosen:
             note(line)
         skipped: list[Skipped] = []
@@ -84,13 +89,19 @@ def run(
 
 
 def segment_backend(
-    input_path: Path, out: Path, backend: str, model: str | None, camera: CameraModel | None
+    input_path: Path,
+    out: Path,
+    backend: str,
+    model: str | None,
+    camera: CameraModel | None,
+    canonical: bool = False,
 ) -> tuple[SegmentationBackend, list[str]]:
     """Return the backend ``slt segment`` uses and the lines that say how it was chosen.
 
     ``auto`` without ``--model`` on an image folder with a camera tries each candidate backend
-    on a sample of the images (:func:`~superlane_tools.drive.selfcheck.images_self_check`) and
-    uses the most plausible; otherwise the lines say why the self-check did not run.
+    on a sample of the images (:func:`~superlane_tools.drive.selfcheck.images_self_check`, with
+    ``canonical`` as ``segmentation.canonical_camera``) and uses the most plausible; otherwise
+    the lines say why the self-check did not run.
 
     Raises:
         BackendUnavailableError: If the chosen backend cannot run here.
@@ -108,12 +119,17 @@ def segment_backend(
     elif not is_image_folder(input_path):
         lines = [f"{skipped}`slt reprocess` runs it on a recording"]
     else:
+        from superlane_tools.drive.config import ReprocessConfig
         from superlane_tools.drive.selfcheck import images_self_check
         from superlane_tools.reporting.drive_notes import unlike_training_data
 
-        check = images_self_check(list_images(input_path, exclude=out), camera)
+        config = ReprocessConfig().with_overrides({"segmentation.canonical_camera": canonical})
+        check = images_self_check(list_images(input_path, exclude=out), camera, config)
         lines = check.lines()
         if not check.plausible:
             lines.append(unlike_training_data(check.reason))
-        return backend_from_name(check.backend, model=check.model or None, camera=camera), lines
-    return backend_from_name(backend, model=model, camera=camera), lines
+        picked = backend_from_name(
+            check.backend, model=check.model or None, camera=camera, canonical=canonical
+        )
+        return picked, lines
+    return backend_from_name(backend, model=model, camera=camera, canonical=canonical), lines

@@ -59,7 +59,7 @@ class SegmentationConfig:
         canonical_camera: Segment each frame in the canonical virtual camera
             (``scene.canonical_backend``: resampled from the drive's camera, labels mapped back
             to the frame's pixels) also with a model trained without it; network backends only.
-            A model whose card records a canonical camera (``super_seg_v7``) always runs in it;
+            A model whose card records a canonical camera (v7, v8) always runs in it;
             off by default for the others (docs/camera.md).
     """
 

@@ -171,8 +171,7 @@ class FrameStages:
         self.sampled: dict[int, tuple[NDArray[np.uint8], NDArray[np.uint8]]] = {}
         """Label images computed with ``lanes_only``: log time -> (image, labels)."""
         self._reusable: dict[int, tuple[NDArray[np.uint8], NDArray[np.uint8]]] = {}
-        self.reused = 0
-        """Frames whose label image came from :attr:`sampled` of the ``reuse`` stages."""
+        self._reused: list[int] = []  # log times; list.append is atomic on the frame pool
         self.backend_name: str
         self._backend: Any
         if reuse is not None and _same_segmentation(reuse, config, camera):
@@ -335,12 +334,17 @@ class FrameStages:
             return self._oracle.labels(out.index, image.shape[1], image.shape[0])
         known = self._reusable.pop(out.log_time_ns, None)  # atomic: frames run on a pool
         if known is not None and known[0].shape == image.shape and np.array_equal(known[0], image):
-            self.reused += 1
+            self._reused.append(out.log_time_ns)
             return known[1]
         labels: NDArray[np.uint8] = self._backend.segment(image)
         if self.lanes_only:
             self.sampled[out.log_time_ns] = (image, labels)
         return labels
+
+    @property
+    def reused(self) -> int:
+        """Frames whose label image came from :attr:`sampled` of the ``reuse`` stages."""
+        return len(self._reused)
 
     def due(self, pending: deque[Future[Prepared]], workers: int) -> Iterator[Prepared]:
         """Pop the prepared frames that :meth:`finish` must take now, oldest first.

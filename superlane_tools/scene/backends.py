@@ -13,10 +13,14 @@ from superlane_tools.camera.model import CameraModel
 from superlane_tools.scene.backend import SegmentationBackend
 from superlane_tools.scene.errors import BackendUnavailableError
 
-BackendFactory = Callable[[str | None, CameraModel | None], SegmentationBackend]
+BackendFactory = Callable[[str | None, CameraModel | None, bool], SegmentationBackend]
 
 
-def _classical(model: str | None, camera: CameraModel | None) -> SegmentationBackend:
+def _classical(
+    model: str | None, camera: CameraModel | None, canonical: bool = False
+) -> SegmentationBackend:
+    """The classical backend (it works in the images' own camera: ``canonical`` is not for it)."""
+    del canonical
     from superlane_tools.scene.classical import ClassicalExtractor
 
     if model:
@@ -26,25 +30,34 @@ def _classical(model: str | None, camera: CameraModel | None) -> SegmentationBac
     return ClassicalExtractor(camera=camera)
 
 
-def _onnx(model: str | None, camera: CameraModel | None) -> SegmentationBackend:
-    from superlane_tools.scene.canonical_backend import CanonicalBackend, trained_canonical
+def _onnx(
+    model: str | None, camera: CameraModel | None, canonical: bool = False
+) -> SegmentationBackend:
+    from superlane_tools.scene.canonical_backend import (
+        CanonicalBackend,
+        canonical_for_card,
+        trained_canonical,
+    )
     from superlane_tools.scene.onnx_backend import OnnxSegmentationBackend
 
     backend = OnnxSegmentationBackend(model)
-    canonical = trained_canonical(backend.card)
-    if canonical is None:
+    trained = trained_canonical(backend.card)
+    if trained is None and not canonical:
         return backend  # the network works in the image; its card fixes the input size
     if camera is None:
+        why = "was trained in" if trained is not None else "runs (--canonical-camera) in"
         raise BackendUnavailableError(
-            f"{backend.card.name} was trained in the canonical camera: give the images' camera "
+            f"{backend.card.name} {why} the canonical camera: give the images' camera "
             "(--camera PROFILE|YAML)"
         )
-    return CanonicalBackend(backend, camera, canonical)
+    return CanonicalBackend(backend, camera, trained or canonical_for_card(backend.card))
 
 
-def _auto(model: str | None, camera: CameraModel | None) -> SegmentationBackend:
+def _auto(
+    model: str | None, camera: CameraModel | None, canonical: bool = False
+) -> SegmentationBackend:
     name, _ = auto_backend(model)
-    return _FACTORIES[name](model, camera)
+    return _FACTORIES[name](model, camera, canonical)
 
 
 _FACTORIES: dict[str, BackendFactory] = {"auto": _auto, "classical": _classical, "onnx": _onnx}
@@ -56,14 +69,22 @@ def known_backends() -> tuple[str, ...]:
 
 
 def backend_from_name(
-    name: str, *, model: str | None = None, camera: CameraModel | None = None
+    name: str,
+    *,
+    model: str | None = None,
+    camera: CameraModel | None = None,
+    canonical: bool = False,
 ) -> SegmentationBackend:
     """Build the segmentation backend called ``name``.
 
     Args:
         name: Backend name (see :func:`known_backends`), case-insensitive.
         model: Model file path or shipped model name, for backends that load one.
-        camera: Camera of the images, for backends that use geometry (the classical one).
+        camera: Camera of the images, for backends that use geometry (the classical one) and
+            for a network run in the canonical camera.
+        canonical: Run a network trained without the canonical camera in it too
+            (``scene.canonical_backend``; needs ``camera``). A network trained in it always
+            runs in it; the classical backend works in the images' own camera.
 
     Raises:
         BackendUnavailableError: If the name is unknown (the message lists the known ones) or
@@ -74,7 +95,7 @@ def backend_from_name(
         raise BackendUnavailableError(
             f"unknown segmentation backend {name!r} (known: {', '.join(known_backends())})"
         )
-    return factory(model, camera)
+    return factory(model, camera, canonical)
 
 
 REAL_METRIC = "tusimple_val_end_to_end"

@@ -118,11 +118,11 @@ class LiteVariant:
             the 1/4 map and the graph ends at 1/4 resolution).
         summary: One line for the model card and docs.
         refine_half: The fine heads are the 1/4 map's fine heads, upsampled, plus a correction
-            read from the 1/2 map (a zero-initialised ``fine_half`` classifier): the network of
-            the same variant without the 1/2 stage (``refines``) is its exact starting point,
-            so its weights initialise this one (``slt train --init``) and the new stage learns
-            only what the finer scale adds (thin, distant markings).
-        refines: The variant whose weights initialise this one ("" for none).
+            read from the 1/2 map (a zero-initialised ``fine_half`` classifier): the weights of
+            the same variant without the 1/2 stage (``lite0-s16`` for ``lite0-s16-half``)
+            initialise it (``slt train --init``), it starts from that network's logits
+            upsampled to 1/2, and the new stage learns only what the finer scale adds (thin,
+            distant markings).
     """
 
     name: str
@@ -131,7 +131,6 @@ class LiteVariant:
     fine_at_half: bool
     summary: str
     refine_half: bool = False
-    refines: str = ""
 
     @property
     def stride(self) -> int:
@@ -185,7 +184,6 @@ LITE_VARIANTS: dict[str, LiteVariant] = {
             "encoder to 1/16 (blocks 0-10), decoder 64-48-24, coarse heads at 1/4, the drivable "
             "and lane-marking heads refined at 1/2",
             refine_half=True,
-            refines="lite0-s16",
         ),
         LiteVariant(
             "lite0-s16-tiny",
@@ -260,7 +258,7 @@ class LiteHierarchicalSegNet(nn.Module):
         n_fine = sum(self.head_sizes[COARSE_HEADS:])
         self.coarse = nn.Conv2d(d_quarter, sum(self.head_sizes[:COARSE_HEADS]), 1)
         self.fine = nn.Conv2d(d_quarter if spec.refine_half else spec.decoder[-1], n_fine, 1)
-        if spec.refine_half:  # starts as the 1/4 network exactly: the correction is zero
+        if spec.refine_half:  # starts from the 1/4 network's logits: the correction is zero
             self.fine_half = nn.Conv2d(spec.decoder[-1], n_fine, 1)
             nn.init.zeros_(self.fine_half.weight)
             nn.init.zeros_(self.fine_half.bias)  # type: ignore[arg-type]
@@ -268,8 +266,9 @@ class LiteHierarchicalSegNet(nn.Module):
     def new_on_init(self) -> tuple[str, ...]:
         """Return the modules absent from the weights of the variant this one refines.
 
-        ``slt train --init`` with a checkpoint of :attr:`LiteVariant.refines` loads every other
-        weight and leaves these as built (the zero correction: the same outputs to start).
+        ``slt train --init`` with a checkpoint of the variant without the 1/2 stage loads every
+        other weight and leaves these as built (the zero correction: that network's logits to
+        start).
         """
         return ("up1.", "fine_half.") if self.variant.refine_half else ()
 

@@ -199,7 +199,7 @@ def _restore(
 def _load_init(model: nn.Module, state: dict[str, Any], error: str) -> None:
     """Load ``--init`` weights: every tensor, except the modules a refining variant adds.
 
-    A variant that refines another (``lite_seg_net.LiteVariant.refines``) keeps its new modules
+    A variant that refines another (``lite_seg_net.LiteVariant.refine_half``) keeps its new modules
     (:meth:`~superlane_tools.training.lite_seg_net.LiteHierarchicalSegNet.new_on_init`) as built
     when the checkpoint is the other variant's; anything else missing or left over is an error.
     """

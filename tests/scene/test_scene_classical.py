@@ -297,3 +297,10 @@ def test_real_frames_eval_writes_end_to_end_metrics_into_the_card(tmp_path: Path
     assert metrics["real_sets"]["kitti_um_000000_f"] == {"model": 0.8, "classical": 0.8}
     # Without the classical backend in the same run there is nothing to compare against.
     assert pipeline.main(["--backends", "onnx", "--update-cards"]) == 2
+    # The same model run in the canonical camera: its own label, never written into a card.
+    canonical = f"{spec}@canonical"
+    label, options = pipeline.backend_args(canonical)
+    assert label == "onnx_m_canonical"
+    assert options[-3:] == ["--model", str(tmp_path / "m.onnx"), "--canonical-camera"]
+    results[label] = _chain_result(0.9)
+    assert pipeline.update_cards(results, ["classical", canonical]) == []
