@@ -13,9 +13,8 @@ self-check chose, then times ``R`` pairs, alternating:
 
 The self-check's cost to the drive is the difference of the two runs' process CPU time (all
 threads), per pair; the JSON holds its median, the self-check's own CPU (``cpu_s`` in the
-provenance: what it spent, before the pass reused its sample), the frames the pass reused, the
-whole runs' CPU and their ratio, and whether the two runs' tables are the same (the reuse must
-change no result). CPU time depends on the load far less than wall time; the load is recorded.
+provenance: what it spent, before the pass reused its sample), the whole runs' CPU and their
+ratio, and whether the two runs' tables are the same (the reuse must change no result). CPU time depends on the load far less than wall time; the load is recorded.
 Writes ``benchmarks/results/selfcheck.json`` (``--out``).
 """
 
