@@ -14,7 +14,7 @@ self-check chose, then times ``R`` pairs, alternating:
 The self-check's cost to the drive is the difference of the two runs' process CPU time (all
 threads), per pair; that difference is as noisy as a whole run's CPU (on 2 busy cores, +-1 s
 from run to run), so the JSON also holds a steadier bound: the check's own CPU less the
-segmentation CPU the pass saved (the explicit run's segmentation thread CPU, ``frames.parquet``,
+segmentation CPU the pass saved (the explicit run's segmentation thread CPU, the frames table,
 on the frames the auto run took from the sample: those it segmented in under 1 ms), an upper
 bound since the ONNX session it also saved is not counted. The JSON holds the medians, the
 self-check's own CPU (``cpu_s`` in the provenance: what it spent, before the pass reused its
@@ -62,8 +62,11 @@ def _saved_segmentation_s(explicit: Path, auto: Path) -> tuple[float, int]:
     how many it reused."""
     import pyarrow.parquet as pq
 
-    base = pq.read_table(explicit / "frames.parquet").column("segmentation_cpu_ms").to_numpy()
-    ran = pq.read_table(auto / "frames.parquet").column("segmentation_cpu_ms").to_numpy()
+    from superlane_tools.reporting.layout import RunLayout
+
+    column = "segmentation_cpu_ms"
+    base = pq.read_table(RunLayout(explicit).frames).column(column).to_numpy()
+    ran = pq.read_table(RunLayout(auto).frames).column(column).to_numpy()
     reused = ran < 1.0  # taken from the sample: a pixel comparison, no inference
     return float(base[reused].sum() - ran[reused].sum()) / 1e3, int(reused.sum())
 
@@ -72,9 +75,11 @@ def _same_tables(run_a: Path, run_b: Path) -> bool:
     """Whether two runs' tables are equal cell by cell (``pipelines/compare_runs.py``)."""
     import runpy
 
+    from superlane_tools.reporting.layout import REPORT_FILE
+
     compare = runpy.run_path(str(REPO / "pipelines" / "compare_runs.py"))["compare_runs"]
     _, diffs = compare(run_a, run_b)
-    return not [d for d in diffs if not d.startswith("report.md")]  # its self-check lines
+    return not [d for d in diffs if not d.startswith(REPORT_FILE)]  # its self-check lines
 
 
 def main() -> None:
