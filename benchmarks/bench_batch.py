@@ -41,6 +41,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from _machine import uptime
 
 RESULTS = Path(__file__).resolve().parent / "results" / "batch.json"
 T0 = 1_700_000_000_000_000_000
@@ -317,11 +318,6 @@ def kill_and_resume(tmp: Path) -> dict[str, object]:
     }
 
 
-def _uptime() -> str:
-    """``uptime``'s line: the machine is shared, its load goes with every number."""
-    return subprocess.run(["uptime"], capture_output=True, text=True, check=False).stdout.strip()
-
-
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--recordings", type=int, default=8)
@@ -337,7 +333,7 @@ def main() -> None:
         help="synthetic noisy frames (PNG-incompressible, as before) instead of real ones",
     )
     args = ap.parse_args()
-    uptime = [_uptime()]
+    uptimes = [uptime()]
     ram = Path(tempfile.mkdtemp(prefix="bench_batch_", dir="/dev/shm")) if args.ram else None
     with tempfile.TemporaryDirectory(prefix="bench_batch_") as name:
         tmp = Path(name)
@@ -364,7 +360,7 @@ def main() -> None:
     out = RESULTS if default else RESULTS.with_name(f"batch{suffix}.json")
     if args.results:
         out = RESULTS.with_name(args.results)
-    result["uptime"] = [*uptime, _uptime()]
+    result["uptime"] = [*uptimes, uptime()]
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(result, indent=1, default=str) + "\n")
     print(json.dumps(result, indent=1, default=str))

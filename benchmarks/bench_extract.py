@@ -27,6 +27,8 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
+from _machine import uptime
+
 RESULTS = Path(__file__).resolve().parent / "results" / "extract.json"
 REALDATA = Path(
     os.environ.get("SLT_REALDATA", Path(__file__).resolve().parents[2] / "shared" / "data")
@@ -175,12 +177,6 @@ def peak_rss_mib(path: Path, out: Path, dbc: Path) -> float:
     return int(done.stdout.strip().splitlines()[-1]) / 1024.0
 
 
-def _uptime() -> str:
-    """``uptime``'s line (the machine is shared: load goes with every number)."""
-    done = subprocess.run(["uptime"], capture_output=True, text=True, check=False)
-    return done.stdout.strip()
-
-
 def main() -> None:
     work = Path(tempfile.mkdtemp(prefix="slt-bench-extract-"))
     ram: Path | None = None
@@ -191,7 +187,7 @@ def main() -> None:
         short, long = work / "60s.mcap", work / "600s.mcap"
         make_recording(short, 60, pool)
         load_before = os.getloadavg()[0]
-        uptime_before = _uptime()
+        uptime_before = uptime()
         if SHM.is_dir():
             ram = Path(tempfile.mkdtemp(prefix="slt-bench-extract-", dir=SHM))
         times, values = interleaved_times(
@@ -215,7 +211,7 @@ def main() -> None:
             extra_outputs=[ram / "out"] if ram is not None else [],
         )
         load_after = os.getloadavg()[0]
-        uptime_after = _uptime()
+        uptime_after = uptime()
         med = {name: statistics.median(ts) for name, ts in times.items()}
         extract_minus_writes = [
             e - w for e, w in zip(times["extract"], times["write_only"], strict=True)

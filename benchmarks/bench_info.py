@@ -28,6 +28,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from _machine import uptime
 
 from superlane_tools.recording import messages as m
 from superlane_tools.recording import open_writer
@@ -124,18 +125,13 @@ def _measure(path: Path) -> dict[str, object]:
     }
 
 
-def _uptime() -> str:
-    """``uptime``'s line: the machine is shared, its load goes with every number."""
-    return subprocess.run(["uptime"], capture_output=True, text=True, check=False).stdout.strip()
-
-
 def main() -> None:
     """Run the benchmark and write its JSON result."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--gib", type=float, nargs="+", default=[0.1, 1.0])
     parser.add_argument("--keep", action="store_true")
     args = parser.parse_args()
-    load = [_uptime()]
+    load = [uptime()]
     sizes = {}
     for gib in args.gib:
         path = Path(tempfile.gettempdir()) / f"slt_bench_info_{gib:g}gib.mcap"
@@ -145,7 +141,7 @@ def main() -> None:
         sizes[f"{gib:g}_gib"] = {"write_s": time.perf_counter() - t0, **_measure(path)}
         if not args.keep:
             path.unlink()
-    load.append(_uptime())
+    load.append(uptime())
     largest = sizes[f"{max(args.gib):g}_gib"]
     result = {
         "command": "python benchmarks/bench_info.py " + " ".join(sys.argv[1:]),

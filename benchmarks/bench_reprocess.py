@@ -30,12 +30,13 @@ import json
 import os
 import platform
 import statistics
-import subprocess
 import tempfile
 import time
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
+
+from _machine import uptime, write_results
 
 RESULTS = Path(__file__).resolve().parent / "results" / "reprocess.json"
 
@@ -53,15 +54,6 @@ def _decode_only(path: Path) -> tuple[int, float, float]:
             cv2.imdecode(np.frombuffer(bytes(msg.data.data), np.uint8), cv2.IMREAD_COLOR)
             n += 1
     return n, time.perf_counter() - start, time.process_time() - cpu
-
-
-def _uptime() -> str:
-    try:
-        return subprocess.run(
-            ["uptime"], capture_output=True, text=True, check=False
-        ).stdout.strip()
-    except OSError:
-        return f"load average {os.getloadavg()}"
 
 
 def _budget(med: dict[str, float], n: int) -> dict[str, float]:
@@ -109,7 +101,7 @@ def main() -> None:
     overrides = {k: json.loads(v) for k, _, v in (item.partition("=") for item in args.set)}
     if overrides:
         config = config.with_overrides(overrides)
-    uptime_before = _uptime()
+    uptime_before = uptime()
     print(uptime_before, flush=True)
     with tempfile.TemporaryDirectory() as tmp:
         rec = Path(args.recording) if args.recording else Path(tmp) / "bench.mcap"
@@ -153,7 +145,7 @@ def main() -> None:
         "segmentation_backend": backend,
         "models": models,
         "uptime_before": uptime_before,
-        "uptime_after": _uptime(),
+        "uptime_after": uptime(),
         "load_average_1min": loads,
         "baseline_decode_fps_median": round(statistics.median(base), 2),
         "reprocess_fps_median": round(statistics.median(full), 2),
@@ -173,9 +165,7 @@ def main() -> None:
         "time summed over the worker threads (inflated by the load and the GIL). "
         "reprocess_fps_if_2_idle_cores = 2 / (CPU seconds per frame).",
     }
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(out, indent=2) + "\n", encoding="utf-8")
-    print(json.dumps(out, indent=2))
+    write_results(out, args.out)
 
 
 if __name__ == "__main__":

@@ -25,6 +25,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from _machine import uptime
+
 RESULTS = Path(__file__).resolve().parent / "results" / "reprocess_memory.json"
 TARGET = 1.2
 _WRAPPER = (
@@ -40,10 +42,6 @@ _WRAPPER = (
 def _slt() -> str:
     beside = Path(sys.executable).parent / "slt"
     return str(beside) if beside.exists() else shutil.which("slt") or "slt"
-
-
-def _uptime() -> str:
-    return subprocess.run(["uptime"], capture_output=True, text=True, check=False).stdout.strip()
 
 
 def simulate(path: Path, seconds: float) -> None:
@@ -81,13 +79,13 @@ def main() -> None:
         short, long = work / "short.mcap", work / "long.mcap"
         simulate(short, args.short_s)
         simulate(long, args.short_s * args.factor)
-        uptime_before = _uptime()
+        uptime_before = uptime()
         peak_rss_mib(short, work / "warm")  # loads (or compiles) the kernels into the cache
         shutil.rmtree(work / "warm")
         rss_short, wall_short = peak_rss_mib(short, work / "out-short")
         shutil.rmtree(work / "out-short")
         rss_long, wall_long = peak_rss_mib(long, work / "out-long")
-        uptime_after = _uptime()
+        uptime_after = uptime()
         result = {
             "command": "python benchmarks/bench_reprocess_memory.py " + " ".join(sys.argv[1:]),
             "data": "simulated (slt simulate, highway_curves, seed 0, 1280x720 JPEG at 15 Hz)",

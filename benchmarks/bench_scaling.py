@@ -24,16 +24,14 @@ import tempfile
 import time
 from pathlib import Path
 
+from _machine import uptime
+
 RESULTS = Path(__file__).resolve().parent / "results" / "scaling.json"
 
 
 def _slt() -> str:
     beside = Path(sys.executable).parent / "slt"
     return str(beside) if beside.exists() else shutil.which("slt") or "slt"
-
-
-def _uptime() -> str:
-    return subprocess.run(["uptime"], capture_output=True, text=True, check=False).stdout.strip()
 
 
 def _child(argv: list[str]) -> tuple[float, float]:
@@ -64,7 +62,7 @@ def main() -> None:
     }
     work = Path(tempfile.mkdtemp(prefix="slt-bench-scaling-"))
     results: dict[str, dict[str, float]] = {}
-    uptime = [_uptime()]
+    uptimes = [uptime()]
     try:
         for name, (w, h, fps, seconds) in cases.items():
             rec = work / f"{name}.mcap"
@@ -99,7 +97,7 @@ def main() -> None:
             print(name, results[name], flush=True)
     finally:
         shutil.rmtree(work, ignore_errors=True)
-    uptime.append(_uptime())
+    uptimes.append(uptime())
     ref = results["reference_1280x720_15hz"]
     ratios = {
         name: {
@@ -114,7 +112,7 @@ def main() -> None:
         "note": "CPU seconds of the whole command (start-up, imports, model loading included)",
         "cases": results,
         "cpu_ratio_to_reference": ratios,
-        "uptime": uptime,
+        "uptime": uptimes,
     }
     RESULTS.parent.mkdir(parents=True, exist_ok=True)
     RESULTS.write_text(json.dumps(doc, indent=2) + "\n")

@@ -27,26 +27,17 @@ Writes ``benchmarks/results/selfcheck.json`` (``--out``).
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import statistics
-import subprocess
 import tempfile
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from _machine import uptime, write_results
+
 REPO = Path(__file__).resolve().parents[1]
 RESULTS = Path(__file__).resolve().parent / "results" / "selfcheck.json"
-
-
-def _uptime() -> str:
-    try:
-        return subprocess.run(
-            ["uptime"], capture_output=True, text=True, check=False
-        ).stdout.strip()
-    except OSError:
-        return ""
 
 
 def _check(run: Path) -> dict[str, Any]:
@@ -93,7 +84,7 @@ def main() -> None:
     from superlane_tools.drive.config import ReprocessConfig
 
     auto = ReprocessConfig()
-    uptime_before = _uptime()
+    uptime_before = uptime()
     print(uptime_before, flush=True)
     with tempfile.TemporaryDirectory() as tmp:
         reprocess(args.recording, Path(tmp) / "warmup", auto)
@@ -132,7 +123,7 @@ def main() -> None:
         "candidates_tried": [t["model"] or t["backend"] for t in chosen.get("trials", [])],
         "cpus": os.cpu_count(),
         "uptime_before": uptime_before,
-        "uptime_after": _uptime(),
+        "uptime_after": uptime(),
         "load_average_1min": loads,
         "added_cpu_s_median": round(statistics.median(added), 3),
         "added_cpu_s_all": [round(a, 3) for a in added],
@@ -153,9 +144,7 @@ def main() -> None:
         "added_cpu_s_bound = self_check_cpu_s minus the explicit run's segmentation thread CPU on "
         "the frames the auto run reused (an upper bound: the saved ONNX session is not counted).",
     }
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(out, indent=2) + "\n", encoding="utf-8")
-    print(json.dumps(out, indent=2))
+    write_results(out, args.out)
 
 
 if __name__ == "__main__":
