@@ -213,21 +213,18 @@ class FrameStages:
             name, note = auto_backend(seg.model)
             if note:
                 self.notes.append(note)
-        if name == "onnx":
-            from superlane_tools.scene.onnx_backend import OnnxSegmentationBackend
-
-            backend: Any = OnnxSegmentationBackend(seg.model or None, threads=1)
-            self.models[backend.name] = backend.sha256
-            from superlane_tools.scene.canonical_backend import (
-                CanonicalBackend,
-                canonical_for_card,
-                trained_canonical,
-            )
-
+        if name == "onnx":  # one thread each: frames run on the pass's pool
             # a model trained in the canonical camera always runs in it; the option applies
             # it to the others too
-            if seg.canonical_camera or trained_canonical(backend.card) is not None:
-                backend = CanonicalBackend(backend, self.camera, canonical_for_card(backend.card))
+            backend: Any = backend_from_name(
+                "onnx",
+                model=seg.model or None,
+                camera=self.camera,
+                canonical=seg.canonical_camera,
+                threads=1,
+            )
+            network = getattr(backend, "inner", backend)  # the model, wrapped or not
+            self.models[network.name] = network.sha256
             return backend.name, backend
         if seg.canonical_camera:
             self.notes.append(

@@ -13,14 +13,14 @@ from superlane_tools.camera.model import CameraModel
 from superlane_tools.scene.backend import SegmentationBackend
 from superlane_tools.scene.errors import BackendUnavailableError
 
-BackendFactory = Callable[[str | None, CameraModel | None, bool], SegmentationBackend]
+BackendFactory = Callable[[str | None, CameraModel | None, bool, int], SegmentationBackend]
 
 
 def _classical(
-    model: str | None, camera: CameraModel | None, canonical: bool = False
+    model: str | None, camera: CameraModel | None, canonical: bool = False, threads: int = 2
 ) -> SegmentationBackend:
     """The classical backend (it works in the images' own camera: ``canonical`` is not for it)."""
-    del canonical
+    del canonical, threads
     from superlane_tools.scene.classical import ClassicalExtractor
 
     if model:
@@ -31,7 +31,7 @@ def _classical(
 
 
 def _onnx(
-    model: str | None, camera: CameraModel | None, canonical: bool = False
+    model: str | None, camera: CameraModel | None, canonical: bool = False, threads: int = 2
 ) -> SegmentationBackend:
     from superlane_tools.scene.canonical_backend import (
         CanonicalBackend,
@@ -40,7 +40,7 @@ def _onnx(
     )
     from superlane_tools.scene.onnx_backend import OnnxSegmentationBackend
 
-    backend = OnnxSegmentationBackend(model)
+    backend = OnnxSegmentationBackend(model, threads=threads)
     trained = trained_canonical(backend.card)
     if trained is None and not canonical:
         return backend  # the network works in the image; its card fixes the input size
@@ -54,10 +54,10 @@ def _onnx(
 
 
 def _auto(
-    model: str | None, camera: CameraModel | None, canonical: bool = False
+    model: str | None, camera: CameraModel | None, canonical: bool = False, threads: int = 2
 ) -> SegmentationBackend:
     name, _ = auto_backend(model)
-    return _FACTORIES[name](model, camera, canonical)
+    return _FACTORIES[name](model, camera, canonical, threads)
 
 
 _FACTORIES: dict[str, BackendFactory] = {"auto": _auto, "classical": _classical, "onnx": _onnx}
@@ -74,6 +74,7 @@ def backend_from_name(
     model: str | None = None,
     camera: CameraModel | None = None,
     canonical: bool = False,
+    threads: int = 2,
 ) -> SegmentationBackend:
     """Build the segmentation backend called ``name``.
 
@@ -85,6 +86,8 @@ def backend_from_name(
         canonical: Run a network trained without the canonical camera in it too
             (``scene.canonical_backend``; needs ``camera``). A network trained in it always
             runs in it; the classical backend works in the images' own camera.
+        threads: onnxruntime intra-op threads of a network (1 where frames already run on a
+            pool of threads, as in ``slt reprocess``).
 
     Raises:
         BackendUnavailableError: If the name is unknown (the message lists the known ones) or
@@ -95,7 +98,7 @@ def backend_from_name(
         raise BackendUnavailableError(
             f"unknown segmentation backend {name!r} (known: {', '.join(known_backends())})"
         )
-    return factory(model, camera, canonical)
+    return factory(model, camera, canonical, threads)
 
 
 REAL_METRIC = "tusimple_val_end_to_end"
